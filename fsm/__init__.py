@@ -1,0 +1,3 @@
+"""quadmission fsm layer (see DESIGN.md, Layers)."""
+
+__all__: list[str] = []

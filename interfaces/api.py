@@ -1,0 +1,287 @@
+"""Typed access to message, service and action types, defaults, validation and CDR."""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from rosbags.interfaces import Nodetype
+
+from interfaces.errors import MessageError, UnknownTypeError
+from interfaces.registry import CANCEL_GOAL, build_typestore
+
+# dtype of each ROS base type that rosbags stores as a numpy array in arrays/sequences
+NUMPY_DTYPES: dict[str, type[np.generic]] = {
+    "bool": np.bool_,
+    "byte": np.uint8,
+    "char": np.uint8,
+    "int8": np.int8,
+    "uint8": np.uint8,
+    "int16": np.int16,
+    "uint16": np.uint16,
+    "int32": np.int32,
+    "uint32": np.uint32,
+    "int64": np.int64,
+    "uint64": np.uint64,
+    "float32": np.float32,
+    "float64": np.float64,
+}
+_INT_RANGES = {
+    name: (int(np.iinfo(dt).min), int(np.iinfo(dt).max))
+    for name, dt in NUMPY_DTYPES.items()
+    if np.issubdtype(dt, np.integer)
+}
+
+
+@functools.cache
+def typestore() -> Any:
+    """The shared typestore (ROS 2 Jazzy plus px4_msgs and quadmission_interfaces)."""
+    return build_typestore()
+
+
+def _normalise(name: str, kind: str) -> str:
+    parts = name.strip("/").split("/")
+    if len(parts) == 2:
+        return f"{parts[0]}/{kind}/{parts[1]}"
+    return "/".join(parts)
+
+
+def _fielddefs(typename: str) -> tuple[list[Any], list[Any]]:
+    try:
+        return typestore().fielddefs[typename]  # type: ignore[no-any-return]
+    except KeyError:
+        raise UnknownTypeError(f"unknown message type {typename!r}") from None
+
+
+def get_message(name: str) -> type:
+    """The message class for ``pkg/msg/Name`` (``pkg/Name`` is accepted too)."""
+    typename = _normalise(name, "msg")
+    try:
+        return typestore().types[typename]  # type: ignore[no-any-return]
+    except KeyError:
+        raise UnknownTypeError(f"unknown message type {name!r}") from None
+
+
+@dataclass(frozen=True)
+class ServiceType:
+    """A service: its name and its request and response message classes."""
+
+    name: str
+    Request: type
+    Response: type
+
+
+@dataclass(frozen=True)
+class ActionType:
+    """An action: goal, result, feedback, and the ROS 2 types composed around them."""
+
+    name: str
+    Goal: type
+    Result: type
+    Feedback: type
+    SendGoal: ServiceType
+    GetResult: ServiceType
+    FeedbackMessage: type
+
+
+def get_service(name: str) -> ServiceType:
+    """The service type ``pkg/srv/Name`` (``pkg/Name`` is accepted too)."""
+    typename = _normalise(name, "srv")
+    types = typestore().types
+    if f"{typename}_Request" not in types:
+        raise UnknownTypeError(f"unknown service type {name!r}")
+    return ServiceType(typename, types[f"{typename}_Request"], types[f"{typename}_Response"])
+
+
+def get_action(name: str) -> ActionType:
+    """The action type ``pkg/action/Name`` (``pkg/Name`` is accepted too)."""
+    typename = _normalise(name, "action")
+    types = typestore().types
+    if f"{typename}_Goal" not in types:
+        raise UnknownTypeError(f"unknown action type {name!r}")
+
+    def svc(part: str) -> ServiceType:
+        return ServiceType(
+            f"{typename}_{part}",
+            types[f"{typename}_{part}_Request"],
+            types[f"{typename}_{part}_Response"],
+        )
+
+    return ActionType(
+        typename,
+        types[f"{typename}_Goal"],
+        types[f"{typename}_Result"],
+        types[f"{typename}_Feedback"],
+        svc("SendGoal"),
+        svc("GetResult"),
+        types[f"{typename}_FeedbackMessage"],
+    )
+
+
+def cancel_goal_service() -> ServiceType:
+    """action_msgs/srv/CancelGoal, used by every action."""
+    return get_service(CANCEL_GOAL)
+
+
+def type_name(msg_or_class: Any) -> str:
+    """The full type name of a message instance or class."""
+    try:
+        return str(msg_or_class.__msgtype__)
+    except AttributeError:
+        raise MessageError(f"{msg_or_class!r} is not a message") from None
+
+
+def _default(node: tuple[Any, Any]) -> Any:
+    kind, arg = node
+    if kind == Nodetype.BASE:
+        base = arg[0]
+        if base == "string" or base == "wstring":
+            return ""
+        if base == "bool":
+            return False
+        if base in ("float32", "float64"):
+            return 0.0
+        return 0
+    if kind == Nodetype.NAME:
+        return new(arg)
+    sub, length = arg
+    if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES:
+        return np.zeros(length if kind == Nodetype.ARRAY else 0, dtype=NUMPY_DTYPES[sub[1][0]])
+    if kind == Nodetype.ARRAY:
+        return [_default(sub) for _ in range(length)]
+    return []
+
+
+def _coerce(node: tuple[Any, Any], value: Any) -> Any:
+    """Accept lists/tuples for numeric arrays and sequences, as users write them."""
+    kind, arg = node
+    if kind in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+        sub = arg[0]
+        if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES and not isinstance(
+            value, np.ndarray
+        ):
+            return np.asarray(value, dtype=NUMPY_DTYPES[sub[1][0]])
+        if isinstance(value, tuple):
+            return list(value)
+    return value
+
+
+def new(type_or_name: type | str, **fields: Any) -> Any:
+    """Build a message with every field not given set to its ROS default (0, "", zeros...).
+
+    Raises MessageError naming the field when a keyword is not a field of the type.
+    """
+    typename = type_or_name if isinstance(type_or_name, str) else type_name(type_or_name)
+    typename = _normalise(typename, "msg")
+    _, defs = _fielddefs(typename)
+    known = {fname for fname, _ in defs}
+    unknown = sorted(set(fields) - known)
+    if unknown:
+        raise MessageError(
+            f"{typename} has no field {unknown[0]!r}; its fields are {sorted(known)}"
+        )
+    values = {
+        fname: _coerce(node, fields[fname]) if fname in fields else _default(node)
+        for fname, node in defs
+    }
+    return typestore().types[typename](**values)
+
+
+def _check_base(path: str, base: str, bound: int, value: Any) -> None:
+    if base in ("string", "wstring"):
+        if not isinstance(value, str):
+            raise MessageError(f"{path}: expected a string, got {type(value).__name__}")
+        if bound and len(value) > bound:
+            raise MessageError(f"{path}: string longer than its bound {bound}")
+        return
+    if base == "bool":
+        if not isinstance(value, bool | np.bool_):
+            raise MessageError(f"{path}: expected a bool, got {type(value).__name__}")
+        return
+    if base in ("float32", "float64"):
+        if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
+            raise MessageError(f"{path}: expected a number, got {type(value).__name__}")
+        if base == "float32" and math.isfinite(value) and abs(value) > 3.4028235e38:
+            raise MessageError(f"{path}: {value} does not fit in float32")
+        return
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise MessageError(f"{path}: expected an integer ({base}), got {type(value).__name__}")
+    lo, hi = _INT_RANGES[base]
+    if not lo <= int(value) <= hi:
+        raise MessageError(f"{path}: {value} is outside the {base} range [{lo}, {hi}]")
+
+
+def _check(path: str, node: tuple[Any, Any], value: Any) -> None:
+    kind, arg = node
+    if kind == Nodetype.BASE:
+        _check_base(path, arg[0], arg[1], value)
+        return
+    if kind == Nodetype.NAME:
+        validate(value, arg, path)
+        return
+    sub, length = arg
+    if not isinstance(value, list | np.ndarray):
+        raise MessageError(f"{path}: expected an array, got {type(value).__name__}")
+    if kind == Nodetype.ARRAY and len(value) != length:
+        raise MessageError(f"{path}: expected {length} elements, got {len(value)}")
+    if kind == Nodetype.SEQUENCE and length and len(value) > length:
+        raise MessageError(f"{path}: {len(value)} elements exceed the bound {length}")
+    if isinstance(value, np.ndarray):
+        if sub[0] != Nodetype.BASE or sub[1][0] not in NUMPY_DTYPES:
+            raise MessageError(f"{path}: numpy array given for an array of {sub[1]}")
+        want = np.dtype(NUMPY_DTYPES[sub[1][0]])
+        if value.dtype != want or value.ndim != 1:
+            raise MessageError(
+                f"{path}: expected a 1-D {want} array, got {value.ndim}-D {value.dtype}"
+            )
+        return
+    for i, item in enumerate(value):
+        _check(f"{path}[{i}]", sub, item)
+
+
+def validate(msg: Any, typename: str | None = None, path: str | None = None) -> None:
+    """Check every field of ``msg`` against its type; MessageError names the bad field."""
+    expected = typename or type_name(msg)
+    actual = getattr(msg, "__msgtype__", None)
+    where = path or expected
+    if actual != expected:
+        raise MessageError(f"{where}: expected a {expected} message, got {actual or type(msg)}")
+    _, defs = _fielddefs(expected)
+    for fname, node in defs:
+        _check(f"{where}.{fname}", node, getattr(msg, fname))
+
+
+def serialize(msg: Any, typename: str | None = None) -> bytes:
+    """CDR (XCDR1, little endian) bytes of ``msg``, after validating it."""
+    name = typename or type_name(msg)
+    validate(msg, name)
+    try:
+        return bytes(typestore().serialize_cdr(msg, name))
+    except Exception as exc:
+        raise MessageError(f"cannot serialize {name}: {exc}") from None
+
+
+def deserialize(data: bytes | bytearray | memoryview, typename: str) -> Any:
+    """Decode CDR bytes into a ``typename`` message; MessageError if they are malformed."""
+    name = _normalise(typename, "msg")
+    _fielddefs(name)
+    try:
+        return typestore().deserialize_cdr(bytes(data), name)
+    except Exception as exc:
+        raise MessageError(f"malformed {name} payload ({len(data)} bytes): {exc}") from None
+
+
+def messages_equal(a: Any, b: Any) -> bool:
+    """True when two messages have the same type and the same CDR bytes."""
+    return type_name(a) == type_name(b) and serialize(a) == serialize(b)
+
+
+def registered_types(package: str | None = None) -> list[str]:
+    """Every registered message type name, optionally of one package, sorted."""
+    names = sorted(typestore().types)
+    if package is None:
+        return names
+    return [n for n in names if n.startswith(f"{package}/")]

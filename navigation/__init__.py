@@ -1,0 +1,3 @@
+"""quadmission navigation layer (see DESIGN.md, Layers)."""
+
+__all__: list[str] = []

@@ -1,0 +1,3 @@
+"""quadmission perception layer (see DESIGN.md, Layers)."""
+
+__all__: list[str] = []
