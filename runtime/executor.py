@@ -1,0 +1,180 @@
+"""The in-process deterministic executor and the context nodes are created in.
+
+One thread, simulated time. Every callback (timer, message, service, future, task step)
+is an event at a time; events run in (time, order of scheduling) order, and the clock
+jumps to each event's time. Nothing sleeps: a caller advances time with ``spin_until``.
+The same nodes, parameters and inputs therefore give the same callback trace.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+from collections.abc import Callable, Coroutine
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from runtime.clock import Clock, SimClock, Time, seconds_to_ns
+from runtime.errors import ClockError
+from runtime.future import Future, Task
+from runtime.loop import EventLoop, Handle, Label
+from runtime.transport import InProcessTransport, Transport
+
+if TYPE_CHECKING:
+    from runtime.node import Node
+
+T = TypeVar("T")
+
+#: config/ at the repository root: one YAML per node.
+DEFAULT_CONFIG_DIR = Path(__file__).resolve().parent.parent / "config"
+
+
+@dataclass
+class Context:
+    """What nodes are created in: an event loop, a transport and where configs live."""
+
+    loop: EventLoop
+    transport: Transport
+    config_dir: Path | None = DEFAULT_CONFIG_DIR
+    nodes: list[Node] = field(default_factory=list)
+
+    def create_task(self, coro: Coroutine[Any, Any, T], label: Label) -> Task[T]:
+        return Task(coro, self.loop, label)
+
+
+@dataclass(frozen=True)
+class TraceEntry:
+    """One callback the executor ran: when, and what it belongs to."""
+
+    t_ns: int
+    node: str
+    kind: str
+    name: str
+
+
+class DeterministicExecutor:
+    """Runs every node of its context in one thread, in simulated time.
+
+    >>> ex = DeterministicExecutor()
+    >>> # node = MyNode(context=ex.context); ex.add_node(node)
+    >>> ex.spin_for(1.0)  # run one simulated second
+    """
+
+    def __init__(
+        self,
+        *,
+        start_ns: int = 0,
+        config_dir: Path | None = DEFAULT_CONFIG_DIR,
+        transport: Transport | None = None,
+        record_trace: bool = False,
+    ) -> None:
+        self._clock = SimClock(start_ns)
+        self._heap: list[tuple[int, int, Handle]] = []
+        self._order = itertools.count()
+        self._nodes: list[Node] = []
+        self.trace: list[TraceEntry] | None = [] if record_trace else None
+        self.callbacks_run = 0
+        self.context = Context(
+            loop=self, transport=transport or InProcessTransport(), config_dir=config_dir
+        )
+
+    # EventLoop ---------------------------------------------------------------------------
+    @property
+    def clock(self) -> Clock:
+        return self._clock
+
+    def call_at(self, t_ns: int, callback: Callable[[], None], label: Label) -> Handle:
+        if t_ns < self._clock.nanoseconds:
+            raise ClockError(
+                f"cannot schedule {label} at {t_ns} ns, before now ({self._clock.nanoseconds} ns)"
+            )
+        handle = Handle(callback, label)
+        heapq.heappush(self._heap, (t_ns, next(self._order), handle))
+        return handle
+
+    def call_soon(self, callback: Callable[[], None], label: Label) -> Handle:
+        return self.call_at(self._clock.nanoseconds, callback, label)
+
+    # nodes -------------------------------------------------------------------------------
+    def add_node(self, node: Node) -> None:
+        """Take a node into this executor; its YAML must not name undeclared parameters."""
+        node.check_parameters_declared()
+        if node not in self._nodes:
+            self._nodes.append(node)
+
+    def remove_node(self, node: Node) -> None:
+        if node in self._nodes:
+            self._nodes.remove(node)
+
+    def get_nodes(self) -> list[Node]:
+        return list(self._nodes)
+
+    def create_task(self, coro: Coroutine[Any, Any, T]) -> Task[T]:
+        return Task(coro, self, ("", "task", getattr(coro, "__qualname__", "")))
+
+    # time --------------------------------------------------------------------------------
+    def now(self) -> Time:
+        return self._clock.now()
+
+    def next_event_ns(self) -> int | None:
+        """When the next pending callback is due, or None when nothing is scheduled."""
+        while self._heap and self._heap[0][2].cancelled:
+            heapq.heappop(self._heap)
+        return self._heap[0][0] if self._heap else None
+
+    def _run(self, t_ns: int, handle: Handle) -> None:
+        self._clock.advance_to(t_ns)
+        if self.trace is not None:
+            self.trace.append(TraceEntry(t_ns, *handle.label))
+        self.callbacks_run += 1
+        handle.callback()
+
+    def spin_once(self, timeout_sec: float | None = None) -> bool:
+        """Run the next callback if it is due within ``timeout_sec``; True if one ran."""
+        t_next = self.next_event_ns()
+        if t_next is None:
+            return False
+        if timeout_sec is not None and t_next > self._clock.nanoseconds + seconds_to_ns(
+            timeout_sec
+        ):
+            self._clock.advance_to(self._clock.nanoseconds + seconds_to_ns(timeout_sec))
+            return False
+        t_ns, _, handle = heapq.heappop(self._heap)
+        self._run(t_ns, handle)
+        return True
+
+    def spin_until(self, t: Time | int) -> None:
+        """Run every callback due at or before ``t``, then set the clock to ``t``."""
+        t_end = t.nanoseconds if isinstance(t, Time) else int(t)
+        if t_end < self._clock.nanoseconds:
+            raise ClockError(f"cannot spin back to {t_end} ns from {self._clock.nanoseconds} ns")
+        while True:
+            t_next = self.next_event_ns()
+            if t_next is None or t_next > t_end:
+                break
+            t_ns, _, handle = heapq.heappop(self._heap)
+            self._run(t_ns, handle)
+        self._clock.advance_to(t_end)
+
+    def spin_for(self, seconds: float) -> None:
+        """Advance simulated time by ``seconds``, running everything due."""
+        self.spin_until(self._clock.nanoseconds + seconds_to_ns(seconds))
+
+    def spin_until_future_complete(
+        self, future: Future[Any], timeout_sec: float | None = None
+    ) -> bool:
+        """Run callbacks until ``future`` is done or ``timeout_sec`` of simulated time
+        passes (forever when None, as long as anything is scheduled). True if done."""
+        deadline = (
+            None if timeout_sec is None else self._clock.nanoseconds + seconds_to_ns(timeout_sec)
+        )
+        while not future.done():
+            t_next = self.next_event_ns()
+            if t_next is None or (deadline is not None and t_next > deadline):
+                if deadline is not None:
+                    self._clock.advance_to(deadline)
+                return future.done()
+            t_ns, _, handle = heapq.heappop(self._heap)
+            self._run(t_ns, handle)
+        return True

@@ -1,0 +1,625 @@
+"""Node API in rclpy's shape: publishers, subscriptions, services, timers, parameters.
+
+Nodes talk only through their context's transport, as CDR bytes: a message published
+here is serialized, and each subscriber gets its own deserialized copy. So any node can
+move to another process unchanged.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+from collections import deque
+from collections.abc import Callable, Coroutine, Mapping, Sequence
+from typing import Any, Generic, TypeVar
+
+import interfaces
+from runtime.clock import Clock, Time, seconds_to_ns
+from runtime.errors import ClockError, ParameterError, TopicTypeError
+from runtime.executor import Context
+from runtime.future import Future, Task
+from runtime.loop import Handle, Label
+from runtime.names import resolve_name, validate_namespace, validate_node_name
+from runtime.parameters import (
+    Parameter,
+    ParameterDescriptor,
+    ParameterType,
+    SetParametersResult,
+    check_value,
+    coerce_value,
+    dataclass_descriptors,
+    is_missing,
+    load_node_yaml,
+    type_of_value,
+)
+from runtime.qos import HistoryPolicy, QoSProfile, as_qos, qos_profile_services_default
+from runtime.transport import Endpoint, EndpointKind, RequestId
+
+T = TypeVar("T")
+P = TypeVar("P")
+
+def _type_name(msg_type: type | str) -> str:
+    if isinstance(msg_type, str):  # UnknownTypeError for a bad name
+        return interfaces.type_name(interfaces.get_message(msg_type))
+    return interfaces.type_name(msg_type)
+
+
+def stable_guid(*parts: str) -> int:
+    """A 64-bit identifier derived from names, the same in every run (for determinism)."""
+    digest = hashlib.blake2b("/".join(parts).encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little")
+
+
+class NodeLogger:
+    """rclpy-style logger: ``node.get_logger().info(...)``, stamped with the node's time."""
+
+    def __init__(self, name: str, clock: Clock) -> None:
+        self._logger = logging.getLogger(f"quadmission.{name}")
+        self._name = name
+        self._clock = clock
+
+    def _log(self, level: int, msg: str, *args: Any) -> None:
+        if self._logger.isEnabledFor(level):
+            t = self._clock.now().seconds
+            self._logger.log(level, f"[{t:.3f}] [{self._name}] {msg}", *args)
+
+    def debug(self, msg: str, *args: Any) -> None:
+        self._log(logging.DEBUG, msg, *args)
+
+    def info(self, msg: str, *args: Any) -> None:
+        self._log(logging.INFO, msg, *args)
+
+    def warning(self, msg: str, *args: Any) -> None:
+        self._log(logging.WARNING, msg, *args)
+
+    warn = warning
+
+    def error(self, msg: str, *args: Any) -> None:
+        self._log(logging.ERROR, msg, *args)
+
+    def fatal(self, msg: str, *args: Any) -> None:
+        self._log(logging.CRITICAL, msg, *args)
+
+
+class _Inbox:
+    """A reader's queue: KEEP_LAST drops the oldest; each sample is handled in turn on
+    the event loop, never inside the writer's call."""
+
+    def __init__(
+        self,
+        node: Node,
+        qos: QoSProfile,
+        label: Label,
+        handler: Callable[[bytes, RequestId | None], None],
+    ) -> None:
+        maxlen = qos.depth if qos.history is HistoryPolicy.KEEP_LAST else None
+        self._queue: deque[tuple[bytes, RequestId | None]] = deque(maxlen=maxlen)
+        self._loop = node.context.loop
+        self._label = label
+        self._handler = handler
+        self.dropped = 0
+        self.closed = False
+
+    def on_sample(self, data: bytes, request_id: RequestId | None) -> None:
+        if self._queue.maxlen is not None and len(self._queue) == self._queue.maxlen:
+            self.dropped += 1
+        self._queue.append((data, request_id))
+        self._loop.call_soon(self._take, self._label)
+
+    def _take(self) -> None:
+        if self._queue and not self.closed:
+            data, request_id = self._queue.popleft()
+            self._handler(data, request_id)
+
+
+class Publisher(Generic[T]):
+    """Publishes one message type on one topic."""
+
+    def __init__(self, node: Node, msg_type: type | str, topic: str, qos: QoSProfile) -> None:
+        self.msg_type = msg_type
+        self.type_name = _type_name(msg_type)
+        self.topic_name = node.resolve_name(topic)
+        self.qos_profile = qos
+        self._node = node
+        self._writer = node.context.transport.create_writer(
+            Endpoint(self.topic_name, self.type_name, qos)
+        )
+
+    def publish(self, msg: Any) -> None:
+        """Serialize and send ``msg``; MessageError names a malformed field."""
+        actual = getattr(msg, "__msgtype__", type(msg).__name__)
+        if actual != self.type_name:
+            raise TopicTypeError(
+                f"publish on {self.topic_name}: expected {self.type_name}, got {actual}"
+            )
+        self._writer.write(interfaces.serialize(msg, self.type_name))
+
+    def get_subscription_count(self) -> int:
+        return self._writer.matched_count()
+
+    def destroy(self) -> None:
+        self._writer.close()
+
+
+class Subscription(Generic[T]):
+    """Calls ``callback(msg)`` for each message, in arrival order, on the executor."""
+
+    def __init__(
+        self,
+        node: Node,
+        msg_type: type | str,
+        topic: str,
+        callback: Callable[[Any], None],
+        qos: QoSProfile,
+    ) -> None:
+        self.msg_type = msg_type
+        self.type_name = _type_name(msg_type)
+        self.topic_name = node.resolve_name(topic)
+        self.qos_profile = qos
+        self.callback = callback
+        self.malformed = 0
+        self._node = node
+        self._inbox = _Inbox(node, qos, (node.get_name(), "subscription", self.topic_name),
+                             self._handle)
+        self._reader = node.context.transport.create_reader(
+            Endpoint(self.topic_name, self.type_name, qos), self._inbox.on_sample
+        )
+
+    @property
+    def dropped(self) -> int:
+        """Samples dropped because the KEEP_LAST queue was full."""
+        return self._inbox.dropped
+
+    def _handle(self, data: bytes, _request_id: RequestId | None) -> None:
+        try:
+            msg = interfaces.deserialize(data, self.type_name)
+        except interfaces.MessageError as exc:
+            self.malformed += 1
+            self._node.get_logger().error(f"dropped a malformed sample on {self.topic_name}: {exc}")
+            return
+        self.callback(msg)
+
+    def get_publisher_count(self) -> int:
+        return self._reader.matched_count()
+
+    def destroy(self) -> None:
+        self._inbox.closed = True
+        self._reader.close()
+
+
+class Timer:
+    """Calls ``callback()`` every ``period`` of the node's clock, first one period after
+    creation (as rclpy does). Fire times are start + k * period exactly: no drift."""
+
+    def __init__(self, node: Node, period_sec: float, callback: Callable[[], None]) -> None:
+        period_ns = seconds_to_ns(period_sec)
+        if period_ns <= 0:
+            raise ClockError(f"timer period must be positive, got {period_sec} s")
+        self.timer_period_ns = period_ns
+        self.callback = callback
+        self._loop = node.context.loop
+        self._label: Label = (node.get_name(), "timer", getattr(callback, "__qualname__", "timer"))
+        self._handle: Handle | None = None
+        self._canceled = False
+        self.reset()
+
+    def reset(self) -> None:
+        """Restart the period from now (and un-cancel)."""
+        if self._handle is not None:
+            self._handle.cancel()
+        self._canceled = False
+        self._start_ns = self._loop.clock.now().nanoseconds
+        self._count = 0
+        self._schedule()
+
+    def _schedule(self) -> None:
+        self._next_ns = self._start_ns + (self._count + 1) * self.timer_period_ns
+        self._handle = self._loop.call_at(self._next_ns, self._fire, self._label)
+
+    def _fire(self) -> None:
+        self._count += 1
+        self._schedule()
+        self.callback()
+
+    def cancel(self) -> None:
+        self._canceled = True
+        if self._handle is not None:
+            self._handle.cancel()
+
+    def is_canceled(self) -> bool:
+        return self._canceled
+
+    def time_until_next_call(self) -> int | None:
+        """Nanoseconds until the next call, None when canceled."""
+        if self._canceled:
+            return None
+        return self._next_ns - self._loop.clock.now().nanoseconds
+
+    def destroy(self) -> None:
+        self.cancel()
+
+
+class Service:
+    """Answers requests: ``callback(request, response) -> response``.
+
+    The callback may instead return a Future of the response, to answer later (the
+    action server's get_result does this while a goal is still running).
+    """
+
+    def __init__(
+        self,
+        node: Node,
+        srv_type: interfaces.ServiceType,
+        name: str,
+        callback: Callable[[Any, Any], Any],
+        qos: QoSProfile,
+    ) -> None:
+        self.srv_type = srv_type
+        self.service_name = node.resolve_name(name)
+        self.callback = callback
+        self._node = node
+        self._req_name = interfaces.type_name(srv_type.Request)
+        self._rep_name = interfaces.type_name(srv_type.Response)
+        transport = node.context.transport
+        self._writer = transport.create_writer(
+            Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY)
+        )
+        self._inbox = _Inbox(node, qos, (node.get_name(), "service", self.service_name),
+                             self._handle)
+        self._reader = transport.create_reader(
+            Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST),
+            self._inbox.on_sample,
+        )
+
+    def _handle(self, data: bytes, request_id: RequestId | None) -> None:
+        if request_id is None:
+            return
+        try:
+            request = interfaces.deserialize(data, self._req_name)
+        except interfaces.MessageError as exc:
+            self._node.get_logger().error(f"malformed request on {self.service_name}: {exc}")
+            return
+        response = self.callback(request, interfaces.new(self.srv_type.Response))
+        if isinstance(response, Future):  # answered later, when the future completes
+            response.add_done_callback(lambda f: self._reply(f.result(), request_id))
+        else:
+            self._reply(response, request_id)
+
+    def _reply(self, response: Any, request_id: RequestId) -> None:
+        if getattr(response, "__msgtype__", None) != self._rep_name:
+            raise TopicTypeError(
+                f"service {self.service_name}: callback returned {response!r}, "
+                f"expected a {self._rep_name}"
+            )
+        self._writer.write(interfaces.serialize(response, self._rep_name), request_id)
+
+    def destroy(self) -> None:
+        self._inbox.closed = True
+        self._reader.close()
+        self._writer.close()
+
+
+class Client:
+    """Calls a service: ``future = client.call_async(request)``."""
+
+    def __init__(
+        self, node: Node, srv_type: interfaces.ServiceType, name: str, qos: QoSProfile
+    ) -> None:
+        self.srv_type = srv_type
+        self.service_name = node.resolve_name(name)
+        self._node = node
+        self._req_name = interfaces.type_name(srv_type.Request)
+        self._rep_name = interfaces.type_name(srv_type.Response)
+        self._guid = node.next_guid("client", self.service_name)
+        self._sequence = 0
+        self._pending: dict[int, Future[Any]] = {}
+        transport = node.context.transport
+        self._writer = transport.create_writer(
+            Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST)
+        )
+        self._inbox = _Inbox(node, qos, (node.get_name(), "client", self.service_name),
+                             self._handle)
+        self._reader = transport.create_reader(
+            Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY),
+            self._on_reply,
+        )
+
+    def _on_reply(self, data: bytes, request_id: RequestId | None) -> None:
+        if request_id is not None and request_id.client_guid == self._guid:
+            self._inbox.on_sample(data, request_id)
+
+    def _handle(self, data: bytes, request_id: RequestId | None) -> None:
+        assert request_id is not None
+        future = self._pending.pop(request_id.sequence, None)
+        if future is None or future.done():
+            return
+        try:
+            future.set_result(interfaces.deserialize(data, self._rep_name))
+        except interfaces.MessageError as exc:
+            future.set_exception(exc)
+
+    def call_async(self, request: Any) -> Future[Any]:
+        """Send ``request``; the future completes with the response."""
+        actual = getattr(request, "__msgtype__", type(request).__name__)
+        if actual != self._req_name:
+            raise TopicTypeError(
+                f"call to {self.service_name}: expected {self._req_name}, got {actual}"
+            )
+        data = interfaces.serialize(request, self._req_name)
+        self._sequence += 1
+        future: Future[Any] = Future(self._node.context.loop)
+        self._pending[self._sequence] = future
+        self._writer.write(data, RequestId(self._guid, self._sequence))
+        return future
+
+    def service_is_ready(self) -> bool:
+        return self._writer.matched_count() > 0
+
+    def wait_for_service(self, timeout_sec: float | None = None) -> bool:
+        """Whether a server is there. In simulated time nothing appears while we wait,
+        so this answers at once; over DDS the transport's discovery decides."""
+        return self.service_is_ready()
+
+    def remove_pending_request(self, future: Future[Any]) -> None:
+        for seq, pending in list(self._pending.items()):
+            if pending is future:
+                del self._pending[seq]
+
+    def destroy(self) -> None:
+        self._inbox.closed = True
+        self._reader.close()
+        self._writer.close()
+
+
+class Node:
+    """A ROS 2-style node. Subclass it, declare parameters and entities in ``__init__``.
+
+    ``context`` comes from the executor (``DeterministicExecutor().context``).
+    ``parameter_overrides`` win over the node's YAML; ``remappings`` map names as written
+    or resolved to new ones, and ``{"__node": "other"}`` renames the node.
+    """
+
+    def __init__(
+        self,
+        node_name: str,
+        *,
+        context: Context,
+        namespace: str = "",
+        parameter_overrides: Mapping[str, Any] | None = None,
+        remappings: Mapping[str, str] | None = None,
+    ) -> None:
+        remappings = dict(remappings or {})
+        self._name = validate_node_name(remappings.pop("__node", node_name))
+        self._namespace = validate_namespace(remappings.pop("__ns", namespace))
+        self._remappings = remappings
+        self.context = context
+        self._guid_counter = 0
+        self._entities: list[Any] = []
+        self._logger = NodeLogger(self.get_fully_qualified_name().lstrip("/"), context.loop.clock)
+        self._parameters: dict[str, Parameter] = {}
+        self._descriptors: dict[str, ParameterDescriptor] = {}
+        self._on_set_callbacks: list[Callable[[list[Parameter]], SetParametersResult]] = []
+        self._config_path = (
+            context.config_dir / f"{self._name}.yaml" if context.config_dir is not None else None
+        )
+        self._yaml_params = (
+            load_node_yaml(self._config_path, self._name) if self._config_path else {}
+        )
+        self._overrides = dict(parameter_overrides or {})
+        context.nodes.append(self)
+
+    # identity ----------------------------------------------------------------------------
+    def get_name(self) -> str:
+        return self._name
+
+    def get_namespace(self) -> str:
+        return self._namespace
+
+    def get_fully_qualified_name(self) -> str:
+        return f"{self._namespace.rstrip('/')}/{self._name}"
+
+    def get_logger(self) -> NodeLogger:
+        return self._logger
+
+    def get_clock(self) -> Clock:
+        return self.context.loop.clock
+
+    def now(self) -> Time:
+        return self.context.loop.clock.now()
+
+    def resolve_name(self, name: str) -> str:
+        return resolve_name(name, self._namespace, self._name, self._remappings)
+
+    def next_guid(self, kind: str, name: str) -> int:
+        self._guid_counter += 1
+        return stable_guid(self.get_fully_qualified_name(), kind, name, str(self._guid_counter))
+
+    # entities ----------------------------------------------------------------------------
+    def _keep(self, entity: T) -> T:
+        self._entities.append(entity)
+        return entity
+
+    def create_publisher(
+        self, msg_type: type | str, topic: str, qos_profile: QoSProfile | int
+    ) -> Publisher[Any]:
+        return self._keep(Publisher(self, msg_type, topic, as_qos(qos_profile)))
+
+    def create_subscription(
+        self,
+        msg_type: type | str,
+        topic: str,
+        callback: Callable[[Any], None],
+        qos_profile: QoSProfile | int,
+    ) -> Subscription[Any]:
+        return self._keep(Subscription(self, msg_type, topic, callback, as_qos(qos_profile)))
+
+    def create_timer(self, timer_period_sec: float, callback: Callable[[], None]) -> Timer:
+        return self._keep(Timer(self, timer_period_sec, callback))
+
+    def create_service(
+        self,
+        srv_type: interfaces.ServiceType | str,
+        srv_name: str,
+        callback: Callable[[Any, Any], Any],
+        qos_profile: QoSProfile = qos_profile_services_default,
+    ) -> Service:
+        stype = interfaces.get_service(srv_type) if isinstance(srv_type, str) else srv_type
+        return self._keep(Service(self, stype, srv_name, callback, qos_profile))
+
+    def create_client(
+        self,
+        srv_type: interfaces.ServiceType | str,
+        srv_name: str,
+        qos_profile: QoSProfile = qos_profile_services_default,
+    ) -> Client:
+        stype = interfaces.get_service(srv_type) if isinstance(srv_type, str) else srv_type
+        return self._keep(Client(self, stype, srv_name, qos_profile))
+
+    def create_task(self, coro: Coroutine[Any, Any, T]) -> Task[T]:
+        """Run a coroutine on the executor; it may ``await`` futures and ``self.sleep``."""
+        return self.context.create_task(
+            coro, (self._name, "task", getattr(coro, "__qualname__", "task"))
+        )
+
+    def sleep(self, seconds: float) -> Future[None]:
+        """A future done after ``seconds`` of the node's clock (``await node.sleep(0.1)``)."""
+        loop = self.context.loop
+        future: Future[None] = Future(loop)
+        t_ns = loop.clock.now().nanoseconds + max(0, seconds_to_ns(seconds))
+        loop.call_at(t_ns, lambda: None if future.done() else future.set_result(None),
+                     (self._name, "sleep", ""))
+        return future
+
+    def destroy_node(self) -> None:
+        for entity in reversed(self._entities):
+            entity.destroy()
+        self._entities.clear()
+        if self in self.context.nodes:
+            self.context.nodes.remove(self)
+
+    # parameters --------------------------------------------------------------------------
+    def _where(self, name: str) -> str:
+        return f"{self._name}.{name}"
+
+    def declare_parameter(
+        self,
+        name: str,
+        value: Any = None,
+        descriptor: ParameterDescriptor | None = None,
+    ) -> Parameter:
+        """Declare a parameter; its value is the launch override, else the node's YAML,
+        else ``value``. Type comes from the descriptor or the default."""
+        if name in self._parameters:
+            raise ParameterError(f"{self._where(name)}: declared twice")
+        descriptor = descriptor or ParameterDescriptor()
+        if name in self._overrides:
+            raw, source = self._overrides[name], "launch override"
+        elif name in self._yaml_params:
+            raw, source = self._yaml_params[name], str(self._config_path)
+        else:
+            raw, source = value, "default"
+        kind = descriptor.type or type_of_value(value) or type_of_value(raw)
+        if raw is None or kind is None:
+            where = self._config_path or "config/"
+            raise ParameterError(
+                f"{self._where(name)}: no value (set it in {where} or pass a default)"
+            )
+        where = f"{self._where(name)} ({source})"
+        coerced = coerce_value(where, kind, raw)
+        check_value(where, descriptor, coerced)
+        param = Parameter(name, kind, coerced)
+        self._parameters[name] = param
+        self._descriptors[name] = descriptor
+        return param
+
+    def declare_parameters(
+        self, namespace: str, parameters: Sequence[tuple[str, Any]]
+    ) -> list[Parameter]:
+        prefix = f"{namespace}." if namespace else ""
+        return [self.declare_parameter(f"{prefix}{n}", v) for n, v in parameters]
+
+    def declare_params(self, cls: type[P]) -> P:
+        """Declare every field of the frozen dataclass ``cls`` as a parameter and return a
+        validated instance. Fields without a default must be set in the node's YAML."""
+        values: dict[str, Any] = {}
+        for name, (descriptor, default) in dataclass_descriptors(cls).items():
+            values[name] = self.declare_parameter(
+                name, None if is_missing(default) else default, descriptor
+            ).value
+        return cls(**values)
+
+    def has_parameter(self, name: str) -> bool:
+        return name in self._parameters
+
+    def get_parameter(self, name: str) -> Parameter:
+        try:
+            return self._parameters[name]
+        except KeyError:
+            raise ParameterError(
+                f"{self._where(name)}: not declared; declared: {sorted(self._parameters)}"
+            ) from None
+
+    def get_parameters_by_prefix(self, prefix: str) -> dict[str, Parameter]:
+        dotted = f"{prefix}." if prefix else ""
+        return {
+            n[len(dotted):]: p for n, p in self._parameters.items() if n.startswith(dotted)
+        }
+
+    def add_on_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], SetParametersResult]
+    ) -> None:
+        self._on_set_callbacks.append(callback)
+
+    def set_parameters(self, parameters: Sequence[Parameter]) -> list[SetParametersResult]:
+        """Change declared parameters at run time, each validated like a declaration."""
+        results = []
+        for p in parameters:
+            try:
+                if p.name not in self._parameters:
+                    raise ParameterError(f"{self._where(p.name)}: not declared")
+                old = self._parameters[p.name]
+                descriptor = self._descriptors[p.name]
+                if descriptor.read_only:
+                    raise ParameterError(f"{self._where(p.name)}: read-only")
+                value = coerce_value(self._where(p.name), old.type, p.value)
+                check_value(self._where(p.name), descriptor, value)
+            except ParameterError as exc:
+                results.append(SetParametersResult(False, str(exc)))
+                continue
+            new = Parameter(p.name, old.type, value)
+            verdict = SetParametersResult(True)
+            for cb in self._on_set_callbacks:
+                verdict = cb([new])
+                if not verdict.successful:
+                    break
+            if verdict.successful:
+                self._parameters[p.name] = new
+            results.append(verdict)
+        return results
+
+    def check_parameters_declared(self) -> None:
+        """Raise ParameterError for a YAML or override key the node never declared."""
+        for source, keys in (
+            (str(self._config_path), self._yaml_params),
+            ("launch overrides", self._overrides),
+        ):
+            unknown = sorted(k for k in keys if k not in self._parameters)
+            if unknown:
+                declared = ", ".join(sorted(self._parameters)) or "none"
+                raise ParameterError(
+                    f"{source}: unknown parameter {unknown[0]!r} for node {self._name} "
+                    f"(declared: {declared})"
+                )
+
+
+__all__ = [
+    "Client",
+    "Node",
+    "NodeLogger",
+    "ParameterType",
+    "Publisher",
+    "Service",
+    "Subscription",
+    "Timer",
+    "stable_guid",
+]

@@ -1,0 +1,197 @@
+"""Transports move serialized messages between endpoints; nodes never share objects.
+
+A transport knows topics, not nodes: a writer writes CDR bytes, every matched reader's
+``on_sample`` receives them. Services travel as a request topic and a reply topic, each
+sample tagged with a RequestId (the client's GUID and a sequence number), which is how
+rmw_cyclonedds frames them on the wire. The Cyclone DDS backend implements the same
+Protocol, so node code does not change when a node moves to another process.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+from typing import Protocol
+
+from runtime.errors import TopicTypeError
+from runtime.qos import DurabilityPolicy, HistoryPolicy, QoSProfile
+
+_log = logging.getLogger("quadmission.transport")
+
+
+class EndpointKind(Enum):
+    """What a name is on the wire: a topic, or one half of a service."""
+
+    TOPIC = "topic"
+    REQUEST = "request"
+    REPLY = "reply"
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """One writer's or reader's view of a channel."""
+
+    name: str  # fully resolved ROS name, e.g. /fmu/out/vehicle_odometry
+    type_name: str  # e.g. px4_msgs/msg/VehicleOdometry
+    qos: QoSProfile
+    kind: EndpointKind = EndpointKind.TOPIC
+
+
+@dataclass(frozen=True)
+class RequestId:
+    """Identifies one service request: the client's GUID and its sequence number."""
+
+    client_guid: int
+    sequence: int
+
+
+SampleCallback = Callable[[bytes, RequestId | None], None]
+
+
+class Writer(Protocol):
+    def write(self, data: bytes, request_id: RequestId | None = None) -> None: ...
+
+    def matched_count(self) -> int: ...
+
+    def close(self) -> None: ...
+
+
+class Reader(Protocol):
+    def matched_count(self) -> int: ...
+
+    def close(self) -> None: ...
+
+
+class Transport(Protocol):
+    """Creates writers and readers for endpoints."""
+
+    def create_writer(self, endpoint: Endpoint) -> Writer: ...
+
+    def create_reader(self, endpoint: Endpoint, on_sample: SampleCallback) -> Reader: ...
+
+
+@dataclass(frozen=True)
+class Incompatibility:
+    """A writer and a reader on the same channel whose QoS do not match."""
+
+    name: str
+    reason: str
+
+
+class _Channel:
+    def __init__(self, name: str, kind: EndpointKind, type_name: str) -> None:
+        self.name = name
+        self.kind = kind
+        self.type_name = type_name
+        self.writers: list[_InProcessWriter] = []
+        self.readers: list[_InProcessReader] = []
+
+
+class _InProcessWriter:
+    def __init__(self, channel: _Channel, endpoint: Endpoint) -> None:
+        self._channel = channel
+        self.endpoint = endpoint
+        qos = endpoint.qos
+        self.history: deque[tuple[bytes, RequestId | None]] | None = None
+        if qos.durability is DurabilityPolicy.TRANSIENT_LOCAL:
+            maxlen = qos.depth if qos.history is HistoryPolicy.KEEP_LAST else None
+            self.history = deque(maxlen=maxlen)
+        self.samples_written = 0
+
+    def write(self, data: bytes, request_id: RequestId | None = None) -> None:
+        self.samples_written += 1
+        if self.history is not None:
+            self.history.append((data, request_id))
+        for reader in list(self._channel.readers):
+            if reader.matches(self):
+                reader.on_sample(data, request_id)
+
+    def matched_count(self) -> int:
+        return sum(1 for r in self._channel.readers if r.matches(self))
+
+    def close(self) -> None:
+        if self in self._channel.writers:
+            self._channel.writers.remove(self)
+
+
+class _InProcessReader:
+    def __init__(self, channel: _Channel, endpoint: Endpoint, on_sample: SampleCallback) -> None:
+        self._channel = channel
+        self.endpoint = endpoint
+        self.on_sample = on_sample
+
+    def matches(self, writer: _InProcessWriter) -> bool:
+        return self.endpoint.qos.incompatibility(writer.endpoint.qos) is None
+
+    def matched_count(self) -> int:
+        return sum(1 for w in self._channel.writers if self.matches(w))
+
+    def close(self) -> None:
+        if self in self._channel.readers:
+            self._channel.readers.remove(self)
+
+
+class InProcessTransport:
+    """All endpoints in one process; delivery is synchronous and in creation order.
+
+    QoS is honoured as DDS does it: incompatible pairs do not match (and are recorded in
+    ``incompatibilities``), a TRANSIENT_LOCAL writer keeps its last ``depth`` samples and
+    hands them to a TRANSIENT_LOCAL reader that joins late, a VOLATILE reader gets only
+    what is written after it joined. Readers' KEEP_LAST queues live in the subscription.
+    """
+
+    def __init__(self) -> None:
+        self._channels: dict[tuple[EndpointKind, str], _Channel] = {}
+        self.incompatibilities: list[Incompatibility] = []
+
+    def _channel(self, endpoint: Endpoint) -> _Channel:
+        key = (endpoint.kind, endpoint.name)
+        channel = self._channels.get(key)
+        if channel is None:
+            channel = _Channel(endpoint.name, endpoint.kind, endpoint.type_name)
+            self._channels[key] = channel
+        elif channel.type_name != endpoint.type_name:
+            raise TopicTypeError(
+                f"{endpoint.kind.value} {endpoint.name!r} carries {channel.type_name}; "
+                f"cannot also use it for {endpoint.type_name}"
+            )
+        return channel
+
+    def _note_incompatible(self, reader: Endpoint, writer: Endpoint) -> None:
+        reason = reader.qos.incompatibility(writer.qos)
+        if reason is not None:
+            self.incompatibilities.append(Incompatibility(reader.name, reason))
+            _log.warning("incompatible QoS on %s: %s; they will not communicate",
+                         reader.name, reason)
+
+    def create_writer(self, endpoint: Endpoint) -> Writer:
+        channel = self._channel(endpoint)
+        writer = _InProcessWriter(channel, endpoint)
+        channel.writers.append(writer)
+        for reader in channel.readers:
+            self._note_incompatible(reader.endpoint, endpoint)
+        return writer
+
+    def create_reader(self, endpoint: Endpoint, on_sample: SampleCallback) -> Reader:
+        channel = self._channel(endpoint)
+        reader = _InProcessReader(channel, endpoint, on_sample)
+        channel.readers.append(reader)
+        for writer in channel.writers:
+            self._note_incompatible(endpoint, writer.endpoint)
+            if (
+                writer.history
+                and endpoint.qos.durability is DurabilityPolicy.TRANSIENT_LOCAL
+                and reader.matches(writer)
+            ):
+                for data, request_id in writer.history:
+                    on_sample(data, request_id)
+        return reader
+
+    def topic_names_and_types(self) -> list[tuple[str, str]]:
+        """Like ``ros2 topic list -t``: every topic with its type, sorted."""
+        return sorted(
+            (c.name, c.type_name) for c in self._channels.values() if c.kind is EndpointKind.TOPIC
+        )
