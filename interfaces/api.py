@@ -29,8 +29,8 @@ NUMPY_DTYPES: dict[str, type[np.generic]] = {
     "float32": np.float32,
     "float64": np.float64,
 }
-_INT_RANGES = {
-    name: (int(np.iinfo(dt).min), int(np.iinfo(dt).max))
+_INT_RANGES: dict[str, tuple[int, int]] = {
+    name: (int(np.iinfo(np.dtype(dt)).min), int(np.iinfo(np.dtype(dt)).max))
     for name, dt in NUMPY_DTYPES.items()
     if np.issubdtype(dt, np.integer)
 }
@@ -51,7 +51,7 @@ def _normalise(name: str, kind: str) -> str:
 
 def _fielddefs(typename: str) -> tuple[list[Any], list[Any]]:
     try:
-        return typestore().fielddefs[typename]  # type: ignore[no-any-return]
+        return typestore().fielddefs[typename]
     except KeyError:
         raise UnknownTypeError(f"unknown message type {typename!r}") from None
 
@@ -60,7 +60,7 @@ def get_message(name: str) -> type:
     """The message class for ``pkg/msg/Name`` (``pkg/Name`` is accepted too)."""
     typename = _normalise(name, "msg")
     try:
-        return typestore().types[typename]  # type: ignore[no-any-return]
+        return typestore().types[typename]
     except KeyError:
         raise UnknownTypeError(f"unknown message type {name!r}") from None
 
@@ -155,17 +155,20 @@ def _default(node: tuple[Any, Any]) -> Any:
     return []
 
 
-def _coerce(node: tuple[Any, Any], value: Any) -> Any:
-    """Accept lists/tuples for numeric arrays and sequences, as users write them."""
+def _coerce(path: str, node: tuple[Any, Any], value: Any) -> Any:
+    """Accept lists/tuples for numeric arrays and sequences, as users write them.
+
+    Each element is checked first, so a float is never truncated into an integer array
+    and an out-of-range value raises MessageError naming the element, not OverflowError.
+    """
     kind, arg = node
-    if kind in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+    if kind in (Nodetype.ARRAY, Nodetype.SEQUENCE) and isinstance(value, list | tuple):
         sub = arg[0]
-        if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES and not isinstance(
-            value, np.ndarray
-        ):
+        if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES:
+            for i, item in enumerate(value):
+                _check_base(f"{path}[{i}]", sub[1][0], 0, item)
             return np.asarray(value, dtype=NUMPY_DTYPES[sub[1][0]])
-        if isinstance(value, tuple):
-            return list(value)
+        return list(value)
     return value
 
 
@@ -184,7 +187,9 @@ def new(type_or_name: type | str, **fields: Any) -> Any:
             f"{typename} has no field {unknown[0]!r}; its fields are {sorted(known)}"
         )
     values = {
-        fname: _coerce(node, fields[fname]) if fname in fields else _default(node)
+        fname: _coerce(f"{typename}.{fname}", node, fields[fname])
+        if fname in fields
+        else _default(node)
         for fname, node in defs
     }
     return typestore().types[typename](**values)
@@ -204,7 +209,7 @@ def _check_base(path: str, base: str, bound: int, value: Any) -> None:
     if base in ("float32", "float64"):
         if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
             raise MessageError(f"{path}: expected a number, got {type(value).__name__}")
-        if base == "float32" and math.isfinite(value) and abs(value) > 3.4028235e38:
+        if base == "float32" and math.isfinite(value) and abs(float(value)) > 3.4028235e38:
             raise MessageError(f"{path}: {value} does not fit in float32")
         return
     if isinstance(value, bool) or not isinstance(value, int | np.integer):

@@ -1,0 +1,128 @@
+"""The ``quadmission`` command: one entry point, one subcommand per capability."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+Handler = Callable[[argparse.Namespace], int]
+
+
+@dataclass(frozen=True)
+class Command:
+    """A subcommand: its name, one line of help, its arguments and what it runs."""
+
+    name: str
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Handler
+
+
+# -- interfaces ------------------------------------------------------------------------------
+def _interfaces_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("name", nargs="?", help="a type to show, e.g. px4_msgs/msg/VehicleOdometry")
+    p.add_argument("--package", help="list only this package's types")
+
+
+def _interfaces_run(args: argparse.Namespace) -> int:
+    import interfaces
+
+    if args.name:
+        msg = interfaces.new(args.name)
+        consts, fields = interfaces.typestore().fielddefs[interfaces.type_name(msg)]
+        for cname, ctype, value in consts:
+            print(f"{ctype} {cname}={value}")
+        for fname, _node in fields:
+            print(f"{fname}: {getattr(msg, fname)!r}")
+        return 0
+    for name in interfaces.registered_types(args.package):
+        print(name)
+    return 0
+
+
+# -- launch ----------------------------------------------------------------------------------
+def _launch_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", type=Path, help="launch YAML: nodes: [{factory, name, ...}]")
+    p.add_argument("--duration", type=float, default=10.0, help="simulated seconds to run")
+    p.add_argument("--config-dir", type=Path, default=None, help="node YAMLs (default config/)")
+
+
+def _launch_run(args: argparse.Namespace) -> int:
+    from runtime import DeterministicExecutor, LaunchDescription, launch
+    from runtime.executor import DEFAULT_CONFIG_DIR
+
+    if args.duration <= 0:
+        raise ValueError(f"--duration must be positive, got {args.duration}")
+    ex = DeterministicExecutor(config_dir=args.config_dir or DEFAULT_CONFIG_DIR)
+    nodes = launch(LaunchDescription.from_yaml(args.file), ex)
+    print(f"launched {len(nodes)} node(s): "
+          + ", ".join(n.get_fully_qualified_name() for n in nodes), file=sys.stderr)
+    steps = max(1, int(args.duration))
+    for i in range(steps):
+        ex.spin_for(args.duration / steps)
+        print(f"  t={ex.now().seconds:.1f}s callbacks={ex.callbacks_run}", file=sys.stderr)
+    print(json.dumps({"sim_time_s": ex.now().seconds, "callbacks": ex.callbacks_run}))
+    return 0
+
+
+# -- sim -------------------------------------------------------------------------------------
+def _sim_args(p: argparse.ArgumentParser) -> None:
+    from sim.scenarios import DEFAULT_SCENARIO, SCENARIOS
+
+    p.add_argument("--scenario", default=DEFAULT_SCENARIO, choices=sorted(SCENARIOS),
+                   help=f"what to run (default: {DEFAULT_SCENARIO})")
+    p.add_argument("--out", type=Path, default=Path("runs/default"),
+                   help="folder for report.json, pictures and logs")
+    p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same run)")
+    p.add_argument("--arena", type=Path, default=None,
+                   help="arena YAML (default config/arenas/contest.yaml)")
+
+
+def _sim_run(args: argparse.Namespace) -> int:
+    from sim.scenarios import SCENARIOS
+
+    return SCENARIOS[args.scenario](args)
+
+
+COMMANDS: tuple[Command, ...] = (
+    Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
+    Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
+    Command("interfaces", "list message types, or show one with its defaults",
+            _interfaces_args, _interfaces_run),
+)
+
+
+def build_parser(commands: Sequence[Command] = COMMANDS) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="quadmission",
+        description="Autonomous quadcopter mission stack: simulation, nodes, tools.",
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for command in commands:
+        p = sub.add_parser(command.name, help=command.help, description=command.help)
+        command.add_arguments(p)
+        p.set_defaults(handler=command.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args.handler(args))
+    except Exception as exc:  # a user-facing tool: say what was wrong, no traceback
+        if args.verbose:
+            raise
+        print(f"quadmission {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,439 @@
+"""interfaces.api: type look-up, defaults, validation with field paths, CDR errors, and
+the ROS 2 shape of composed action types; plus the conventions quadmission_interfaces
+promises its users (success/message in results, units on physical fields)."""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import numpy as np
+import pytest
+from rosbags.interfaces import Nodetype
+
+import interfaces
+from interfaces import InterfaceError, MessageError, UnknownTypeError
+from interfaces.registry import INTERFACE_ROOT, iter_interface_files
+
+QM = "quadmission_interfaces"
+ACTIONS = sorted(f.name for f in iter_interface_files() if f.package == QM and f.kind == "action")
+SERVICES = sorted(f.name for f in iter_interface_files() if f.package == QM and f.kind == "srv")
+
+
+def fields_of(typename: str) -> list[tuple[str, Any]]:
+    return list(interfaces.typestore().fielddefs[typename][1])
+
+
+def field_map(typename: str) -> dict[str, Any]:
+    return dict(fields_of(typename))
+
+
+# --- look-up -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("short", "full"),
+    [
+        ("px4_msgs/VehicleOdometry", "px4_msgs/msg/VehicleOdometry"),
+        (f"{QM}/MissionState", f"{QM}/msg/MissionState"),
+        ("std_msgs/Header", "std_msgs/msg/Header"),
+    ],
+)
+def test_get_message_accepts_short_and_full_names(short: str, full: str) -> None:
+    cls = interfaces.get_message(short)
+    assert cls is interfaces.get_message(full)
+    assert cls.__msgtype__ == full
+    assert interfaces.type_name(cls) == full
+    assert interfaces.type_name(interfaces.new(short)) == full
+
+
+def test_get_service_accepts_short_and_full_names() -> None:
+    svc = interfaces.get_service(f"{QM}/Arm")
+    assert svc == interfaces.get_service(f"{QM}/srv/Arm")
+    assert svc.name == f"{QM}/srv/Arm"
+    assert svc.Request.__msgtype__ == f"{QM}/srv/Arm_Request"
+    assert svc.Response.__msgtype__ == f"{QM}/srv/Arm_Response"
+
+
+def test_get_action_accepts_short_and_full_names() -> None:
+    act = interfaces.get_action(f"{QM}/Reach")
+    assert act == interfaces.get_action(f"{QM}/action/Reach")
+    assert act.name == f"{QM}/action/Reach"
+    assert act.Goal.__msgtype__ == f"{QM}/action/Reach_Goal"
+    assert act.Result.__msgtype__ == f"{QM}/action/Reach_Result"
+    assert act.Feedback.__msgtype__ == f"{QM}/action/Reach_Feedback"
+
+
+@pytest.mark.parametrize(
+    ("getter", "name"),
+    [
+        (interfaces.get_message, "px4_msgs/NoSuchMessage"),
+        (interfaces.get_message, "nosuchpkg/msg/Thing"),
+        (interfaces.get_message, f"{QM}/Arm"),  # a service is not a message
+        (interfaces.get_service, f"{QM}/NoSuchService"),
+        (interfaces.get_service, f"{QM}/MissionState"),  # a message is not a service
+        (interfaces.get_action, f"{QM}/NoSuchAction"),
+        (interfaces.get_action, f"{QM}/Arm"),  # a service is not an action
+    ],
+)
+def test_unknown_names_raise_unknown_type_error(getter: Any, name: str) -> None:
+    with pytest.raises(UnknownTypeError) as info:
+        getter(name)
+    assert name in str(info.value)
+    assert isinstance(info.value, InterfaceError)
+    assert isinstance(info.value, KeyError)
+
+
+def test_new_and_deserialize_reject_unknown_type_names() -> None:
+    with pytest.raises(UnknownTypeError, match="NoSuch"):
+        interfaces.new("px4_msgs/NoSuch")
+    with pytest.raises(UnknownTypeError, match="NoSuch"):
+        interfaces.deserialize(b"\x00\x01\x00\x00", "px4_msgs/NoSuch")
+
+
+def test_type_name_rejects_non_messages() -> None:
+    with pytest.raises(MessageError, match="not a message"):
+        interfaces.type_name(42)
+
+
+def test_registered_types_filters_by_package() -> None:
+    px4 = interfaces.registered_types("px4_msgs")
+    assert "px4_msgs/msg/VehicleCommand" in px4
+    assert all(n.startswith("px4_msgs/") for n in px4)
+    everything = interfaces.registered_types()
+    assert set(px4) < set(everything)
+    assert everything == sorted(everything)
+    assert "sensor_msgs/msg/Image" in everything
+
+
+# --- new(): defaults ---------------------------------------------------------------
+
+
+def test_new_fills_ros_defaults() -> None:
+    msg = interfaces.new("px4_msgs/VehicleOdometry")
+    assert msg.timestamp == 0 and isinstance(msg.timestamp, int)
+    assert msg.pose_frame == 0
+    assert msg.quality == 0
+    for name, length in [("position", 3), ("q", 4), ("velocity_variance", 3)]:
+        arr = getattr(msg, name)
+        assert isinstance(arr, np.ndarray), name
+        assert arr.dtype == np.float32 and arr.shape == (length,), name
+        assert not arr.any(), name
+    interfaces.validate(msg)
+
+
+def test_new_fills_nested_messages_strings_bools_and_sequences() -> None:
+    msg = interfaces.new(f"{QM}/MissionEvent")
+    assert interfaces.type_name(msg.header) == "std_msgs/msg/Header"
+    assert msg.header.frame_id == ""
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (0, 0)
+    assert msg.message == ""
+    assert msg.values == []
+    state = interfaces.new(f"{QM}/MissionState")
+    assert isinstance(state.landing_sequence, np.ndarray)
+    assert state.landing_sequence.dtype == np.uint16 and state.landing_sequence.size == 0
+    assert interfaces.new("px4_msgs/OffboardControlMode").position is False
+    interfaces.validate(msg)
+    interfaces.validate(state)
+
+
+def test_new_gives_independent_defaults() -> None:
+    a = interfaces.new(f"{QM}/MarkerDetection")
+    b = interfaces.new(f"{QM}/MarkerDetection")
+    a.corners_px[0] = 5.0
+    a.pose.position.x = 1.0
+    a.header.frame_id = "cam"
+    assert b.corners_px[0] == 0.0
+    assert b.pose.position.x == 0.0
+    assert b.header.frame_id == ""
+
+
+def test_new_accepts_a_class_and_converts_lists_to_typed_arrays() -> None:
+    cls = interfaces.get_message("px4_msgs/TrajectorySetpoint")
+    msg = interfaces.new(cls, position=[1, 2, -3.5], yaw=0.25)
+    assert isinstance(msg, cls)
+    assert msg.position.dtype == np.float32
+    np.testing.assert_array_equal(msg.position, [1.0, 2.0, -3.5])
+    seq = interfaces.new(f"{QM}/LandingSequence", pad_ids=(3, 1, 7))
+    assert seq.pad_ids.dtype == np.uint16
+    assert seq.pad_ids.tolist() == [3, 1, 7]
+
+
+def test_new_rejects_an_unknown_field_naming_it() -> None:
+    with pytest.raises(MessageError) as info:
+        interfaces.new("px4_msgs/VehicleCommand", comand=400)
+    text = str(info.value)
+    assert "'comand'" in text
+    assert "px4_msgs/msg/VehicleCommand" in text
+    assert "command" in text  # the valid fields are listed
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "path", "what"),
+    [
+        ({"serial_number": [300] * 32}, "BatteryStatus.serial_number[0]", "range"),
+        ({"serial_number": [1.5] * 32}, "BatteryStatus.serial_number[0]", "integer"),
+        ({"voltage_cell_v": [1.0] * 13 + ["x"]}, "BatteryStatus.voltage_cell_v[13]", "number"),
+    ],
+)
+def test_new_rejects_bad_list_elements_naming_them(
+    kwargs: dict[str, Any], path: str, what: str
+) -> None:
+    # A float must not be truncated into an integer array, nor overflow wrap around.
+    with pytest.raises(MessageError) as info:
+        interfaces.new("px4_msgs/BatteryStatus", **kwargs)
+    assert path in str(info.value)
+    assert what in str(info.value)
+
+
+# --- validate() / serialize(): errors name the field --------------------------------
+
+
+def _bad(typename: str, **fields: Any) -> Any:
+    msg = interfaces.new(typename)
+    for name, value in fields.items():
+        setattr(msg, name, value)
+    return msg
+
+
+BAD_MESSAGES = [
+    # out-of-range integers, at both ends and for every width that matters
+    (_bad("px4_msgs/VehicleStatus", nav_state=256), "VehicleStatus.nav_state", "range"),
+    (_bad("px4_msgs/VehicleStatus", nav_state=-1), "VehicleStatus.nav_state", "range"),
+    (_bad("px4_msgs/VehicleOdometry", quality=-129), "VehicleOdometry.quality", "range"),
+    (_bad("px4_msgs/VehicleOdometry", timestamp=2**64), "VehicleOdometry.timestamp", "range"),
+    (_bad("px4_msgs/VehicleOdometry", timestamp=-1), "VehicleOdometry.timestamp", "range"),
+    (_bad("px4_msgs/Timesync", tc1=2**63), "Timesync.tc1", "range"),
+    (_bad("px4_msgs/VehicleCommand", command=2**32), "VehicleCommand.command", "range"),
+    # wrong fixed-array length
+    (
+        _bad("px4_msgs/VehicleOdometry", q=np.zeros(3, np.float32)),
+        "VehicleOdometry.q",
+        "4 elements",
+    ),
+    (
+        _bad("px4_msgs/BatteryStatus", voltage_cell_v=np.zeros(15, np.float32)),
+        "BatteryStatus.voltage_cell_v",
+        "14 elements",
+    ),
+    # wrong dtype or shape
+    (_bad("px4_msgs/VehicleOdometry", q=np.zeros(4, np.float64)), "VehicleOdometry.q", "float32"),
+    (
+        _bad("px4_msgs/VehicleOdometry", q=np.zeros((4, 1), np.float32)),
+        "VehicleOdometry.q",
+        "1-D",
+    ),
+    (
+        _bad(f"{QM}/LandingSequence", pad_ids=np.array([1, 2], np.int64)),
+        "LandingSequence.pad_ids",
+        "uint16",
+    ),
+    # wrong Python type
+    (_bad("px4_msgs/VehicleOdometry", timestamp=1.0), "VehicleOdometry.timestamp", "integer"),
+    (_bad("px4_msgs/VehicleOdometry", timestamp=True), "VehicleOdometry.timestamp", "integer"),
+    (_bad("px4_msgs/OffboardControlMode", position=1), "OffboardControlMode.position", "bool"),
+    (_bad("px4_msgs/TrajectorySetpoint", yaw="0.5"), "TrajectorySetpoint.yaw", "number"),
+    (_bad("px4_msgs/TrajectorySetpoint", yaw=1e39), "TrajectorySetpoint.yaw", "float32"),
+    (_bad(f"{QM}/MissionEvent", message=3), "MissionEvent.message", "string"),
+    (_bad("px4_msgs/VehicleOdometry", q=5), "VehicleOdometry.q", "array"),
+    (
+        _bad(f"{QM}/MissionEvent", header=interfaces.new("builtin_interfaces/Time")),
+        "MissionEvent.header",
+        "std_msgs/msg/Header",
+    ),
+]
+
+
+@pytest.mark.parametrize(("msg", "path", "what"), BAD_MESSAGES)
+def test_validate_and_serialize_reject_bad_values_naming_the_field(
+    msg: Any, path: str, what: str
+) -> None:
+    for check in (interfaces.validate, interfaces.serialize):
+        with pytest.raises(MessageError) as info:
+            check(msg)
+        assert path in str(info.value), f"{check.__name__}: {info.value}"
+        assert what in str(info.value), f"{check.__name__}: {info.value}"
+
+
+def test_errors_give_the_full_path_into_nested_sequences() -> None:
+    det = [interfaces.new(f"{QM}/MarkerDetection") for _ in range(3)]
+    msg = interfaces.new(f"{QM}/MarkerDetectionArray", detections=det)
+    interfaces.validate(msg)
+    msg.detections[2].pose.position.x = "far"
+    with pytest.raises(MessageError, match=re.escape("detections[2].pose.position.x")):
+        interfaces.serialize(msg)
+    msg.detections[2].pose.position.x = 1.0
+    msg.detections[1] = interfaces.new("std_msgs/Header")
+    with pytest.raises(MessageError, match=re.escape("detections[1]: expected a")):
+        interfaces.validate(msg)
+
+
+def test_integer_limits_and_special_floats_are_accepted() -> None:
+    msg = interfaces.new(
+        "px4_msgs/VehicleLocalPosition",
+        timestamp=2**64 - 1,
+        xy_reset_counter=255,
+        vxy_max=float("inf"),  # PX4: INFINITY when no limit is required
+        x=float("nan"),  # PX4: NaN when invalid
+    )
+    back = interfaces.deserialize(interfaces.serialize(msg), "px4_msgs/VehicleLocalPosition")
+    assert back.timestamp == 2**64 - 1
+    assert back.xy_reset_counter == 255
+    assert back.vxy_max == float("inf")
+    assert np.isnan(back.x)
+    sync = interfaces.new("px4_msgs/Timesync", tc1=-(2**63), ts1=2**63 - 1)
+    interfaces.validate(sync)
+
+
+# --- deserialize(): malformed bytes ----------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "typename", ["px4_msgs/msg/VehicleOdometry", f"{QM}/msg/MissionEvent", "px4_msgs/Timesync"]
+)
+def test_deserialize_rejects_every_truncation(typename: str) -> None:
+    msg = interfaces.new(typename)
+    if typename.endswith("MissionEvent"):
+        msg.message = "robot 14 found"
+    data = interfaces.serialize(msg)
+    for size in range(len(data)):
+        with pytest.raises(MessageError, match="malformed"):
+            interfaces.deserialize(data[:size], typename)
+
+
+def test_deserialize_rejects_trailing_garbage_and_bad_lengths() -> None:
+    data = interfaces.serialize(interfaces.new("px4_msgs/Timesync", seq=1))
+    with pytest.raises(MessageError):
+        interfaces.deserialize(data + bytes(8), "px4_msgs/Timesync")
+    with pytest.raises(MessageError):
+        interfaces.deserialize(b"\x00\x01\x00\x00\xff\xff\xff\x7f", "std_msgs/String")
+
+
+def test_deserialize_accepts_bytearray_and_memoryview() -> None:
+    msg = interfaces.new("px4_msgs/Timesync", seq=9, tc1=5, ts1=6)
+    data = interfaces.serialize(msg)
+    for view in (bytearray(data), memoryview(data)):
+        assert interfaces.messages_equal(interfaces.deserialize(view, "px4_msgs/Timesync"), msg)
+
+
+# --- composed action and service types ---------------------------------------------
+
+
+def test_there_are_the_documented_actions_and_services() -> None:
+    assert set(ACTIONS) >= {
+        "Takeoff",
+        "Land",
+        "Reach",
+        "Turn",
+        "Navigate",
+        "Explore",
+        "PrecisionLand",
+    }
+    assert set(SERVICES) >= {"Arm", "Disarm", "PlanPath"}
+
+
+@pytest.mark.parametrize("name", ACTIONS)
+def test_action_composed_types_have_the_ros2_shape(name: str) -> None:
+    act = interfaces.get_action(f"{QM}/{name}")
+    base = f"{QM}/action/{name}"
+    uuid = (Nodetype.NAME, "unique_identifier_msgs/msg/UUID")
+
+    assert fields_of(act.SendGoal.Request.__msgtype__) == [
+        ("goal_id", uuid),
+        ("goal", (Nodetype.NAME, f"{base}_Goal")),
+    ]
+    assert fields_of(act.SendGoal.Response.__msgtype__) == [
+        ("accepted", (Nodetype.BASE, ("bool", 0))),
+        ("stamp", (Nodetype.NAME, "builtin_interfaces/msg/Time")),
+    ]
+    assert fields_of(act.GetResult.Request.__msgtype__) == [("goal_id", uuid)]
+    assert fields_of(act.GetResult.Response.__msgtype__) == [
+        ("status", (Nodetype.BASE, ("int8", 0))),
+        ("result", (Nodetype.NAME, f"{base}_Result")),
+    ]
+    assert fields_of(act.FeedbackMessage.__msgtype__) == [
+        ("goal_id", uuid),
+        ("feedback", (Nodetype.NAME, f"{base}_Feedback")),
+    ]
+    assert act.SendGoal.name == f"{base}_SendGoal"
+    assert act.GetResult.name == f"{base}_GetResult"
+
+
+def test_action_messages_round_trip_with_their_goal_id() -> None:
+    act = interfaces.get_action(f"{QM}/Reach")
+    goal_id = interfaces.new("unique_identifier_msgs/UUID", uuid=list(range(16)))
+    goal = interfaces.new(act.Goal, radius=0.3, stop_at_target=True)
+    goal.target.position.x = 2.5
+    request = interfaces.new(act.SendGoal.Request, goal_id=goal_id, goal=goal)
+    back = interfaces.deserialize(interfaces.serialize(request), act.SendGoal.Request.__msgtype__)
+    assert back.goal_id.uuid.tolist() == list(range(16))
+    assert back.goal.target.position.x == 2.5
+    assert back.goal.stop_at_target is True
+
+    fb = interfaces.new(act.Feedback, distance_left=1.25)
+    message = interfaces.new(act.FeedbackMessage, goal_id=goal_id, feedback=fb)
+    back = interfaces.deserialize(interfaces.serialize(message), act.FeedbackMessage.__msgtype__)
+    assert back.feedback.distance_left == 1.25
+    assert interfaces.messages_equal(back, message)
+
+
+def test_cancel_goal_service_has_the_ros2_shape() -> None:
+    svc = interfaces.cancel_goal_service()
+    assert svc.name == "action_msgs/srv/CancelGoal"
+    assert fields_of(svc.Request.__msgtype__) == [
+        ("goal_info", (Nodetype.NAME, "action_msgs/msg/GoalInfo"))
+    ]
+    response = field_map(svc.Response.__msgtype__)
+    assert response["return_code"] == (Nodetype.BASE, ("int8", 0))
+    assert response["goals_canceling"] == (
+        Nodetype.SEQUENCE,
+        ((Nodetype.NAME, "action_msgs/msg/GoalInfo"), 0),
+    )
+    assert svc.Response.ERROR_NONE == 0
+    assert svc.Response.ERROR_REJECTED == 1
+    assert svc.Response.ERROR_UNKNOWN_GOAL_ID == 2
+    assert svc.Response.ERROR_GOAL_TERMINATED == 3
+
+
+# --- conventions of quadmission_interfaces --------------------------------------------
+
+
+def _outcome_types() -> list[str]:
+    out = [f"{QM}/action/{a}_Result" for a in ACTIONS]
+    out += [f"{QM}/srv/{s}_Response" for s in SERVICES]
+    return out
+
+
+@pytest.mark.parametrize("typename", _outcome_types())
+def test_results_and_responses_carry_success_and_message(typename: str) -> None:
+    fields = field_map(typename)
+    assert fields.get("success") == (Nodetype.BASE, ("bool", 0)), typename
+    assert fields.get("message") == (Nodetype.BASE, ("string", 0)), typename
+
+
+@pytest.mark.parametrize("typename", _outcome_types())
+def test_result_codes_are_distinct(typename: str) -> None:
+    consts, _ = interfaces.typestore().fielddefs[typename]
+    codes = {name: value for name, _, value in consts if name.startswith("RESULT_")}
+    if codes:
+        assert "result" in field_map(typename), f"{typename} has RESULT_* but no result field"
+        assert len(set(codes.values())) == len(codes), f"{typename}: duplicate codes {codes}"
+
+
+FLOAT_FIELD = re.compile(r"^\s*float(32|64)(\[\d*\])?\s+[a-z_][a-z0-9_]*\s*(#.*)?$")
+
+
+def test_every_physical_float_field_states_its_unit() -> None:
+    # DESIGN.md "Frames, units, time": SI units, with the unit in a comment ('[m]', '[rad]',
+    # '[-]' for dimensionless) on every float field of our own interfaces.
+    missing, checked = [], 0
+    for item in iter_interface_files():
+        if item.package != QM:
+            continue
+        for number, line in enumerate(item.path.read_text(encoding="utf-8").splitlines(), 1):
+            match = FLOAT_FIELD.match(line)
+            checked += bool(match)
+            if match and not re.search(r"\[[^\]]+\]", match.group(3) or ""):
+                missing.append(f"{item.path.relative_to(INTERFACE_ROOT)}:{number}: {line.strip()}")
+    assert checked > 30, f"only {checked} float fields found: is the pattern still right?"
+    assert not missing, "float fields without a [unit] comment:\n" + "\n".join(missing)
