@@ -1,0 +1,631 @@
+"""Paparazzi-style static scheduler (seed 002, section 4): resolve once, then tick.
+
+The three steps of the seed:
+
+1. :func:`resolve` orders the modules (Algorithms 1-2, :mod:`sim.fcu.resolution`);
+2. init, periodic and event functions are grouped by task group and called in the fixed
+   :data:`~sim.fcu.modules.TASK_GROUP_ORDER`, modules in resolved order within a group;
+3. each periodic function gets a prescaler (main-loop ticks per call, checked to be an
+   integer) and an offset from an :class:`~sim.fcu.offsets.OffsetStrategy`.
+
+:class:`Scheduler` runs the result one main-loop tick at a time. Simulated time comes
+from an injected :class:`Clock` (deterministic in the simulator); host time
+(``time.perf_counter_ns``) is only used for the duty statistics of Table 2.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from typing import Protocol
+
+import numpy as np
+
+from sim.fcu.errors import BindingError, ModuleSpecError, RateError, SchedulerError
+from sim.fcu.modules import TASK_GROUP_ORDER, ModuleSpec, PeriodicSpec, TaskGroup
+from sim.fcu.offsets import (
+    OffsetRequest,
+    OffsetStrategy,
+    checked_offsets,
+    delay_to_offset,
+    get_strategy,
+    hyperperiod,
+    tick_loads,
+)
+from sim.fcu.resolution import sort_modules
+
+DEFAULT_MAIN_FREQ_HZ = 500
+"""Main-loop frequency (Hz) of the seed's test flight (section 5)."""
+
+DEFAULT_WINDOW_CALLS = 1000
+"""Calls per duty-statistics window (seed 002, section 5: "each data point corresponds to
+1000 calls")."""
+
+_RATE_TOLERANCE = 1e-9
+
+
+# ---------------------------------------------------------------------------------------
+# Static schedule
+
+
+@dataclass(frozen=True)
+class ScheduledPeriodic:
+    """A periodic function placed on the main loop: due when ``tick % prescaler == offset``."""
+
+    module: str
+    group: TaskGroup
+    fun: str
+    freq_hz: float
+    prescaler: int
+    offset: int
+    autorun: bool
+    cost: float
+    pinned: bool
+    """True if the module's ``delay`` fixed the offset."""
+
+    def due(self, tick: int) -> bool:
+        """Whether this function runs on main-loop tick ``tick`` (0-based)."""
+        return tick % self.prescaler == self.offset
+
+
+@dataclass(frozen=True)
+class ScheduledCall:
+    """An init or event function with the module and group it belongs to."""
+
+    module: str
+    group: TaskGroup
+    fun: str
+
+
+@dataclass(frozen=True)
+class ResolvedSchedule:
+    """The static schedule: module order, and every function in call order."""
+
+    modules: tuple[ModuleSpec, ...]
+    """Selected modules and their dependencies, ordered by Algorithm 1."""
+    main_freq_hz: int
+    strategy: str
+    """Name of the offset strategy that placed the periodic functions."""
+    inits: tuple[ScheduledCall, ...]
+    periodics: tuple[ScheduledPeriodic, ...]
+    """In call order: task group, then module order, then declaration order."""
+    events: tuple[ScheduledCall, ...]
+
+    @property
+    def module_order(self) -> tuple[str, ...]:
+        return tuple(m.name for m in self.modules)
+
+    @property
+    def tick_period_ns(self) -> int:
+        """Main-loop period, ns (rounded down for frequencies that do not divide 1e9)."""
+        return 1_000_000_000 // self.main_freq_hz
+
+    @property
+    def hyperperiod_ticks(self) -> int:
+        """Ticks after which the periodic call pattern repeats."""
+        return hyperperiod(p.prescaler for p in self.periodics)
+
+    def due(self, tick: int) -> tuple[ScheduledPeriodic, ...]:
+        """Periodic functions due on ``tick``, in call order (stopped ones included)."""
+        return tuple(p for p in self.periodics if p.due(tick))
+
+    def with_offsets(self, strategy: str | OffsetStrategy) -> ResolvedSchedule:
+        """The same schedule with offsets re-assigned by another strategy."""
+        chosen = get_strategy(strategy)
+        by_module = {m: i for i, m in enumerate(self.module_order)}
+        # strategies see functions in resolved module order, as the seed's generator does
+        order = sorted(
+            range(len(self.periodics)), key=lambda i: by_module[self.periodics[i].module]
+        )
+        requests = [_request(self.periodics[i]) for i in order]
+        offsets = checked_offsets(chosen, requests)
+        placed = list(self.periodics)
+        for i, offset in zip(order, offsets, strict=True):
+            placed[i] = replace(placed[i], offset=offset)
+        return replace(self, strategy=chosen.name, periodics=tuple(placed))
+
+
+def _request(p: ScheduledPeriodic) -> OffsetRequest:
+    return OffsetRequest(p.prescaler, p.offset if p.pinned else None, p.cost)
+
+
+def prescaler_for(spec: PeriodicSpec, main_freq_hz: int, module: str = "?") -> int:
+    """Main-loop ticks per call of ``spec``; RateError unless a positive integer.
+
+    The seed's generator truncates ``MODULES_FREQUENCY * period`` silently; here a rate
+    the main loop cannot realise exactly (above it, or not an integer divisor of it) is
+    rejected with the numbers involved.
+    """
+    if spec.period_s is not None:
+        ratio = Fraction(spec.period_s) * main_freq_hz
+        declared = f"period {spec.period_s} s"
+    else:
+        assert spec.freq_hz is not None
+        ratio = Fraction(main_freq_hz) / Fraction(spec.freq_hz)
+        declared = f"{spec.freq_hz} Hz"
+    where = f"periodic {spec.fun!r} of module {module!r} ({declared})"
+    nearest = round(ratio)
+    if ratio < 1 - _RATE_TOLERANCE:
+        raise RateError(f"{where} is faster than the {main_freq_hz} Hz main loop")
+    if abs(ratio - nearest) > _RATE_TOLERANCE * ratio:
+        raise RateError(
+            f"{where} needs a prescaler of {float(ratio):.4g} main-loop ticks at "
+            f"{main_freq_hz} Hz; it must be an integer (nearest realisable rate: "
+            f"{main_freq_hz / max(1, nearest):.6g} Hz)"
+        )
+    return max(1, int(nearest))
+
+
+def resolve(
+    modules: Iterable[ModuleSpec],
+    selected: Sequence[str] | None = None,
+    *,
+    main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ,
+    offsets: str | OffsetStrategy = "balanced",
+) -> ResolvedSchedule:
+    """Build the static schedule of seed 002, section 4.
+
+    Step 1: :func:`~sim.fcu.resolution.sort_modules` (Algorithm 1, with Algorithm 2
+    twice) orders the ``selected`` modules (default: all) and their dependencies from
+    the catalogue ``modules``. Step 2: functions are grouped by task group in the fixed
+    order, modules in that order within a group. Step 3: each periodic function gets a
+    prescaler (checked, see :func:`prescaler_for`) and an offset from the strategy
+    ``offsets`` (a registry name or an :class:`OffsetStrategy`; a declared ``delay``
+    always wins).
+
+    Raises DependencyCycleError, ConflictError, MissingFunctionalityError, RateError, or
+    ModuleSpecError for duplicate module or function names.
+    """
+    if isinstance(main_freq_hz, bool) or not isinstance(main_freq_hz, int) or main_freq_hz <= 0:
+        raise RateError(f"main_freq_hz: {main_freq_hz!r} must be a positive integer (Hz)")
+    ordered = sort_modules(modules, selected)
+    strategy = get_strategy(offsets)
+    by_group = sorted(ordered, key=lambda m: m.group.rank)  # stable: module order kept
+
+    inits = tuple(ScheduledCall(m.name, m.group, s.fun) for m in by_group for s in m.inits)
+    events = tuple(ScheduledCall(m.name, m.group, s.fun) for m in by_group for s in m.events)
+    _check_unique("inits", (c.fun for c in inits))
+    _check_unique("events", (c.fun for c in events))
+
+    # offsets are assigned in resolved module order (the naive counter depends on it)
+    unplaced: list[ScheduledPeriodic] = []
+    for module in ordered:
+        for spec in module.periodics:
+            prescaler = prescaler_for(spec, main_freq_hz, module.name)
+            pinned = spec.delay is not None
+            unplaced.append(
+                ScheduledPeriodic(
+                    module=module.name,
+                    group=module.group,
+                    fun=spec.fun,
+                    freq_hz=main_freq_hz / prescaler,
+                    prescaler=prescaler,
+                    offset=delay_to_offset(spec.delay, prescaler) if spec.delay is not None else 0,
+                    autorun=spec.autorun,
+                    cost=spec.cost,
+                    pinned=pinned,
+                )
+            )
+    _check_unique("periodics", (p.fun for p in unplaced))
+    placed_offsets = checked_offsets(strategy, [_request(p) for p in unplaced])
+    placed = [replace(p, offset=o) for p, o in zip(unplaced, placed_offsets, strict=True)]
+    rank = {name: i for i, name in enumerate(m.name for m in ordered)}
+    periodics = tuple(sorted(placed, key=lambda p: (p.group.rank, rank[p.module])))
+    return ResolvedSchedule(ordered, main_freq_hz, strategy.name, inits, periodics, events)
+
+
+def _check_unique(kind: str, names: Iterable[str]) -> None:
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise ModuleSpecError(kind, f"function {name!r} is declared by two modules")
+        seen.add(name)
+
+
+# ---------------------------------------------------------------------------------------
+# Call pattern
+
+
+@dataclass(frozen=True)
+class CallPattern:
+    """Which periodic functions run on which tick over one hyperperiod."""
+
+    strategy: str
+    hyperperiod_ticks: int
+    ticks: tuple[tuple[str, ...], ...]
+    """Function names due on each tick, in call order."""
+    peak: int
+    """Most functions on one tick."""
+    mean: float
+    """Functions per tick on average (independent of the offsets: sum of 1/prescaler)."""
+    peak_cost: float
+    """Largest summed ``cost`` on one tick."""
+    mean_cost: float
+
+    @property
+    def counts(self) -> tuple[int, ...]:
+        return tuple(len(t) for t in self.ticks)
+
+
+def call_pattern(schedule: ResolvedSchedule) -> CallPattern:
+    """The call pattern of ``schedule`` over one hyperperiod, with peak and mean load.
+
+    Every periodic function counts, stopped (``autorun=False``) ones included: they
+    may be started at any time, so their slot is part of the static schedule.
+    """
+    h = schedule.hyperperiod_ticks
+    ticks: list[list[str]] = [[] for _ in range(h)]
+    for p in schedule.periodics:
+        for k in range(p.offset, h, p.prescaler):
+            ticks[k].append(p.fun)
+    requests = [OffsetRequest(p.prescaler, None, p.cost) for p in schedule.periodics]
+    offsets = [p.offset for p in schedule.periodics]
+    counts = tick_loads(requests, offsets, unit_cost=True) if requests else np.zeros(1)
+    costs = tick_loads(requests, offsets) if requests else np.zeros(1)
+    return CallPattern(
+        strategy=schedule.strategy,
+        hyperperiod_ticks=h,
+        ticks=tuple(tuple(t) for t in ticks),
+        peak=int(counts.max()),
+        mean=float(counts.mean()),
+        peak_cost=float(costs.max()),
+        mean_cost=float(costs.mean()),
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# Runtime: clock, statistics, scheduler
+
+
+class Clock(Protocol):
+    """Simulated time in integer microseconds (the PX4 side's unit)."""
+
+    def now_us(self) -> int: ...
+
+
+class ManualClock:
+    """A clock that only moves when told to (tests, or a simulator that owns time)."""
+
+    def __init__(self, start_us: int = 0) -> None:
+        self._now_us = int(start_us)
+
+    def now_us(self) -> int:
+        return self._now_us
+
+    def advance_us(self, dt_us: int) -> None:
+        if dt_us < 0:
+            raise ValueError(f"dt_us: {dt_us} must be >= 0")
+        self._now_us += int(dt_us)
+
+    def set_us(self, t_us: int) -> None:
+        if t_us < self._now_us:
+            raise ValueError(f"t_us: {t_us} is before the current time {self._now_us}")
+        self._now_us = int(t_us)
+
+
+class _ReleaseClock:
+    """Default clock: every tick runs exactly at its release time ``k / main_freq``."""
+
+    def __init__(self, scheduler: Scheduler) -> None:
+        self._scheduler = scheduler
+
+    def now_us(self) -> int:
+        return self._scheduler.release_time_us(self._scheduler.tick_count)
+
+
+@dataclass(frozen=True)
+class DutyWindow:
+    """Host-time duty over one window of calls (seed 002, Figures 6-9), microseconds."""
+
+    calls: int
+    avg_us: float
+    min_us: float
+    max_us: float
+    end_tick: int
+    """Main-loop tick count when the window closed."""
+
+
+@dataclass(frozen=True)
+class DutyStats:
+    """Completed windows plus the totals over every call so far."""
+
+    windows: tuple[DutyWindow, ...]
+    calls: int
+    avg_us: float
+    min_us: float
+    max_us: float
+
+
+@dataclass(frozen=True)
+class FrequencyStats:
+    """Achieved call frequency in simulated time (seed 002, Table 2)."""
+
+    calls: int
+    freq_hz: float
+    """``(calls - 1) / (last - first call time)``; 0 with fewer than two calls."""
+    interval_std_us: float
+    """Standard deviation of the interval between calls (jitter), microseconds."""
+
+    @property
+    def std_hz(self) -> float:
+        """Spread of the frequency, ``freq**2 * interval std`` (first-order propagation)."""
+        return self.freq_hz**2 * self.interval_std_us * 1e-6
+
+
+@dataclass(frozen=True)
+class TickResult:
+    """What one main-loop tick did."""
+
+    tick: int
+    time_us: int
+    called: tuple[str, ...]
+    """Periodic then event functions, in call order."""
+    duty_ns: int
+    overrun: bool
+
+
+@dataclass(frozen=True)
+class SchedulerReport:
+    """Duty (host time) and achieved frequencies (simulated time), as in Table 2."""
+
+    main_freq_hz: int
+    strategy: str
+    ticks: int
+    overruns: int
+    """Ticks whose measured duty exceeded the main-loop period."""
+    tick_duty: DutyStats
+    group_duty: Mapping[TaskGroup, DutyStats]
+    event_duty: DutyStats
+    group_freq: Mapping[TaskGroup, FrequencyStats]
+    function_freq: Mapping[str, FrequencyStats]
+    event_poll_freq: FrequencyStats
+    event_calls: Mapping[str, int]
+
+
+class _DutyMeter:
+    """Average/min/max of durations per window of ``window`` calls (host ns in, us out)."""
+
+    def __init__(self, window: int) -> None:
+        self._window = window
+        self._windows: list[DutyWindow] = []
+        self._n = self._sum = 0
+        self._min = self._max = 0
+        self._total_n = self._total_sum = 0
+        self._total_min = self._total_max = 0
+
+    def record(self, duration_ns: int, tick: int) -> None:
+        if self._n == 0:
+            self._min = self._max = duration_ns
+        self._n += 1
+        self._sum += duration_ns
+        self._min = min(self._min, duration_ns)
+        self._max = max(self._max, duration_ns)
+        if self._total_n == 0:
+            self._total_min = self._total_max = duration_ns
+        self._total_n += 1
+        self._total_sum += duration_ns
+        self._total_min = min(self._total_min, duration_ns)
+        self._total_max = max(self._total_max, duration_ns)
+        if self._n == self._window:
+            avg_us = self._sum / self._n / 1e3
+            self._windows.append(
+                DutyWindow(self._n, avg_us, self._min / 1e3, self._max / 1e3, tick)
+            )
+            self._n = self._sum = 0
+
+    def stats(self) -> DutyStats:
+        n = self._total_n
+        return DutyStats(
+            windows=tuple(self._windows),
+            calls=n,
+            avg_us=self._total_sum / n / 1e3 if n else 0.0,
+            min_us=self._total_min / 1e3,
+            max_us=self._total_max / 1e3,
+        )
+
+
+class _RateMeter:
+    """Call times in simulated microseconds -> achieved frequency and its spread."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+        self._first_us = self._last_us = 0
+        self._n = 0
+        self._mean = self._m2 = 0.0  # Welford over the intervals, us
+
+    def record(self, t_us: int) -> None:
+        if self.calls == 0:
+            self._first_us = t_us
+        else:
+            interval = t_us - self._last_us
+            self._n += 1
+            delta = interval - self._mean
+            self._mean += delta / self._n
+            self._m2 += delta * (interval - self._mean)
+        self.calls += 1
+        self._last_us = t_us
+
+    def stats(self) -> FrequencyStats:
+        span = self._last_us - self._first_us
+        freq = (self.calls - 1) * 1e6 / span if self.calls > 1 and span > 0 else 0.0
+        std = math.sqrt(self._m2 / self._n) if self._n > 1 else 0.0
+        return FrequencyStats(self.calls, freq, std)
+
+
+class Scheduler:
+    """Runs a :class:`ResolvedSchedule` tick by tick (seed 002, Figure 4's main loop).
+
+    ``functions`` binds every declared init, periodic and event function name to a
+    callable taking no argument; a missing or unknown name is a BindingError. ``clock``
+    gives the simulated time stamped on calls (default: each tick runs exactly at its
+    release time); ``host_timer`` (ns) measures duty only.
+
+    Call :meth:`init` once, then :meth:`tick` per main-loop period, or :meth:`run_until`
+    with the simulated time to run every tick released by then.
+    """
+
+    def __init__(
+        self,
+        schedule: ResolvedSchedule,
+        functions: Mapping[str, Callable[[], object]],
+        *,
+        clock: Clock | None = None,
+        host_timer: Callable[[], int] = time.perf_counter_ns,
+        window_calls: int = DEFAULT_WINDOW_CALLS,
+    ) -> None:
+        if window_calls < 1:
+            raise SchedulerError(f"window_calls: {window_calls} must be >= 1")
+        declared = [c.fun for c in schedule.inits]
+        declared += [p.fun for p in schedule.periodics] + [e.fun for e in schedule.events]
+        missing = sorted(set(declared) - set(functions))
+        unknown = sorted(set(functions) - set(declared))
+        if missing or unknown:
+            raise BindingError(
+                f"function bindings do not match the schedule: missing {missing}, "
+                f"not declared by any selected module {unknown}"
+            )
+        self.schedule = schedule
+        self._functions = dict(functions)
+        self._clock: Clock = clock if clock is not None else _ReleaseClock(self)
+        self._timer = host_timer
+        self._period_ns = schedule.tick_period_ns
+        self._groups = tuple(
+            (g, tuple(p for p in schedule.periodics if p.group is g))
+            for g in TASK_GROUP_ORDER
+            if any(p.group is g for p in schedule.periodics)
+        )
+        self._running = {p.fun: p.autorun for p in schedule.periodics}
+        self._flags = {e.fun: False for e in schedule.events}
+        self._initialised = False
+        self._tick = 0
+        self._overruns = 0
+        self._tick_duty = _DutyMeter(window_calls)
+        self._group_duty = {g: _DutyMeter(window_calls) for g, _ in self._groups}
+        self._event_duty = _DutyMeter(window_calls)
+        self._group_rate = {g: _RateMeter() for g, _ in self._groups}
+        self._fun_rate = {p.fun: _RateMeter() for p in schedule.periodics}
+        self._poll_rate = _RateMeter()
+        self._event_calls = dict.fromkeys(self._flags, 0)
+
+    # -- lifecycle ------------------------------------------------------------------
+
+    def init(self) -> None:
+        """Call every init function once, in task-group then module order."""
+        if self._initialised:
+            raise SchedulerError("init() was already called")
+        for call in self.schedule.inits:
+            self._functions[call.fun]()
+        self._initialised = True
+
+    @property
+    def tick_count(self) -> int:
+        """Main-loop ticks run so far (the index of the next tick)."""
+        return self._tick
+
+    def release_time_us(self, tick: int) -> int:
+        """Simulated time (us) at which main-loop tick ``tick`` is due."""
+        return tick * 1_000_000 // self.schedule.main_freq_hz
+
+    # -- periodic and event functions -------------------------------------------------
+
+    def start(self, fun: str) -> None:
+        """Start a periodic function (Paparazzi's MODULES_START)."""
+        self._require(fun, self._running, "periodic")
+        self._running[fun] = True
+
+    def stop(self, fun: str) -> None:
+        """Stop a periodic function; its slot stays reserved (MODULES_STOP)."""
+        self._require(fun, self._running, "periodic")
+        self._running[fun] = False
+
+    def is_running(self, fun: str) -> bool:
+        self._require(fun, self._running, "periodic")
+        return self._running[fun]
+
+    def set_event(self, fun: str) -> None:
+        """Flag event function ``fun``: it is called once at the next event poll."""
+        self._require(fun, self._flags, "event")
+        self._flags[fun] = True
+
+    def poll_events(self) -> tuple[str, ...]:
+        """Call the flagged event functions (group then module order), clear their flags."""
+        now = self._clock.now_us()
+        called: list[str] = []
+        t0 = self._timer()
+        for event in self.schedule.events:
+            if self._flags[event.fun]:
+                self._flags[event.fun] = False
+                self._functions[event.fun]()
+                self._event_calls[event.fun] += 1
+                called.append(event.fun)
+        self._event_duty.record(self._timer() - t0, self._tick)
+        self._poll_rate.record(now)
+        return tuple(called)
+
+    def tick(self) -> TickResult:
+        """One main-loop iteration: due periodic functions group by group, then events.
+
+        Duty is measured per task group (each group with periodic functions is timed on
+        every tick, as Paparazzi times its group functions) and for the whole tick; a
+        tick longer than the main-loop period counts as an overrun.
+        """
+        if not self._initialised:
+            raise SchedulerError("init() must be called before tick()")
+        k = self._tick
+        now = self._clock.now_us()
+        called: list[str] = []
+        tick_start = self._timer()
+        for group, periodics in self._groups:
+            t0 = self._timer()
+            for p in periodics:
+                if k % p.prescaler == p.offset and self._running[p.fun]:
+                    self._functions[p.fun]()
+                    self._fun_rate[p.fun].record(now)
+                    called.append(p.fun)
+            self._group_duty[group].record(self._timer() - t0, k + 1)
+            self._group_rate[group].record(now)
+        called.extend(self.poll_events())
+        duty_ns = self._timer() - tick_start
+        overrun = duty_ns > self._period_ns
+        self._overruns += overrun
+        self._tick_duty.record(duty_ns, k + 1)
+        self._tick = k + 1
+        return TickResult(k, now, tuple(called), duty_ns, overrun)
+
+    def run_until(self, now_us: int) -> int:
+        """Run every tick released at or before simulated time ``now_us``; return how many.
+
+        Late ticks (the caller's step longer than the main-loop period) run back to back
+        and are stamped with the clock's time, which the achieved frequencies then show.
+        """
+        ran = 0
+        while self.release_time_us(self._tick) <= now_us:
+            self.tick()
+            ran += 1
+        return ran
+
+    # -- statistics -------------------------------------------------------------------
+
+    def report(self) -> SchedulerReport:
+        """Duty and frequency statistics so far."""
+        return SchedulerReport(
+            main_freq_hz=self.schedule.main_freq_hz,
+            strategy=self.schedule.strategy,
+            ticks=self._tick,
+            overruns=self._overruns,
+            tick_duty=self._tick_duty.stats(),
+            group_duty={g: m.stats() for g, m in self._group_duty.items()},
+            event_duty=self._event_duty.stats(),
+            group_freq={g: m.stats() for g, m in self._group_rate.items()},
+            function_freq={f: m.stats() for f, m in self._fun_rate.items()},
+            event_poll_freq=self._poll_rate.stats(),
+            event_calls=dict(self._event_calls),
+        )
+
+    @staticmethod
+    def _require(fun: str, table: Mapping[str, object], kind: str) -> None:
+        if fun not in table:
+            raise BindingError(f"no {kind} function {fun!r} in the schedule")
