@@ -1,3 +1,54 @@
 """MuJoCo arena, quadrotor, sensors and simulated flight controller: the only MuJoCo user."""
 
-__all__: list[str] = []
+# Pure parts only: importing sim must not import mujoco (MUJOCO_GL is read at import time).
+# The MuJoCo-facing modules are imported by path: sim.mjcf, sim.scene, sim.render.
+from sim.arena import (
+    ArenaSpec,
+    BoxObstacle,
+    FieldSpec,
+    GroundRobot,
+    Lighting,
+    Pad,
+    RobotPose,
+    default_arena,
+    load_arena,
+    robot_pose,
+)
+from sim.arena_generator import GeneratorConfig, generate_arena
+from sim.errors import ArenaError, ParameterError, SimError
+from sim.quadrotor import (
+    CameraParams,
+    ImuNoiseModel,
+    ImuNoiseParams,
+    ImuSample,
+    MotorModel,
+    QuadrotorParams,
+    allocation_matrix,
+    mix,
+)
+
+__all__: list[str] = [
+    "ArenaError",
+    "ArenaSpec",
+    "BoxObstacle",
+    "CameraParams",
+    "FieldSpec",
+    "GeneratorConfig",
+    "GroundRobot",
+    "ImuNoiseModel",
+    "ImuNoiseParams",
+    "ImuSample",
+    "Lighting",
+    "MotorModel",
+    "Pad",
+    "ParameterError",
+    "QuadrotorParams",
+    "RobotPose",
+    "SimError",
+    "allocation_matrix",
+    "default_arena",
+    "generate_arena",
+    "load_arena",
+    "mix",
+    "robot_pose",
+]

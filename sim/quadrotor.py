@@ -1,0 +1,329 @@
+"""X-frame contest quadrotor: parameters, rotor layout, mixer, motor lag and IMU noise.
+
+Pure numpy; the MJCF is built from these parameters by :mod:`sim.mjcf`.
+
+Frames: body FLU (x forward, y left, z up, REP 103) inside the ENU MuJoCo world. Rotors
+follow PX4's quad-X numbering, with index ``i`` = PX4 motor ``i + 1``:
+
+    index  position     spin (seen from above)
+    0      front-right  CCW
+    1      rear-left    CCW
+    2      front-left   CW
+    3      rear-right   CW
+
+Diagonal pairs spin the same way. A rotor pushes along body +z with thrust ``T`` and
+twists the body about +z by ``-spin * (km / kf) * T`` (the reaction to its drag torque),
+so the CW pair yaws the body left (CCW, positive about +z).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, fields
+from enum import IntEnum
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from sim.errors import ParameterError
+
+GRAVITY = 9.81  # m/s^2, also the MuJoCo model's gravity
+NUM_ROTORS = 4
+
+Vec3 = tuple[float, float, float]
+FloatArray = npt.NDArray[np.float64]
+
+
+class Spin(IntEnum):
+    """Rotor spin direction seen from above: +1 counter-clockwise, -1 clockwise."""
+
+    CCW = 1
+    CW = -1
+
+
+# (forward sign, left sign, spin) per rotor index: PX4 quad-X order.
+_ROTOR_LAYOUT: tuple[tuple[int, int, Spin], ...] = (
+    (1, -1, Spin.CCW),  # front-right
+    (-1, 1, Spin.CCW),  # rear-left
+    (1, 1, Spin.CW),  # front-left
+    (-1, -1, Spin.CW),  # rear-right
+)
+
+
+@dataclass(frozen=True)
+class CameraParams:
+    """A body-fixed pinhole camera: image size [px], vertical field of view [rad], range [m]."""
+
+    width: int
+    height: int
+    fovy: float
+    position: Vec3  # m, in the body frame
+    near: float = 0.05  # m
+    far: float = 30.0  # m
+
+    def validate(self, name: str) -> None:
+        """Raise :class:`ParameterError` naming ``name.<field>`` for a value out of range."""
+        if not (1 <= self.width <= 4096 and 1 <= self.height <= 4096):
+            raise ParameterError(f"{name}.width/height: {self.width}x{self.height} px out of range")
+        if not 0.0 < self.fovy < math.pi:
+            raise ParameterError(f"{name}.fovy: {self.fovy} rad must be in (0, pi)")
+        if not 0.0 < self.near < self.far:
+            raise ParameterError(f"{name}.near/far: need 0 < near ({self.near}) < far ({self.far})")
+
+
+@dataclass(frozen=True)
+class QuadrotorParams:
+    """Physical constants of a 450 mm-class contest quadrotor (SI units, body FLU).
+
+    Defaults: 1.5 kg, 0.225 m arms (450 mm motor-to-motor diagonal), 10" props, thrust to
+    weight 2.5, 30 ms motor time constant, a 640x480 downward camera and a forward depth
+    camera.
+    """
+
+    mass: float = 1.5  # kg
+    inertia: Vec3 = (0.012, 0.012, 0.022)  # kg m^2, principal moments about body x, y, z
+    arm_length: float = 0.225  # m, body centre to rotor axis
+    rotor_height: float = 0.04  # m, rotor plane above the body origin
+    rotor_radius: float = 0.127  # m, 10" propeller
+    max_motor_thrust: float = 9.2  # N per rotor
+    motor_tau: float = 0.03  # s, first-order time constant commanded -> actual thrust
+    kf: float = 1.0e-5  # N/(rad/s)^2, thrust = kf * omega^2
+    km: float = 1.6e-7  # N m/(rad/s)^2, drag torque = km * omega^2
+    leg_height: float = 0.14  # m, body origin above the landing-gear contact points
+    down_camera: CameraParams = CameraParams(
+        width=640, height=480, fovy=math.radians(60.0), position=(0.0, 0.0, -0.06)
+    )
+    depth_camera: CameraParams = CameraParams(
+        width=160,
+        height=120,
+        fovy=math.radians(58.0),
+        position=(0.12, 0.0, 0.0),
+        near=0.1,
+        far=10.0,
+    )
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, float) and not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"QuadrotorParams.{f.name}: {value!r} must be > 0")
+        ix, iy, iz = self.inertia
+        if min(self.inertia) <= 0.0 or ix + iy < iz or iy + iz < ix or iz + ix < iy:
+            raise ParameterError(
+                f"QuadrotorParams.inertia: {self.inertia} is not a physical inertia "
+                "(positive, triangle inequality)"
+            )
+        if self.thrust_to_weight <= 1.0:
+            raise ParameterError(
+                f"QuadrotorParams.max_motor_thrust: {self.max_motor_thrust} N gives thrust to "
+                f"weight {self.thrust_to_weight:.2f}; the drone could not lift off"
+            )
+        if self.rotor_radius >= self.arm_length * math.sqrt(2.0) / 2.0:
+            raise ParameterError(
+                f"QuadrotorParams.rotor_radius: {self.rotor_radius} m, neighbouring rotors "
+                f"on {self.arm_length} m arms would touch"
+            )
+        self.down_camera.validate("QuadrotorParams.down_camera")
+        self.depth_camera.validate("QuadrotorParams.depth_camera")
+
+    @property
+    def weight(self) -> float:
+        """Weight [N]."""
+        return self.mass * GRAVITY
+
+    @property
+    def thrust_to_weight(self) -> float:
+        """Total maximum thrust over weight."""
+        return NUM_ROTORS * self.max_motor_thrust / self.weight
+
+    @property
+    def hover_thrust(self) -> float:
+        """Thrust per rotor that balances gravity [N]."""
+        return self.weight / NUM_ROTORS
+
+    @property
+    def torque_ratio(self) -> float:
+        """Yaw drag torque per newton of thrust, ``km / kf`` [m]."""
+        return self.km / self.kf
+
+    @property
+    def max_rotor_speed(self) -> float:
+        """Rotor speed at full thrust [rad/s]."""
+        return math.sqrt(self.max_motor_thrust / self.kf)
+
+
+class Rotor(NamedTuple):
+    """One rotor: hub position in the body frame [m] and spin direction."""
+
+    position: Vec3
+    spin: Spin
+
+
+def rotors(params: QuadrotorParams) -> tuple[Rotor, ...]:
+    """The four rotors in PX4 quad-X order (see the module docstring)."""
+    d = params.arm_length / math.sqrt(2.0)
+    return tuple(
+        Rotor((fwd * d, left * d, params.rotor_height), spin) for fwd, left, spin in _ROTOR_LAYOUT
+    )
+
+
+@functools.cache
+def _allocation(params: QuadrotorParams) -> tuple[FloatArray, FloatArray]:
+    rows = []
+    for rotor in rotors(params):
+        x, y, _ = rotor.position
+        rows.append((1.0, y, -x, -int(rotor.spin) * params.torque_ratio))
+    matrix = np.array(rows, dtype=np.float64).T
+    inverse = np.linalg.inv(matrix).astype(np.float64)
+    matrix.setflags(write=False)
+    inverse.setflags(write=False)
+    return matrix, inverse
+
+
+def allocation_matrix(params: QuadrotorParams) -> FloatArray:
+    """``A`` with ``[T, tau_x, tau_y, tau_z] = A @ f`` for rotor thrusts ``f`` (read-only).
+
+    ``T`` is the collective thrust along body +z [N], ``tau`` the body torque [N m] about
+    the body axes (FLU) through the centre of mass.
+    """
+    return _allocation(params)[0]
+
+
+def mix(params: QuadrotorParams, thrust: float, torque: npt.ArrayLike) -> FloatArray:
+    """Rotor thrusts [N] giving collective ``thrust`` [N] and body ``torque`` (x, y, z) [N m].
+
+    Exact inverse of :func:`allocation_matrix`, not clipped: the caller decides how to
+    saturate (the motor model clips to ``[0, max_motor_thrust]``).
+    """
+    wrench = np.concatenate(([thrust], np.asarray(torque, dtype=np.float64).reshape(3)))
+    result: FloatArray = _allocation(params)[1] @ wrench
+    return result
+
+
+class MotorModel:
+    """First-order motor lag: actual thrust follows the command with time constant ``tau``.
+
+    ``step`` holds the command constant over ``dt`` and integrates exactly:
+    ``T += (1 - exp(-dt / tau)) * (clip(cmd) - T)``, so any ``dt`` is stable. Commands are
+    clipped to ``[0, max_motor_thrust]``.
+    """
+
+    def __init__(self, params: QuadrotorParams, initial_thrust: npt.ArrayLike = 0.0) -> None:
+        self._tau = params.motor_tau
+        self._max = params.max_motor_thrust
+        self._kf = params.kf
+        self._thrust = np.zeros(NUM_ROTORS)
+        self.reset(initial_thrust)
+
+    @classmethod
+    def hovering(cls, params: QuadrotorParams) -> MotorModel:
+        """Motors already spinning at hover thrust."""
+        return cls(params, params.hover_thrust)
+
+    def reset(self, thrust: npt.ArrayLike = 0.0) -> None:
+        """Set the actual thrust of every rotor [N] (scalar or 4 values)."""
+        self._thrust = self._clip(thrust)
+
+    def step(self, commanded: npt.ArrayLike, dt: float) -> FloatArray:
+        """Advance by ``dt`` seconds under ``commanded`` thrusts [N]; returns actual thrusts."""
+        if dt < 0.0:
+            raise ValueError(f"dt: {dt} s must be >= 0")
+        alpha = -math.expm1(-dt / self._tau)
+        self._thrust = self._thrust + alpha * (self._clip(commanded) - self._thrust)
+        return self.thrust
+
+    @property
+    def thrust(self) -> FloatArray:
+        """Actual rotor thrusts [N] (a copy)."""
+        return self._thrust.copy()
+
+    @property
+    def rotor_speed(self) -> FloatArray:
+        """Rotor speeds [rad/s], from ``thrust = kf * omega^2``."""
+        result: FloatArray = np.sqrt(self._thrust / self._kf)
+        return result
+
+    def _clip(self, thrust: npt.ArrayLike) -> FloatArray:
+        values = np.broadcast_to(np.asarray(thrust, dtype=np.float64), (NUM_ROTORS,))
+        return np.clip(values, 0.0, self._max)
+
+
+@dataclass(frozen=True)
+class ImuNoiseParams:
+    """Continuous-time IMU noise (Allan-variance style), roughly a Pixhawk-class ICM-20689.
+
+    White noise densities, bias random walks and the standard deviation of the turn-on
+    bias, for the accelerometer [m/s^2] and the gyroscope [rad/s].
+    """
+
+    accel_noise_density: float = 2.0e-3  # m/s^2/sqrt(Hz)
+    accel_bias_random_walk: float = 3.0e-3  # m/s^3/sqrt(Hz)
+    accel_bias_initial_std: float = 0.05  # m/s^2
+    gyro_noise_density: float = 1.7e-4  # rad/s/sqrt(Hz)
+    gyro_bias_random_walk: float = 2.0e-5  # rad/s^2/sqrt(Hz)
+    gyro_bias_initial_std: float = 5.0e-3  # rad/s
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ParameterError(f"ImuNoiseParams.{f.name}: {value!r} must be >= 0")
+
+    @classmethod
+    def noiseless(cls) -> ImuNoiseParams:
+        """All zeros: the IMU reads the simulator's truth (null object)."""
+        return cls(*(0.0 for _ in fields(cls)))
+
+
+class ImuSample(NamedTuple):
+    """Body-frame specific force [m/s^2] and angular rate [rad/s] (FLU)."""
+
+    accel: FloatArray
+    gyro: FloatArray
+
+
+class ImuNoiseModel:
+    """Adds white noise and a random-walk bias to true IMU readings; seeded, reproducible.
+
+    Discretised per sample of period ``dt``: white noise std ``density / sqrt(dt)``, bias
+    step std ``random_walk * sqrt(dt)``.
+    """
+
+    def __init__(self, params: ImuNoiseParams, rng: np.random.Generator) -> None:
+        self._params = params
+        self._rng = rng
+        self._accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
+        self._gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
+
+    @property
+    def accel_bias(self) -> FloatArray:
+        """Current accelerometer bias [m/s^2]."""
+        return self._accel_bias.copy()
+
+    @property
+    def gyro_bias(self) -> FloatArray:
+        """Current gyroscope bias [rad/s]."""
+        return self._gyro_bias.copy()
+
+    def sample(self, accel: npt.ArrayLike, gyro: npt.ArrayLike, dt: float) -> ImuSample:
+        """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
+        if dt <= 0.0:
+            raise ValueError(f"dt: {dt} s must be > 0")
+        p, rng = self._params, self._rng
+        self._accel_bias = self._accel_bias + rng.normal(0.0, p.accel_bias_random_walk, 3) * (
+            math.sqrt(dt)
+        )
+        self._gyro_bias = self._gyro_bias + rng.normal(0.0, p.gyro_bias_random_walk, 3) * (
+            math.sqrt(dt)
+        )
+        white = 1.0 / math.sqrt(dt)
+        return ImuSample(
+            accel=np.asarray(accel, dtype=np.float64)
+            + self._accel_bias
+            + rng.normal(0.0, p.accel_noise_density * white, 3),
+            gyro=np.asarray(gyro, dtype=np.float64)
+            + self._gyro_bias
+            + rng.normal(0.0, p.gyro_noise_density * white, 3),
+        )

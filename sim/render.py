@@ -1,0 +1,189 @@
+"""Offscreen rendering of the scene's cameras and depth -> point cloud.
+
+Rendering happens only when asked: :class:`SceneRenderer` creates a ``mujoco.Renderer``
+(one GL context per image size) on first use. Headless machines set ``MUJOCO_GL=egl``
+before ``mujoco`` is imported. The onboard cameras do not draw the drone's own geoms
+(:data:`sim.mjcf.QUAD_GEOM_GROUP`); the top-down view draws everything.
+
+Point clouds are in the depth camera's FLU frame (x forward along the optical axis, y
+left, z up in the image), the ROS ``camera_link`` convention, not the optical frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import TracebackType
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from sim.errors import ParameterError
+from sim.mjcf import DEPTH_CAMERA, DOWN_CAMERA, QUAD_GEOM_GROUP, TOP_CAMERA
+from sim.quadrotor import CameraParams
+
+Image = npt.NDArray[np.uint8]
+DepthImage = npt.NDArray[np.float32]
+Points = npt.NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """Pinhole intrinsics in pixels; pixel ``(u, v)`` has its centre at ``(u, v)``."""
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    @classmethod
+    def from_fovy(cls, width: int, height: int, fovy: float) -> CameraIntrinsics:
+        """Square-pixel camera with vertical field of view ``fovy`` [rad] (MuJoCo's model)."""
+        focal = (height / 2.0) / math.tan(fovy / 2.0)
+        return cls(width, height, focal, focal, (width - 1) / 2.0, (height - 1) / 2.0)
+
+    @classmethod
+    def from_camera(cls, params: CameraParams) -> CameraIntrinsics:
+        """Intrinsics of an onboard camera."""
+        return cls.from_fovy(params.width, params.height, params.fovy)
+
+    def matrix(self) -> npt.NDArray[np.float64]:
+        """The 3x3 camera matrix ``K``."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+
+def depth_to_points(
+    depth: DepthImage,
+    intrinsics: CameraIntrinsics,
+    min_range: float,
+    max_range: float,
+    stride: int = 1,
+) -> Points:
+    """Unproject a z-depth image [m] to an ``(N, 3)`` cloud in the camera FLU frame.
+
+    Pixels with depth outside ``[min_range, max_range]`` (nothing hit, too close) are
+    dropped; ``stride`` keeps every ``stride``-th row and column.
+    """
+    if depth.shape != (intrinsics.height, intrinsics.width):
+        raise ParameterError(
+            f"depth: shape {depth.shape} does not match the {intrinsics.width}x"
+            f"{intrinsics.height} camera"
+        )
+    if stride < 1:
+        raise ParameterError(f"stride: {stride} must be >= 1")
+    v, u = np.mgrid[0 : intrinsics.height : stride, 0 : intrinsics.width : stride]
+    z = depth[::stride, ::stride]
+    keep = (z >= min_range) & (z <= max_range)
+    z, u, v = z[keep], u[keep], v[keep]
+    left = -(u - intrinsics.cx) * z / intrinsics.fx
+    up = -(v - intrinsics.cy) * z / intrinsics.fy
+    return np.stack((z, left, up), axis=1).astype(np.float32)
+
+
+class SceneRenderer:
+    """Renders the down camera, the depth camera and the top-down view of a compiled scene."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self._model = model
+        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
+        self._onboard = mujoco.MjvOption()
+        self._onboard.geomgroup[QUAD_GEOM_GROUP] = 0
+        self._onboard.sitegroup[:] = 0
+        self._overview = mujoco.MjvOption()
+        self._overview.sitegroup[:] = 0
+
+    def __enter__(self) -> SceneRenderer:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release every GL context."""
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()
+
+    def camera_size(self, camera: str) -> tuple[int, int]:
+        """``(width, height)`` [px] of a named camera, from the model."""
+        width, height = self._model.cam_resolution[self._model.camera(camera).id]
+        return int(width), int(height)
+
+    def _renderer(self, camera: str) -> mujoco.Renderer:
+        width, height = self.camera_size(camera)
+        key = (width, height)
+        if key not in self._renderers:
+            self._renderers[key] = mujoco.Renderer(self._model, height=height, width=width)
+        return self._renderers[key]
+
+    def rgb(self, data: mujoco.MjData, camera: str) -> Image:
+        """An RGB image from ``camera`` (onboard cameras hide the drone itself)."""
+        renderer = self._renderer(camera)
+        option = self._overview if camera == TOP_CAMERA else self._onboard
+        renderer.disable_depth_rendering()
+        renderer.update_scene(data, camera=camera, scene_option=option)
+        image: Image = renderer.render()
+        return image
+
+    def depth(self, data: mujoco.MjData, camera: str = DEPTH_CAMERA) -> DepthImage:
+        """Z-depth [m] along ``camera``'s optical axis, per pixel."""
+        renderer = self._renderer(camera)
+        renderer.enable_depth_rendering()
+        try:
+            renderer.update_scene(data, camera=camera, scene_option=self._onboard)
+            depth: DepthImage = renderer.render()
+        finally:
+            renderer.disable_depth_rendering()
+        return depth
+
+    def down_image(self, data: mujoco.MjData) -> Image:
+        """The 640x480 downward camera (image up = body forward)."""
+        return self.rgb(data, DOWN_CAMERA)
+
+    def top_view(self, data: mujoco.MjData) -> Image:
+        """Orthographic top-down view of the whole field (image up = north)."""
+        return self.rgb(data, TOP_CAMERA)
+
+
+class DepthPointCloud:
+    """The forward depth camera as a sensor: noisy point clouds in its FLU frame.
+
+    Gaussian noise of ``noise_std`` [m] is added to each pixel's depth (along its ray)
+    from a generator seeded with ``seed``; ``noise_std = 0`` gives exact points.
+    """
+
+    def __init__(
+        self,
+        renderer: SceneRenderer,
+        params: CameraParams,
+        *,
+        noise_std: float = 0.005,
+        seed: int = 0,
+        stride: int = 1,
+    ) -> None:
+        if not (math.isfinite(noise_std) and noise_std >= 0.0):
+            raise ParameterError(f"noise_std: {noise_std} m must be >= 0")
+        self._renderer = renderer
+        self._params = params
+        self._noise_std = noise_std
+        self._rng = np.random.default_rng(seed)
+        self._stride = stride
+        self.intrinsics = CameraIntrinsics.from_camera(params)
+
+    def points(self, data: mujoco.MjData) -> Points:
+        """Render the depth camera and return an ``(N, 3)`` float32 cloud [m]."""
+        depth = self._renderer.depth(data, DEPTH_CAMERA)
+        if self._noise_std > 0.0:
+            noise = self._rng.normal(0.0, self._noise_std, depth.shape)
+            depth = (depth + noise).astype(np.float32)
+        return depth_to_points(
+            depth, self.intrinsics, self._params.near, self._params.far, self._stride
+        )

@@ -1,0 +1,146 @@
+"""Reading and writing a compiled scene: ids resolved once, plus the world loop's setters.
+
+:class:`SceneIndex` resolves the names :mod:`sim.mjcf` gives (quad body, joint, motors,
+IMU sensors, cameras, robot mocap bodies) to ids and addresses; the functions below use
+it to pose the quadrotor, apply rotor thrusts, move the robots and read the IMU truth.
+World frame ENU (z up); quaternions are MuJoCo's ``(w, x, y, z)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from sim.arena import ArenaSpec, robot_pose
+from sim.errors import SimError
+from sim.mjcf import (
+    ACCEL_SENSOR,
+    DEPTH_CAMERA,
+    DOWN_CAMERA,
+    GYRO_SENSOR,
+    QUAD_BODY,
+    QUAD_JOINT,
+    TOP_CAMERA,
+    motor_name,
+    robot_body_name,
+)
+from sim.quadrotor import NUM_ROTORS, ImuSample
+
+FloatArray = npt.NDArray[np.float64]
+Vec3 = tuple[float, float, float]
+
+
+def _id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> int:
+    index = int(mujoco.mj_name2id(model, kind, name))
+    if index < 0:
+        what = kind.name.removeprefix("mjOBJ_").lower()
+        raise SimError(f"the model has no {what} named {name!r}; was it built by sim.mjcf?")
+    return index
+
+
+@dataclass(frozen=True)
+class SceneIndex:
+    """Ids and state addresses of the scene's named parts in one compiled model."""
+
+    quad_body: int
+    qpos_adr: int  # 7 values: position (3), quaternion (4)
+    qvel_adr: int  # 6 values: linear velocity (world), angular velocity (body)
+    motors: tuple[int, ...]  # actuator ids in rotor order
+    accel_adr: int
+    gyro_adr: int
+    down_camera: int
+    depth_camera: int
+    top_camera: int
+    robot_mocap: tuple[int, ...]  # mocap ids in arena.robots order
+
+    @classmethod
+    def from_model(cls, model: mujoco.MjModel, arena: ArenaSpec) -> SceneIndex:
+        """Resolve every name; raises :class:`SimError` if the model lacks one."""
+        obj = mujoco.mjtObj
+        joint = _id(model, obj.mjOBJ_JOINT, QUAD_JOINT)
+        robot_bodies = (
+            _id(model, obj.mjOBJ_BODY, robot_body_name(r.marker_id)) for r in arena.robots
+        )
+        return cls(
+            quad_body=_id(model, obj.mjOBJ_BODY, QUAD_BODY),
+            qpos_adr=int(model.jnt_qposadr[joint]),
+            qvel_adr=int(model.jnt_dofadr[joint]),
+            motors=tuple(_id(model, obj.mjOBJ_ACTUATOR, motor_name(i)) for i in range(NUM_ROTORS)),
+            accel_adr=int(model.sensor_adr[_id(model, obj.mjOBJ_SENSOR, ACCEL_SENSOR)]),
+            gyro_adr=int(model.sensor_adr[_id(model, obj.mjOBJ_SENSOR, GYRO_SENSOR)]),
+            down_camera=_id(model, obj.mjOBJ_CAMERA, DOWN_CAMERA),
+            depth_camera=_id(model, obj.mjOBJ_CAMERA, DEPTH_CAMERA),
+            top_camera=_id(model, obj.mjOBJ_CAMERA, TOP_CAMERA),
+            robot_mocap=tuple(int(model.body_mocapid[b]) for b in robot_bodies),
+        )
+
+
+class QuadState(NamedTuple):
+    """Ground-truth rigid-body state of the quadrotor (evaluation only, never to the companion).
+
+    ``position`` [m] and ``velocity`` [m/s] in the ENU world; ``quaternion`` (w, x, y, z)
+    rotates body FLU into world; ``angular_velocity`` [rad/s] in the body frame.
+    """
+
+    position: FloatArray
+    quaternion: FloatArray
+    velocity: FloatArray
+    angular_velocity: FloatArray
+
+
+def quad_state(data: mujoco.MjData, index: SceneIndex) -> QuadState:
+    """Copy of the quadrotor's free-joint state."""
+    qpos = data.qpos[index.qpos_adr : index.qpos_adr + 7]
+    qvel = data.qvel[index.qvel_adr : index.qvel_adr + 6]
+    return QuadState(
+        position=qpos[:3].copy(),
+        quaternion=qpos[3:].copy(),
+        velocity=qvel[:3].copy(),
+        angular_velocity=qvel[3:].copy(),
+    )
+
+
+def place_quadrotor(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    index: SceneIndex,
+    position: Vec3,
+    yaw: float = 0.0,
+) -> None:
+    """Teleport the quadrotor to ``position`` [m] with heading ``yaw`` [rad], at rest."""
+    adr = index.qpos_adr
+    data.qpos[adr : adr + 3] = position
+    data.qpos[adr + 3 : adr + 7] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
+    data.qvel[index.qvel_adr : index.qvel_adr + 6] = 0.0
+    mujoco.mj_forward(model, data)
+
+
+def set_motor_thrusts(data: mujoco.MjData, index: SceneIndex, thrusts: npt.ArrayLike) -> None:
+    """Apply actual rotor thrusts [N] (the :class:`~sim.quadrotor.MotorModel` output)."""
+    data.ctrl[list(index.motors)] = np.asarray(thrusts, dtype=np.float64).reshape(NUM_ROTORS)
+
+
+def set_robot_poses(data: mujoco.MjData, index: SceneIndex, arena: ArenaSpec, t: float) -> None:
+    """Move every ground robot's mocap body to its pose at time ``t`` [s]."""
+    for robot, mocap in zip(arena.robots, index.robot_mocap, strict=True):
+        (x, y), yaw = robot_pose(robot, t)
+        data.mocap_pos[mocap] = (x, y, 0.0)
+        data.mocap_quat[mocap] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
+
+
+def read_imu(data: mujoco.MjData, index: SceneIndex) -> ImuSample:
+    """True specific force [m/s^2] and angular rate [rad/s] at the IMU site (body FLU).
+
+    Sensors are computed inside ``mj_step`` *before* integrating, so after a step they
+    describe the state at the start of it (one step old); ``mj_forward`` refreshes them.
+    At rest the accelerometer reads ``+g`` on z.
+    """
+    return ImuSample(
+        accel=data.sensordata[index.accel_adr : index.accel_adr + 3].copy(),
+        gyro=data.sensordata[index.gyro_adr : index.gyro_adr + 3].copy(),
+    )

@@ -1,0 +1,139 @@
+"""Quadrotor constants, mixer, motor lag and IMU noise (pure, no MuJoCo)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from sim.errors import ParameterError
+from sim.quadrotor import (
+    GRAVITY,
+    ImuNoiseModel,
+    ImuNoiseParams,
+    MotorModel,
+    QuadrotorParams,
+    Spin,
+    allocation_matrix,
+    mix,
+    rotors,
+)
+
+PARAMS = QuadrotorParams()
+
+
+def test_default_params_are_a_contest_drone() -> None:
+    assert PARAMS.mass == pytest.approx(1.5)
+    assert PARAMS.thrust_to_weight == pytest.approx(2.5, abs=0.01)
+    assert PARAMS.hover_thrust == pytest.approx(1.5 * GRAVITY / 4)
+    assert PARAMS.motor_tau == pytest.approx(0.03)
+    assert (PARAMS.down_camera.width, PARAMS.down_camera.height) == (640, 480)
+
+
+def test_x_layout_has_diagonal_pairs_spinning_alike() -> None:
+    layout = rotors(PARAMS)
+    for first, second in ((0, 1), (2, 3)):
+        a, b = layout[first], layout[second]
+        assert a.spin == b.spin
+        assert a.position[:2] == pytest.approx((-b.position[0], -b.position[1])), "diagonal"
+    assert [r.spin for r in layout] == [Spin.CCW, Spin.CCW, Spin.CW, Spin.CW]
+    for rotor in layout:
+        assert math.hypot(*rotor.position[:2]) == pytest.approx(PARAMS.arm_length)
+
+
+def test_hover_mix_is_equal_thrust() -> None:
+    np.testing.assert_allclose(mix(PARAMS, PARAMS.weight, [0, 0, 0]), [PARAMS.hover_thrust] * 4)
+
+
+@given(
+    st.floats(0.0, 40.0),
+    st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3),
+)
+def test_mixer_inverts_the_allocation(thrust: float, torque: list[float]) -> None:
+    motors = mix(PARAMS, thrust, torque)
+    np.testing.assert_allclose(allocation_matrix(PARAMS) @ motors, [thrust, *torque], atol=1e-9)
+
+
+def test_torques_go_to_the_expected_rotors() -> None:
+    base = mix(PARAMS, PARAMS.weight, [0, 0, 0])
+    roll = mix(PARAMS, PARAMS.weight, [0.5, 0, 0]) - base  # left side up (FLU)
+    assert roll[[1, 2]].min() > 0 > roll[[0, 3]].max(), "left rotors push harder"
+    pitch = mix(PARAMS, PARAMS.weight, [0, 0.5, 0]) - base  # nose down
+    assert pitch[[1, 3]].min() > 0 > pitch[[0, 2]].max(), "rear rotors push harder"
+    yaw = mix(PARAMS, PARAMS.weight, [0, 0, 0.1]) - base  # turn left (CCW from above)
+    assert yaw[[2, 3]].min() > 0 > yaw[[0, 1]].max(), "clockwise rotors push harder"
+
+
+def test_motor_lag_is_first_order_with_tau() -> None:
+    motors = MotorModel(PARAMS)
+    target = np.full(4, 6.0)
+    after_tau = motors.step(target, PARAMS.motor_tau)
+    np.testing.assert_allclose(after_tau, 6.0 * (1 - math.exp(-1)))
+    fine = MotorModel(PARAMS)
+    for _ in range(300):
+        fine.step(target, PARAMS.motor_tau / 300)
+    np.testing.assert_allclose(fine.thrust, after_tau, rtol=1e-12, err_msg="exact in any dt")
+    for _ in range(100):
+        motors.step(target, 0.01)
+    np.testing.assert_allclose(motors.thrust, target, rtol=1e-9)
+
+
+def test_motor_commands_are_clipped_to_the_motor_range() -> None:
+    motors = MotorModel.hovering(PARAMS)
+    for _ in range(50):
+        motors.step([100.0, -5.0, PARAMS.hover_thrust, 0.0], 0.01)
+    np.testing.assert_allclose(
+        motors.thrust, [PARAMS.max_motor_thrust, 0.0, PARAMS.hover_thrust, 0.0], atol=1e-6
+    )
+    assert motors.rotor_speed[0] == pytest.approx(PARAMS.max_rotor_speed)
+
+
+def test_imu_noise_matches_its_densities_and_is_seeded() -> None:
+    params = ImuNoiseParams(
+        accel_noise_density=2e-3,
+        accel_bias_random_walk=0.0,
+        accel_bias_initial_std=0.0,
+        gyro_noise_density=1e-4,
+        gyro_bias_random_walk=0.0,
+        gyro_bias_initial_std=0.0,
+    )
+    dt = 0.002
+    first = ImuNoiseModel(params, np.random.default_rng(5))
+    samples = [first.sample([0, 0, GRAVITY], [0, 0, 0], dt) for _ in range(20000)]
+    accel = np.array([s.accel for s in samples])
+    gyro = np.array([s.gyro for s in samples])
+    assert accel.std(axis=0) == pytest.approx([2e-3 / math.sqrt(dt)] * 3, rel=0.03)
+    assert gyro.std(axis=0) == pytest.approx([1e-4 / math.sqrt(dt)] * 3, rel=0.03)
+    assert accel.mean(axis=0) == pytest.approx([0, 0, GRAVITY], abs=1e-3)
+    again = ImuNoiseModel(params, np.random.default_rng(5)).sample([0, 0, GRAVITY], [0, 0, 0], dt)
+    np.testing.assert_array_equal(again.accel, samples[0].accel)
+
+
+def test_imu_bias_wanders_and_noiseless_is_truth() -> None:
+    biased = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(1))
+    start = biased.gyro_bias
+    assert np.abs(start).max() > 0.0
+    for _ in range(1000):
+        biased.sample([0, 0, 0], [0, 0, 0], 0.01)
+    assert not np.array_equal(biased.gyro_bias, start), "random walk"
+    exact = ImuNoiseModel(ImuNoiseParams.noiseless(), np.random.default_rng(1))
+    sample = exact.sample([0.1, 0.2, 9.8], [0.01, 0.02, 0.03], 0.004)
+    np.testing.assert_array_equal(sample.accel, [0.1, 0.2, 9.8])
+    np.testing.assert_array_equal(sample.gyro, [0.01, 0.02, 0.03])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"mass": -1.0}, "QuadrotorParams.mass"),
+        ({"max_motor_thrust": 3.0}, "thrust to weight 0.82"),
+        ({"inertia": (0.01, 0.01, 0.05)}, "QuadrotorParams.inertia"),
+        ({"rotor_radius": 0.2}, "QuadrotorParams.rotor_radius"),
+    ],
+)
+def test_bad_params_name_the_field(kwargs: dict[str, object], message: str) -> None:
+    with pytest.raises(ParameterError, match=message):
+        QuadrotorParams(**kwargs)  # type: ignore[arg-type]
