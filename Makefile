@@ -31,8 +31,13 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
+## make bench: every benchmark, each writing benchmarks/results/<name>.json
 bench: $(STAMP)
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission bench
+	@for script in benchmarks/bench_*.py; do \
+	  name=$$(basename $$script .py); name=$${name#bench_}; \
+	  echo "== $$name"; \
+	  MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python $$script --out benchmarks/results/$$name.json || exit 1; \
+	done
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache

@@ -63,7 +63,7 @@ def _launch_run(args: argparse.Namespace) -> int:
     print(f"launched {len(nodes)} node(s): "
           + ", ".join(n.get_fully_qualified_name() for n in nodes), file=sys.stderr)
     steps = max(1, int(args.duration))
-    for i in range(steps):
+    for _ in range(steps):
         ex.spin_for(args.duration / steps)
         print(f"  t={ex.now().seconds:.1f}s callbacks={ex.callbacks_run}", file=sys.stderr)
     print(json.dumps({"sim_time_s": ex.now().seconds, "callbacks": ex.callbacks_run}))
@@ -81,12 +81,21 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same run)")
     p.add_argument("--arena", type=Path, default=None,
                    help="arena YAML (default config/arenas/contest.yaml)")
+    p.add_argument("--random-arena", action="store_true",
+                   help="generate a random arena from --seed instead")
 
 
 def _sim_run(args: argparse.Namespace) -> int:
-    from sim.scenarios import SCENARIOS
+    from sim.scenarios import SCENARIOS, ScenarioOptions
 
-    return SCENARIOS[args.scenario](args)
+    options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
+                              random_arena=args.random_arena)
+    print(f"quadmission sim: scenario {args.scenario}, seed {args.seed}, out {args.out}",
+          file=sys.stderr)
+    report = SCENARIOS[args.scenario](options)
+    print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)}))
+    print(f"report: {args.out / 'report.json'}", file=sys.stderr)
+    return 0 if report.get("ok", report.get("all_decoded", True)) else 1
 
 
 COMMANDS: tuple[Command, ...] = (

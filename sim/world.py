@@ -1,0 +1,380 @@
+"""The world loop: MuJoCo physics in lockstep with the node runtime's executor.
+
+One function, :func:`run_world`, over injected parts. Each part runs at a fixed rate that
+must divide the physics rate (checked, not assumed); between part updates MuJoCo steps in
+one batch. At every update time the executor first runs the node callbacks due by then,
+the parts run in the order given, and the executor handles what they published, so
+sensors publish at exact sample times and nodes see them at those times. Null objects
+(:class:`MotorsOff`, :class:`NoWind`, :class:`NeverStop`) stand in for the parts a run
+does not need.
+
+Time is an integer: physics step ``k`` is at ``k * 1e9 // physics_hz`` nanoseconds.
+Ground truth (:class:`Trajectory`, crash reports) is for evaluation only; companion nodes
+see only the topics the parts publish.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Protocol
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from runtime import DeterministicExecutor
+from runtime.clock import NS_PER_S
+from sim.arena import ArenaSpec, Lighting
+from sim.errors import SimError
+from sim.mjcf import QUAD_GEOM_GROUP, build_model
+from sim.quadrotor import NUM_ROTORS, MotorModel, QuadrotorParams
+from sim.scene import SceneIndex, place_quadrotor, quad_state, set_motor_thrusts, set_robot_poses
+
+FloatArray = npt.NDArray[np.float64]
+
+DEFAULT_PHYSICS_HZ = 3000  # divisible by 1000 (FCU), 500, 200, 100, 50, 30, 12 and 10 Hz
+
+
+class RateError(SimError, ValueError):
+    """A part's rate that does not divide the physics rate."""
+
+
+@dataclass
+class Scene:
+    """A compiled arena with the quadrotor: model, data and resolved names."""
+
+    arena: ArenaSpec
+    quad: QuadrotorParams
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    index: SceneIndex
+    physics_hz: int
+
+    @classmethod
+    def build(
+        cls,
+        arena: ArenaSpec,
+        quad: QuadrotorParams | None = None,
+        lighting: Lighting | None = None,
+        physics_hz: int = DEFAULT_PHYSICS_HZ,
+    ) -> Scene:
+        if physics_hz <= 0:
+            raise RateError(f"physics_hz: {physics_hz} must be > 0")
+        quad = quad or QuadrotorParams()
+        model = build_model(arena, quad, lighting)
+        model.opt.timestep = 1.0 / physics_hz
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        return cls(arena, quad, model, data, SceneIndex.from_model(model, arena), physics_hz)
+
+    def time_ns(self, step: int) -> int:
+        return step * NS_PER_S // self.physics_hz
+
+    def period_steps(self, name: str, rate_hz: float) -> int:
+        """Physics steps per period of a part running at ``rate_hz``; RateError otherwise."""
+        steps = self.physics_hz / rate_hz if rate_hz > 0 else 0.0
+        if rate_hz <= 0 or abs(steps - round(steps)) > 1e-9 or round(steps) < 1:
+            raise RateError(
+                f"{name}: {rate_hz} Hz does not divide the physics rate {self.physics_hz} Hz"
+            )
+        return round(steps)
+
+    def place_at_takeoff(self, height: float = 0.0) -> None:
+        """Put the quadrotor on (or ``height`` m above) the start pad, at rest."""
+        x, y, z = self.arena.takeoff_position
+        z_body = z + self.quad.leg_height + height
+        place_quadrotor(self.model, self.data, self.index, (x, y, z_body))
+
+
+class Part(Protocol):
+    """Something the world runs at a fixed rate: actuation, a sensor, a recorder."""
+
+    name: str
+    rate_hz: float
+
+    def update(self, t_ns: int, scene: Scene) -> None: ...
+
+
+class Stop(Protocol):
+    """Decides when a run is over (mission done, test condition met)."""
+
+    def done(self, t_ns: int, scene: Scene) -> bool: ...
+
+
+class NeverStop:
+    """Run for the whole duration."""
+
+    def done(self, t_ns: int, scene: Scene) -> bool:
+        return False
+
+
+class MotorCommands(Protocol):
+    """What decides the rotor thrust commands [N]: the flight controller, or a test input."""
+
+    def commands(self, t_ns: int, scene: Scene) -> FloatArray: ...
+
+
+class MotorsOff:
+    """Zero thrust (a drone that is not flying)."""
+
+    def commands(self, t_ns: int, scene: Scene) -> FloatArray:
+        return np.zeros(NUM_ROTORS)
+
+
+@dataclass
+class ConstantThrust:
+    """The same thrust on every rotor; ``ConstantThrust.hover(params)`` balances gravity."""
+
+    thrust: float
+
+    @classmethod
+    def hover(cls, params: QuadrotorParams) -> ConstantThrust:
+        return cls(params.hover_thrust)
+
+    def commands(self, t_ns: int, scene: Scene) -> FloatArray:
+        return np.full(NUM_ROTORS, self.thrust)
+
+
+class Wind(Protocol):
+    """A disturbance force [N] on the quadrotor, in the world frame."""
+
+    def force(self, t_ns: int) -> FloatArray: ...
+
+
+class NoWind:
+    def force(self, t_ns: int) -> FloatArray:
+        return np.zeros(3)
+
+
+@dataclass
+class Actuation:
+    """Runs the motor commands through the motor lag and applies thrust and wind.
+
+    The commands are held over one period (zero-order hold, as an ESC update would), and
+    the motor model integrates the lag exactly over it.
+    """
+
+    commands: MotorCommands
+    motors: MotorModel
+    wind: Wind = field(default_factory=NoWind)
+    rate_hz: float = 500.0
+    name: str = "actuation"
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        thrust = self.motors.step(self.commands.commands(t_ns, scene), 1.0 / self.rate_hz)
+        set_motor_thrusts(scene.data, scene.index, thrust)
+        scene.data.xfrc_applied[scene.index.quad_body, :3] = self.wind.force(t_ns)
+
+
+@dataclass
+class RobotMotion:
+    """Moves the ground robots along their paths (kinematic, mocap bodies)."""
+
+    rate_hz: float = 50.0
+    name: str = "robots"
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        set_robot_poses(scene.data, scene.index, scene.arena, t_ns / NS_PER_S)
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Ground-truth samples: time [s], position [m] (ENU), quaternion (w, x, y, z) body FLU
+    to world, velocity [m/s] (world)."""
+
+    t: FloatArray
+    position: FloatArray
+    quaternion: FloatArray
+    velocity: FloatArray
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+@dataclass
+class TrajectoryRecorder:
+    """Samples the quadrotor's true state for evaluation."""
+
+    rate_hz: float = 100.0
+    name: str = "trajectory"
+    _rows: list[FloatArray] = field(default_factory=list)
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        state = quad_state(scene.data, scene.index)
+        self._rows.append(
+            np.concatenate(([t_ns / NS_PER_S], state.position, state.quaternion, state.velocity))
+        )
+
+    def trajectory(self) -> Trajectory:
+        rows = np.array(self._rows).reshape(-1, 11)
+        return Trajectory(rows[:, 0], rows[:, 1:4], rows[:, 4:8], rows[:, 8:11])
+
+
+class WorldStatus(Enum):
+    COMPLETED = "completed"  # ran for the whole duration
+    STOPPED = "stopped"  # the stop condition ended the run
+    CRASHED = "crashed"  # the vehicle hit something or flipped over
+
+
+@dataclass(frozen=True)
+class Crash:
+    """What ended the flight: when, where, and why."""
+
+    t_s: float
+    position: tuple[float, float, float]
+    reason: str
+
+
+@dataclass
+class CrashDetector:
+    """A crash is a contact with a wall, an obstacle or a robot, a touchdown faster than
+    ``max_touchdown_speed``, or a tilt beyond ``max_tilt`` while airborne or landed."""
+
+    max_touchdown_speed: float = 1.5  # m/s
+    max_tilt: float = math.radians(80.0)  # rad
+    rate_hz: float = 500.0
+    name: str = "crash_detector"
+    crash: Crash | None = None
+    _soft_geoms: frozenset[int] = frozenset()
+
+    def _soft(self, scene: Scene) -> frozenset[int]:
+        if not self._soft_geoms:
+            model = scene.model
+            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+                     for g in range(model.ngeom)]
+            # the floor and the pads are where a drone is allowed to touch down
+            self._soft_geoms = frozenset(
+                g for g, n in enumerate(names) if n == "floor" or n.startswith("pad_")
+            )
+        return self._soft_geoms
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        if self.crash is not None:
+            return
+        data, model, index = scene.data, scene.model, scene.index
+        state = quad_state(data, index)
+        _, x, y, _ = state.quaternion
+        up_z = 1.0 - 2.0 * (x * x + y * y)  # body z axis, world z component
+        reason = None
+        if up_z < math.cos(self.max_tilt):
+            reason = f"tilt {math.degrees(math.acos(max(-1.0, min(1.0, up_z)))):.0f} deg"
+        soft = self._soft(scene)
+        for i in range(data.ncon):
+            contact = data.contact[i]
+            g1, g2 = int(contact.geom1), int(contact.geom2)
+            quad_geom = model.geom_bodyid[g1] == index.quad_body
+            other = g2 if quad_geom else g1
+            if model.geom_bodyid[other] == index.quad_body:
+                continue
+            if other not in soft:
+                name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, other) or f"geom {other}"
+                reason = f"hit {name}"
+                break
+            if -state.velocity[2] > self.max_touchdown_speed:
+                reason = f"touchdown at {-state.velocity[2]:.1f} m/s"
+                break
+        if reason is not None:
+            p = state.position
+            self.crash = Crash(t_ns / NS_PER_S, (float(p[0]), float(p[1]), float(p[2])), reason)
+
+
+@dataclass(frozen=True)
+class WorldResult:
+    """How a run ended, and the ground truth it produced (for evaluation only)."""
+
+    status: WorldStatus
+    sim_time_s: float
+    physics_steps: int
+    wall_time_s: float
+    trajectory: Trajectory
+    crash: Crash | None
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+
+def run_world(
+    scene: Scene,
+    executor: DeterministicExecutor,
+    *,
+    duration_s: float,
+    parts: Sequence[Part] = (),
+    stop: Stop | None = None,
+    crash_detector: CrashDetector | None = None,
+    recorder: TrajectoryRecorder | None = None,
+) -> WorldResult:
+    """Step ``scene`` for ``duration_s`` with ``parts``, the executor in lockstep.
+
+    Parts run at t = 0 and then every period, in the order given; the crash detector and
+    the recorder run after them. The run ends early when ``stop`` says so or on a crash.
+    """
+    if not duration_s > 0:
+        raise SimError(f"duration_s: {duration_s} must be > 0")
+    stop = stop or NeverStop()
+    crash_detector = crash_detector or CrashDetector()
+    recorder = recorder or TrajectoryRecorder()
+    schedule = [*parts, crash_detector, recorder]
+    periods = [scene.period_steps(p.name, p.rate_hz) for p in schedule]
+    start_step = round(scene.data.time * scene.physics_hz)
+    next_due = [start_step] * len(schedule)
+    end_step = start_step + round(duration_s * scene.physics_hz)
+    step = start_step
+    status = WorldStatus.COMPLETED
+    wall_start = time.perf_counter()
+    model, data = scene.model, scene.data
+    while True:
+        t_ns = max(scene.time_ns(step), executor.now().nanoseconds)
+        executor.spin_until(t_ns)  # node callbacks due up to now; the clock reads t_ns
+        for i, part in enumerate(schedule):
+            if next_due[i] == step:
+                part.update(t_ns, scene)
+                next_due[i] += periods[i]
+        executor.spin_until(t_ns)  # what the parts just published, at its sample time
+        if crash_detector.crash is not None:
+            status = WorldStatus.CRASHED
+            break
+        if stop.done(t_ns, scene):
+            status = WorldStatus.STOPPED
+            break
+        if step >= end_step:
+            break
+        target = min(min(next_due), end_step)
+        mujoco.mj_step(model, data, nstep=target - step)
+        step = target
+    return WorldResult(
+        status=status,
+        sim_time_s=(step - start_step) / scene.physics_hz,
+        physics_steps=step - start_step,
+        wall_time_s=time.perf_counter() - wall_start,
+        trajectory=recorder.trajectory(),
+        crash=crash_detector.crash,
+    )
+
+
+__all__ = [
+    "DEFAULT_PHYSICS_HZ",
+    "QUAD_GEOM_GROUP",
+    "Actuation",
+    "ConstantThrust",
+    "Crash",
+    "CrashDetector",
+    "MotorCommands",
+    "MotorsOff",
+    "NeverStop",
+    "NoWind",
+    "Part",
+    "RateError",
+    "RobotMotion",
+    "Scene",
+    "Stop",
+    "Trajectory",
+    "TrajectoryRecorder",
+    "WorldResult",
+    "WorldStatus",
+    "run_world",
+]
