@@ -30,9 +30,23 @@ from runtime import DeterministicExecutor
 from runtime.clock import NS_PER_S
 from sim.arena import ArenaSpec, Lighting
 from sim.errors import SimError
-from sim.mjcf import QUAD_GEOM_GROUP, build_model
-from sim.quadrotor import NUM_ROTORS, MotorModel, QuadrotorParams
-from sim.scene import SceneIndex, place_quadrotor, quad_state, set_motor_thrusts, set_robot_poses
+from sim.mjcf import build_model
+from sim.quadrotor import (
+    NUM_ROTORS,
+    ImuNoiseModel,
+    ImuNoiseParams,
+    ImuSample,
+    MotorModel,
+    QuadrotorParams,
+)
+from sim.scene import (
+    SceneIndex,
+    place_quadrotor,
+    quad_state,
+    read_imu,
+    set_motor_thrusts,
+    set_robot_poses,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -168,6 +182,34 @@ class Actuation:
         thrust = self.motors.step(self.commands.commands(t_ns, scene), 1.0 / self.rate_hz)
         set_motor_thrusts(scene.data, scene.index, thrust)
         scene.data.xfrc_applied[scene.index.quad_body, :3] = self.wind.force(t_ns)
+
+
+@dataclass
+class Imu:
+    """The flight controller's IMU: noisy, biased specific force and rates (body FLU).
+
+    Samples MuJoCo's accelerometer and gyro at ``rate_hz`` through the noise model; the
+    latest sample and its time are what the flight controller reads. MuJoCo computes
+    sensors at the start of a step, so a sample is one physics step old (0.33 ms at
+    3 kHz), as a real IMU's filter delay would make it.
+    """
+
+    noise: ImuNoiseModel
+    rate_hz: float = 1000.0
+    name: str = "imu"
+    latest: ImuSample | None = None
+    latest_t_ns: int = -1
+
+    @classmethod
+    def seeded(cls, seed: int, params: ImuNoiseParams | None = None,
+               rate_hz: float = 1000.0) -> Imu:
+        return cls(ImuNoiseModel(params or ImuNoiseParams(), np.random.default_rng(seed)),
+                   rate_hz=rate_hz)
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        truth = read_imu(scene.data, scene.index)
+        self.latest = self.noise.sample(truth.accel, truth.gyro, 1.0 / self.rate_hz)
+        self.latest_t_ns = t_ns
 
 
 @dataclass
@@ -358,11 +400,11 @@ def run_world(
 
 __all__ = [
     "DEFAULT_PHYSICS_HZ",
-    "QUAD_GEOM_GROUP",
     "Actuation",
     "ConstantThrust",
     "Crash",
     "CrashDetector",
+    "Imu",
     "MotorCommands",
     "MotorsOff",
     "NeverStop",

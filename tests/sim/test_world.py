@@ -22,6 +22,7 @@ from sim.sensors import (
 from sim.world import (
     Actuation,
     ConstantThrust,
+    Imu,
     MotorsOff,
     RateError,
     RobotMotion,
@@ -138,3 +139,31 @@ def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec)
     stamps = np.diff([s for s, _ in frames])
     assert np.all(np.abs(stamps - 1e9 / 12) < 1.0)
     assert frames[0][1].shape == (480, 640, 3)
+
+
+def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None:
+    def run(seed: int) -> tuple[Any, Any]:
+        scene = Scene.build(contest)
+        scene.place_at_takeoff()
+        samples: list[Any] = []
+        imu = Imu.seeded(seed)
+
+        class Tap:
+            name, rate_hz = "tap", 1000.0
+
+            def update(self, t_ns: int, s: Scene) -> None:
+                samples.append(np.concatenate([imu.latest.accel, imu.latest.gyro]))
+
+        run_world(scene, DeterministicExecutor(config_dir=None), duration_s=1.0,
+                  parts=[Actuation(MotorsOff(), MotorModel(scene.quad)), imu, Tap()])
+        data = np.array(samples[10:])
+        return data, imu.noise.accel_bias
+
+    data, accel_bias = run(1)
+    mean = data.mean(axis=0)
+    assert mean[2] == pytest.approx(9.81 + accel_bias[2], abs=0.02)  # standing: +g on z
+    assert np.all(np.abs(mean[3:]) < 0.02)  # not rotating (gyro bias ~5 mrad/s)
+    assert data[:, 0].std() > 0.01  # there is noise
+    again, _ = run(1)
+    other, _ = run(2)
+    assert np.array_equal(data, again) and not np.array_equal(data, other)
