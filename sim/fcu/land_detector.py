@@ -1,0 +1,275 @@
+"""PX4's multicopter land detector (``MulticopterLandDetector.cpp``), stage by stage.
+
+Three stages, each a condition held through a hysteresis before its flag goes true; any
+flag drops at once when its condition fails (PX4's ``set_hysteresis_time_from(false, t)``),
+with ``t = trigger_time_s / 3`` per stage (``LNDMC_TRIG_TIME``, default 1 s):
+
+1. ``ground_contact``: thrust low (at or below ``min + 0.3 (hover - min)``, of the throttle
+   range), no vertical movement (``|vz| <= z_vel_max``, widened 2.5x once maybe landed),
+   no horizontal movement (``|v_xy| <= xy_vel_max``) and, if the vehicle is under
+   climb-rate control, a commanded descent (``vz_setpoint > descent_vz_threshold``, NED)
+   until maybe landed.
+2. ``maybe_landed``: ``ground_contact`` (the hysteresis state) and thrust minimal (at or
+   below ``min + 0.1 (hover - min)``), not in free fall, roll/pitch rate below ``rot_max``
+   (widened 2.5x once maybe landed).
+3. ``landed``: ``maybe_landed`` held once more (the position controller idles the motors
+   once maybe landed, which keeps the thrust criterion true).
+
+Disarmed, all three are true (PX4: a disarmed vehicle is on the ground). ``freefall``:
+specific-force norm below ``freefall_acc_threshold`` (``LNDMC_FFALL_THR``, 2 m/s^2)
+held for ``freefall_trigger_time_s`` (``LNDMC_FFALL_TTRI``, 0.3 s). Velocities are NED
+[m/s]; ``vz > 0`` is descending. Without valid vertical velocity the vehicle counts as
+moving vertically (never landed by thrust alone; PX4's 8 s minimal-thrust fallback is
+for flight without a velocity estimate, which this simulation does not have). Without
+valid horizontal velocity, horizontal movement counts as absent, as in PX4.
+
+Pure module, no runtime, no MuJoCo; the node converts :class:`LandDetectedData` to
+``px4_msgs/VehicleLandDetected``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from sim.fcu.clock import FcuParameterError
+
+__all__ = [
+    "Hysteresis",
+    "LandDetectedData",
+    "LandDetector",
+    "LandDetectorInputs",
+    "LandDetectorParams",
+]
+
+_US_PER_S = 1_000_000
+_ROTATION_WIDENING = 2.5  # PX4: wider thresholds once maybe landed
+_Z_VEL_WIDENING = 2.5
+_LOW_THRUST_FRACTION = 0.3  # of (hover - min): ground contact
+_MIN_THRUST_FRACTION = 0.1  # of (hover - min): maybe landed
+
+
+@dataclass(frozen=True, slots=True)
+class LandDetectorParams:
+    """PX4's ``LNDMC_*``, ``LNDMC_FFALL_*`` and ``MPC_THR_*`` parameters (PX4 defaults)."""
+
+    z_vel_max: float = 0.25
+    """``LNDMC_Z_VEL_MAX`` [m/s]: vertical speed below which the vehicle is not moving."""
+    xy_vel_max: float = 1.5
+    """``LNDMC_XY_VEL_MAX`` [m/s]: horizontal speed allowed while landed."""
+    rot_max_deg_s: float = 20.0
+    """``LNDMC_ROT_MAX`` [deg/s]: roll/pitch rate allowed while landed."""
+    trigger_time_s: float = 1.0
+    """``LNDMC_TRIG_TIME`` [s]: total hysteresis, a third per stage."""
+    freefall_acc_threshold: float = 2.0
+    """``LNDMC_FFALL_THR`` [m/s^2]: specific-force norm below which the vehicle falls."""
+    freefall_trigger_time_s: float = 0.3
+    """``LNDMC_FFALL_TTRI`` [s]."""
+    thrust_min: float = 0.12
+    """``MPC_THR_MIN``: minimum collective thrust in auto modes [0..1]."""
+    thrust_hover: float = 0.5
+    """``MPC_THR_HOVER``: hover collective thrust [0..1]."""
+    descent_vz_threshold: float = 0.6
+    """Commanded descent speed [m/s, NED down] above which the vehicle is ``in_descend``."""
+
+    def __post_init__(self) -> None:
+        ranges = {
+            "z_vel_max": (0.0, 10.0),
+            "xy_vel_max": (0.0, 10.0),
+            "rot_max_deg_s": (0.0, 1000.0),
+            "trigger_time_s": (0.0, 10.0),
+            "freefall_acc_threshold": (0.0, 10.0),
+            "freefall_trigger_time_s": (0.0, 5.0),
+            "thrust_min": (0.0, 1.0),
+            "thrust_hover": (0.0, 1.0),
+            "descent_vz_threshold": (0.0, 10.0),
+        }
+        for f in fields(self):
+            value = getattr(self, f.name)
+            lo, hi = ranges[f.name]
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise FcuParameterError(f.name, f"{value!r} must be a number in [{lo:g}, {hi:g}]")
+            if not lo <= value <= hi:
+                raise FcuParameterError(
+                    f.name, f"{value!r} is outside the allowed range [{lo:g}, {hi:g}]"
+                )
+        if self.thrust_hover <= self.thrust_min:
+            raise FcuParameterError(
+                "thrust_hover",
+                f"{self.thrust_hover!r} must be above thrust_min = {self.thrust_min!r}",
+            )
+
+    @property
+    def stage_time_us(self) -> int:
+        """Hysteresis of each stage [us]."""
+        return round(self.trigger_time_s * _US_PER_S / 3)
+
+    @property
+    def low_thrust(self) -> float:
+        """Thrust at or below which ground contact is possible."""
+        return self.thrust_min + (self.thrust_hover - self.thrust_min) * _LOW_THRUST_FRACTION
+
+    @property
+    def minimal_thrust(self) -> float:
+        """Thrust at or below which the vehicle may be landed."""
+        return self.thrust_min + (self.thrust_hover - self.thrust_min) * _MIN_THRUST_FRACTION
+
+
+@dataclass(frozen=True, slots=True)
+class LandDetectorInputs:
+    """One update's inputs: the FCU's own estimates and setpoints."""
+
+    now_us: int
+    armed: bool
+    thrust: float
+    """Collective thrust command, normalised [0..1] (PX4's throttle)."""
+    vx: float = 0.0
+    """Velocity north [m/s] (NED)."""
+    vy: float = 0.0
+    """Velocity east [m/s]."""
+    vz: float = 0.0
+    """Velocity down [m/s]: positive when descending."""
+    v_xy_valid: bool = True
+    v_z_valid: bool = True
+    roll_rate: float = 0.0
+    """Body roll rate [rad/s]."""
+    pitch_rate: float = 0.0
+    """Body pitch rate [rad/s]."""
+    specific_force_norm: float = 9.80665
+    """Norm of the accelerometer's specific force [m/s^2]: about g at rest, 0 in free fall."""
+    climb_rate_control: bool = True
+    """The vertical velocity is under closed-loop control (auto and offboard modes)."""
+    vz_setpoint: float = math.nan
+    """Commanded vertical velocity [m/s, NED down], NaN if none."""
+
+
+@dataclass(frozen=True, slots=True)
+class LandDetectedData:
+    """The fields of ``px4_msgs/VehicleLandDetected``."""
+
+    timestamp_us: int
+    freefall: bool
+    ground_contact: bool
+    maybe_landed: bool
+    landed: bool
+    in_ground_effect: bool
+    in_descend: bool
+    has_low_throttle: bool
+    vertical_movement: bool
+    horizontal_movement: bool
+    rotational_movement: bool
+    close_to_ground_or_skipped_check: bool
+    at_rest: bool
+
+
+class Hysteresis:
+    """PX4's ``systemlib::Hysteresis``: a boolean that changes only after a request holds.
+
+    ``update(requested, now_us)`` switches the state to ``requested`` once it has been
+    requested continuously for the delay of that direction (``to_true_us`` or
+    ``to_false_us``); a delay of 0 switches at once.
+    """
+
+    __slots__ = ("_pending_since_us", "_state", "to_false_us", "to_true_us")
+
+    def __init__(self, initial: bool, to_true_us: int = 0, to_false_us: int = 0) -> None:
+        self._state = initial
+        self.to_true_us = to_true_us
+        self.to_false_us = to_false_us
+        self._pending_since_us: int | None = None
+
+    @property
+    def state(self) -> bool:
+        return self._state
+
+    def update(self, requested: bool, now_us: int) -> bool:
+        """Fold in the requested state at ``now_us``; the state after."""
+        if requested == self._state:
+            self._pending_since_us = None
+            return self._state
+        if self._pending_since_us is None:
+            self._pending_since_us = now_us
+        delay = self.to_true_us if requested else self.to_false_us
+        if now_us - self._pending_since_us >= delay:
+            self._state = requested
+            self._pending_since_us = None
+        return self._state
+
+
+class LandDetector:
+    """Call :meth:`update` at a fixed rate (PX4: 50 Hz) with non-decreasing times."""
+
+    def __init__(self, params: LandDetectorParams | None = None) -> None:
+        self.params = params if params is not None else LandDetectorParams()
+        stage = self.params.stage_time_us
+        self._ground_contact = Hysteresis(True, to_true_us=stage)
+        self._maybe_landed = Hysteresis(True, to_true_us=stage)
+        self._landed = Hysteresis(True, to_true_us=stage)
+        self._freefall = Hysteresis(
+            False, to_true_us=round(self.params.freefall_trigger_time_s * _US_PER_S)
+        )
+        self._in_descend = False
+
+    def update(self, inputs: LandDetectorInputs) -> LandDetectedData:
+        """Fold in one update's inputs; the detector's flags after it."""
+        p = self.params
+        now = inputs.now_us
+        maybe_landed_before = self._maybe_landed.state
+        landed_before = self._landed.state
+
+        freefall = self._freefall.update(inputs.specific_force_norm < p.freefall_acc_threshold, now)
+
+        # stage 1: ground contact
+        z_threshold = p.z_vel_max * (_Z_VEL_WIDENING if maybe_landed_before else 1.0)
+        vertical_movement = not inputs.v_z_valid or abs(inputs.vz) > z_threshold
+        horizontal_movement = inputs.v_xy_valid and math.hypot(inputs.vx, inputs.vy) > p.xy_vel_max
+        has_low_throttle = inputs.thrust <= p.low_thrust
+        if inputs.climb_rate_control:
+            self._in_descend = (
+                math.isfinite(inputs.vz_setpoint) and inputs.vz_setpoint > p.descent_vz_threshold
+            )
+        else:
+            self._in_descend = False
+        ground_contact_now = has_low_throttle
+        if inputs.climb_rate_control and not maybe_landed_before and not landed_before:
+            ground_contact_now = ground_contact_now and self._in_descend
+        ground_contact_now = ground_contact_now and not horizontal_movement
+        ground_contact_now = ground_contact_now and not vertical_movement
+        if not inputs.armed:
+            ground_contact_now = True
+        ground_contact = self._ground_contact.update(ground_contact_now, now)
+
+        # stage 2: maybe landed
+        rot_threshold = math.radians(p.rot_max_deg_s) * (
+            _ROTATION_WIDENING if maybe_landed_before else 1.0
+        )
+        rotational_movement = math.hypot(inputs.roll_rate, inputs.pitch_rate) > rot_threshold
+        maybe_now = (
+            inputs.thrust <= p.minimal_thrust
+            and not freefall
+            and not rotational_movement
+            and ground_contact
+        )
+        if not inputs.armed:
+            maybe_now = True
+        maybe_landed = self._maybe_landed.update(maybe_now, now)
+
+        # stage 3: landed
+        landed = self._landed.update(maybe_landed if inputs.armed else True, now)
+
+        return LandDetectedData(
+            timestamp_us=now,
+            freefall=freefall,
+            ground_contact=ground_contact,
+            maybe_landed=maybe_landed,
+            landed=landed,
+            in_ground_effect=self._in_descend and not horizontal_movement,
+            in_descend=self._in_descend,
+            has_low_throttle=has_low_throttle,
+            vertical_movement=vertical_movement,
+            horizontal_movement=horizontal_movement,
+            rotational_movement=rotational_movement,
+            close_to_ground_or_skipped_check=True,  # no distance sensor: check skipped
+            at_rest=landed
+            and not (vertical_movement or horizontal_movement or rotational_movement),
+        )

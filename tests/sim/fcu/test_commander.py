@@ -1,0 +1,648 @@
+"""Commander: arming checks, the offboard heartbeat rule, failsafes, auto-disarm, the table."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import sim.fcu.commander as commander_module
+from sim.fcu.battery import BatteryWarning
+from sim.fcu.clock import FcuParameterError
+from sim.fcu.commander import (
+    FORCE_ARM_DISARM_MAGIC,
+    TRANSITIONS,
+    ArmDisarmReason,
+    ArmingState,
+    BatteryFailsafeAction,
+    Commander,
+    CommanderInputs,
+    CommanderOutput,
+    CommanderParams,
+    CommandResult,
+    DenyReason,
+    Event,
+    FailsafeReason,
+    FlightState,
+    NavState,
+    OffboardLossAction,
+    VehicleCmd,
+    VehicleCommandData,
+    commander_params_from_mapping,
+    commander_params_from_yaml,
+    load_commander_params,
+    render_transition_table,
+)
+
+MS = 1000
+S = 1_000_000
+TICK_US = 20 * MS  # 50 Hz commander in these tests
+HOME_AMSL_M = 100.0
+
+
+def arm(force: bool = False) -> VehicleCommandData:
+    return VehicleCommandData(
+        VehicleCmd.COMPONENT_ARM_DISARM,
+        param1=1.0,
+        param2=float(FORCE_ARM_DISARM_MAGIC) if force else 0.0,
+    )
+
+
+def disarm(force: bool = False) -> VehicleCommandData:
+    return VehicleCommandData(
+        VehicleCmd.COMPONENT_ARM_DISARM,
+        param1=0.0,
+        param2=float(FORCE_ARM_DISARM_MAGIC) if force else 0.0,
+    )
+
+
+def set_offboard() -> VehicleCommandData:
+    return VehicleCommandData(VehicleCmd.DO_SET_MODE, param1=1.0, param2=6.0)
+
+
+def set_auto(sub_mode: int) -> VehicleCommandData:
+    return VehicleCommandData(VehicleCmd.DO_SET_MODE, param1=1.0, param2=4.0, param3=sub_mode)
+
+
+def takeoff(altitude_amsl_m: float = math.nan) -> VehicleCommandData:
+    return VehicleCommandData(VehicleCmd.NAV_TAKEOFF, param4=math.nan, param7=altitude_amsl_m)
+
+
+def land() -> VehicleCommandData:
+    return VehicleCommandData(
+        VehicleCmd.NAV_LAND, param4=math.nan, param5=math.nan, param6=math.nan
+    )
+
+
+@dataclass
+class Bench:
+    """Drives a Commander tick by tick with a scripted world around it."""
+
+    params: CommanderParams = field(default_factory=CommanderParams)
+    now_us: int = 0
+    heartbeat_period_us: int | None = None
+    """Offboard heartbeat period while streaming; None: no heartbeat."""
+    heartbeat_start_us: int = 0
+    landed: bool = True
+    altitude_amsl_m: float = HOME_AMSL_M
+    battery: BatteryWarning = BatteryWarning.NONE
+    attitude_valid: bool = True
+    position_valid: bool = True
+    last_heartbeat_us: int | None = None
+    commander: Commander = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.commander = Commander(self.params)
+
+    def stream(self, period_us: int | None) -> None:
+        """Start (or stop, with None) a heartbeat at this period, from now."""
+        self.heartbeat_period_us = period_us
+        self.heartbeat_start_us = self.now_us
+
+    def _heartbeat(self) -> int | None:
+        if self.heartbeat_period_us is not None:
+            since = self.now_us - self.heartbeat_start_us
+            self.last_heartbeat_us = (
+                self.heartbeat_start_us
+                + since // self.heartbeat_period_us * self.heartbeat_period_us
+            )
+        return self.last_heartbeat_us
+
+    def tick(self, *commands: VehicleCommandData) -> CommanderOutput:
+        out = self.commander.step(
+            CommanderInputs(
+                now_us=self.now_us,
+                offboard_heartbeat_us=self._heartbeat(),
+                landed=self.landed,
+                battery_warning=self.battery,
+                attitude_valid=self.attitude_valid,
+                position_valid=self.position_valid,
+                altitude_amsl_m=self.altitude_amsl_m,
+                commands=commands,
+            )
+        )
+        self.now_us += TICK_US
+        return out
+
+    def run(self, duration_us: int) -> list[CommanderOutput]:
+        """Tick for ``duration_us`` without commands."""
+        return [self.tick() for _ in range(duration_us // TICK_US)]
+
+    def command(self, cmd: VehicleCommandData) -> CommanderOutput:
+        out = self.tick(cmd)
+        assert len(out.acks) == 1, out.acks
+        return out
+
+    def airborne(self, height_m: float = 2.0) -> None:
+        self.landed = False
+        self.altitude_amsl_m = HOME_AMSL_M + height_m
+
+
+def armed_in_offboard(params: CommanderParams | None = None) -> Bench:
+    """Armed, flying in OFFBOARD with a 10 Hz heartbeat."""
+    bench = Bench(params=params or CommanderParams())
+    bench.stream(100 * MS)
+    bench.run(1200 * MS)
+    assert bench.command(arm()).acks[0].result is CommandResult.ACCEPTED
+    out = bench.command(set_offboard())
+    assert out.acks[0].result is CommandResult.ACCEPTED, out.acks[0]
+    bench.airborne()
+    bench.run(500 * MS)
+    return bench
+
+
+# -- arming ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("attitude_valid", "position_valid", "reason"),
+    [
+        (True, False, DenyReason.POSITION_INVALID),
+        (False, True, DenyReason.ATTITUDE_INVALID),
+    ],
+)
+def test_arming_is_denied_with_an_invalid_estimator(
+    attitude_valid: bool, position_valid: bool, reason: DenyReason
+) -> None:
+    bench = Bench(attitude_valid=attitude_valid, position_valid=position_valid)
+    out = bench.command(arm())
+    ack = out.acks[0]
+    assert ack.result is CommandResult.DENIED
+    assert ack.result_param1 == reason
+    assert reason.text in ack.reason
+    assert out.status.arming_state is ArmingState.DISARMED
+    assert not out.status.pre_flight_checks_pass
+    assert reason in out.status.arming_check_failures
+
+
+@pytest.mark.parametrize("warning", [BatteryWarning.CRITICAL, BatteryWarning.EMERGENCY])
+def test_arming_is_denied_with_a_critical_battery(warning: BatteryWarning) -> None:
+    bench = Bench(battery=warning)
+    out = bench.command(arm())
+    assert out.acks[0].result is CommandResult.DENIED
+    assert out.acks[0].result_param1 == DenyReason.BATTERY_CRITICAL
+    assert "battery" in out.acks[0].reason
+    assert out.status.arming_state is ArmingState.DISARMED
+
+
+def test_arming_is_denied_when_not_landed_and_every_failure_is_named() -> None:
+    bench = Bench(landed=False, position_valid=False)
+    ack = bench.command(arm()).acks[0]
+    assert ack.result is CommandResult.DENIED
+    assert ack.result_param1 == DenyReason.POSITION_INVALID
+    assert DenyReason.NOT_LANDED.text in ack.reason
+    assert DenyReason.POSITION_INVALID.text in ack.reason
+
+
+def test_force_arm_skips_the_checks() -> None:
+    bench = Bench(position_valid=False)
+    out = bench.command(arm(force=True))
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.arming_state is ArmingState.ARMED
+
+
+def test_arming_enters_hold_and_arming_again_is_accepted_without_change() -> None:
+    bench = Bench()
+    assert bench.run(100 * MS)[-1].status.pre_flight_checks_pass
+    out = bench.command(arm())
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.arming_state is ArmingState.ARMED
+    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert out.status.latest_arming_reason is ArmDisarmReason.COMMAND_EXTERNAL
+    again = bench.command(arm())
+    assert again.acks[0].result is CommandResult.ACCEPTED
+    assert again.acks[0].reason == "already armed"
+    assert again.status.armed_time_us == out.status.armed_time_us
+
+
+def test_disarm_in_the_air_is_denied_unless_forced() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.airborne()
+    ack = bench.command(disarm()).acks[0]
+    assert ack.result is CommandResult.DENIED
+    assert ack.result_param1 == DenyReason.NOT_LANDED
+    out = bench.command(disarm(force=True))
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.arming_state is ArmingState.DISARMED
+
+
+def test_arm_param1_other_than_0_or_1_is_denied_as_invalid() -> None:
+    bench = Bench()
+    cmd = VehicleCommandData(VehicleCmd.COMPONENT_ARM_DISARM, param1=2.0)
+    ack = bench.command(cmd).acks[0]
+    assert ack.result is CommandResult.DENIED
+    assert ack.result_param1 == DenyReason.INVALID_PARAMETER
+
+
+# -- the offboard heartbeat rule ------------------------------------------------------------
+
+
+def test_offboard_is_refused_without_a_heartbeat() -> None:
+    bench = Bench()
+    bench.command(arm())
+    out = bench.command(set_offboard())
+    assert out.acks[0].result is CommandResult.TEMPORARILY_REJECTED
+    assert out.acks[0].result_param1 == DenyReason.OFFBOARD_SIGNAL_NOT_ESTABLISHED
+    assert out.status.nav_state is NavState.AUTO_LOITER
+
+
+def test_offboard_is_accepted_only_after_more_than_1_s_of_10_hz_heartbeat() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.stream(100 * MS)
+    bench.run(900 * MS)
+    early = bench.command(set_offboard())
+    assert early.acks[0].result is CommandResult.TEMPORARILY_REJECTED, "0.9 s is not enough"
+    bench.run(200 * MS)
+    out = bench.command(set_offboard())
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.nav_state is NavState.OFFBOARD
+    assert out.status.offboard_signal_established
+
+
+def test_offboard_is_rejected_with_a_1_hz_heartbeat() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.stream(1 * S)
+    for _ in range(5):
+        bench.run(480 * MS)
+        out = bench.command(set_offboard())
+        assert out.acks[0].result is CommandResult.TEMPORARILY_REJECTED, "1 Hz is below 2 Hz"
+        assert not out.status.offboard_signal_established
+
+
+def test_offboard_chosen_while_disarmed_is_entered_on_arming_never_reported_disarmed() -> None:
+    """px4_ros_com's order: stream setpoints, DO_SET_MODE offboard, then arm."""
+    bench = Bench()
+    bench.stream(100 * MS)
+    bench.run(1200 * MS)
+    out = bench.command(set_offboard())
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.arming_state is ArmingState.DISARMED
+    assert out.status.nav_state is not NavState.OFFBOARD
+    assert out.status.nav_state_user_intention is NavState.OFFBOARD
+    armed = bench.command(arm())
+    assert armed.acks[0].result is CommandResult.ACCEPTED
+    assert armed.status.nav_state is NavState.OFFBOARD
+
+
+def test_arming_into_offboard_needs_the_signal_still_there() -> None:
+    bench = Bench()
+    bench.stream(100 * MS)
+    bench.run(1200 * MS)
+    bench.command(set_offboard())
+    bench.stream(None)
+    bench.run(600 * MS)
+    ack = bench.command(arm()).acks[0]
+    assert ack.result is CommandResult.DENIED
+    assert ack.result_param1 == DenyReason.OFFBOARD_SIGNAL_NOT_ESTABLISHED
+
+
+# -- offboard loss --------------------------------------------------------------------------
+
+
+def test_offboard_loss_holds_then_lands_after_the_configured_time() -> None:
+    params = CommanderParams(failsafe_hold_s=3.0, offboard_loss_timeout_s=1.0)
+    bench = armed_in_offboard(params)
+    bench.stream(None)
+    lost_at = bench.last_heartbeat_us
+    assert lost_at is not None
+    outs = bench.run(6 * S)
+    hold = next(o for o in outs if o.status.nav_state is not NavState.OFFBOARD)
+    assert hold.status.nav_state is NavState.AUTO_LOITER
+    assert hold.status.failsafe
+    assert hold.status.failsafe_reason is FailsafeReason.OFFBOARD_LOSS
+    assert 1 * S < hold.status.timestamp_us - lost_at <= 1 * S + TICK_US
+    landing = next(o for o in outs if o.status.nav_state is NavState.AUTO_LAND)
+    assert landing.status.failsafe
+    assert 3 * S <= landing.status.timestamp_us - hold.status.timestamp_us <= 3 * S + TICK_US
+    assert outs[-1].status.nav_state is NavState.AUTO_LAND
+
+
+def test_offboard_back_during_the_hold_resumes_offboard() -> None:
+    bench = armed_in_offboard(CommanderParams(failsafe_hold_s=5.0))
+    bench.stream(None)
+    bench.run(1500 * MS)
+    assert bench.tick().status.nav_state is NavState.AUTO_LOITER
+    bench.stream(100 * MS)
+    outs = bench.run(1500 * MS)
+    assert outs[-1].status.nav_state is NavState.OFFBOARD
+    assert not outs[-1].status.failsafe
+    assert all(o.status.nav_state is not NavState.AUTO_LAND for o in outs)
+
+
+def test_offboard_loss_action_hold_keeps_holding() -> None:
+    bench = armed_in_offboard(
+        CommanderParams(failsafe_hold_s=1.0, offboard_loss_action=OffboardLossAction.HOLD)
+    )
+    bench.stream(None)
+    outs = bench.run(5 * S)
+    assert outs[-1].status.nav_state is NavState.AUTO_LOITER
+    assert outs[-1].status.failsafe
+
+
+def test_a_mode_command_takes_over_from_the_failsafe() -> None:
+    bench = armed_in_offboard(CommanderParams(failsafe_hold_s=1.0))
+    bench.stream(None)
+    bench.run(3 * S)
+    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    out = bench.command(set_auto(3))
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert not out.status.failsafe
+
+
+# -- takeoff, land, auto-disarm -------------------------------------------------------------
+
+
+def test_takeoff_climbs_to_the_requested_altitude_then_holds() -> None:
+    bench = Bench()
+    bench.command(arm())
+    out = bench.command(takeoff(HOME_AMSL_M + 1.5))
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.nav_state is NavState.AUTO_TAKEOFF
+    target = out.status.takeoff_target
+    assert target is not None
+    assert target.height_above_home_m == pytest.approx(1.5)
+    assert target.altitude_amsl_m == pytest.approx(HOME_AMSL_M + 1.5)
+    bench.landed = False
+    for height in (0.3, 0.6, 0.9, 1.1):
+        bench.altitude_amsl_m = HOME_AMSL_M + height
+        assert bench.tick().status.nav_state is NavState.AUTO_TAKEOFF
+    bench.altitude_amsl_m = HOME_AMSL_M + 1.25  # within takeoff_acceptance_m (0.3)
+    out = bench.tick()
+    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert out.status.takeoff_time_us > 0
+
+
+def test_takeoff_without_altitude_uses_the_default_height_and_too_high_is_denied() -> None:
+    bench = Bench()
+    bench.command(arm())
+    target = bench.command(takeoff()).status.takeoff_target
+    assert target is not None
+    assert target.height_above_home_m == CommanderParams().takeoff_height_m
+    ack = bench.command(takeoff(HOME_AMSL_M + 50.0)).acks[0]
+    assert ack.result is CommandResult.DENIED
+    assert ack.result_param1 == DenyReason.TAKEOFF_TOO_HIGH
+
+
+def test_takeoff_mode_via_do_set_mode_auto_takeoff() -> None:
+    bench = Bench()
+    bench.command(arm())
+    out = bench.command(set_auto(2))
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.nav_state is NavState.AUTO_TAKEOFF
+
+
+def test_land_then_landed_then_auto_disarm_after_com_disarm_land() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.command(takeoff(HOME_AMSL_M + 1.5))
+    bench.airborne(1.5)
+    bench.run(500 * MS)
+    out = bench.command(land())
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.land_target is not None
+    bench.run(1 * S)
+    bench.landed = True
+    bench.altitude_amsl_m = HOME_AMSL_M
+    landed_at = bench.now_us
+    outs = bench.run(3 * S)
+    disarmed = next(o for o in outs if o.status.arming_state is ArmingState.DISARMED)
+    assert disarmed.status.timestamp_us - landed_at == 2 * S
+    assert disarmed.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_LAND
+    assert disarmed.status.nav_state is not NavState.AUTO_LAND
+    assert not disarmed.status.failsafe
+
+
+def test_armed_on_the_ground_without_taking_off_disarms_after_com_disarm_prflt() -> None:
+    bench = Bench()
+    armed_at = bench.now_us
+    bench.command(arm())
+    outs = bench.run(12 * S)
+    disarmed = next(o for o in outs if o.status.arming_state is ArmingState.DISARMED)
+    assert disarmed.status.timestamp_us - armed_at == 10 * S
+    assert disarmed.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_PREFLIGHT
+
+
+def test_land_and_rtl_are_refused_while_disarmed() -> None:
+    bench = Bench()
+    for cmd in (land(), VehicleCommandData(VehicleCmd.NAV_RETURN_TO_LAUNCH)):
+        ack = bench.command(cmd).acks[0]
+        assert ack.result is CommandResult.DENIED
+        assert ack.result_param1 == DenyReason.DISARMED
+
+
+# -- commands the commander does not handle -------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("cmd", "reason"),
+    [
+        (VehicleCommandData(34), DenyReason.UNSUPPORTED_COMMAND),  # DO_ORBIT
+        (VehicleCommandData(300), DenyReason.UNSUPPORTED_COMMAND),  # MISSION_START
+        (VehicleCommandData(176, param1=1.0, param2=3.0), DenyReason.UNSUPPORTED_MODE),  # POSCTL
+        (VehicleCommandData(176, param1=1.0, param2=4.0, param3=4.0), DenyReason.UNSUPPORTED_MODE),
+        (VehicleCommandData(176, param1=0.0, param2=6.0), DenyReason.UNSUPPORTED_MODE),
+    ],
+)
+def test_unsupported_commands_are_acknowledged_unsupported(
+    cmd: VehicleCommandData, reason: DenyReason
+) -> None:
+    out = Bench().command(replace(cmd, source_system=255, source_component=190))
+    ack = out.acks[0]
+    assert ack.result is CommandResult.UNSUPPORTED
+    assert ack.result_param1 == reason
+    assert ack.command == cmd.command
+    assert (ack.target_system, ack.target_component) == (255, 190), "ack goes to the sender"
+
+
+def test_commands_for_another_system_or_component_are_ignored() -> None:
+    bench = Bench()
+    out = bench.tick(replace(arm(), target_system=2), replace(arm(), target_component=5))
+    assert out.acks == ()
+    assert out.status.arming_state is ArmingState.DISARMED
+    assert bench.tick(replace(arm(), target_system=0)).acks[0].result is CommandResult.ACCEPTED
+
+
+# -- battery --------------------------------------------------------------------------------
+
+
+def test_battery_low_in_flight_only_warns() -> None:
+    bench = armed_in_offboard()
+    bench.battery = BatteryWarning.LOW
+    out = bench.run(1 * S)[-1]
+    assert out.status.nav_state is NavState.OFFBOARD
+    assert not out.status.failsafe
+    assert out.status.battery_warning is BatteryWarning.LOW
+
+
+def test_battery_critical_in_flight_lands() -> None:
+    bench = armed_in_offboard()
+    bench.battery = BatteryWarning.CRITICAL
+    out = bench.tick()
+    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.failsafe
+    assert out.status.failsafe_reason is FailsafeReason.BATTERY_CRITICAL
+
+
+def test_battery_critical_returns_with_action_return_and_emergency_then_lands() -> None:
+    bench = armed_in_offboard(CommanderParams(low_battery_action=BatteryFailsafeAction.RETURN))
+    bench.battery = BatteryWarning.CRITICAL
+    assert bench.tick().status.nav_state is NavState.AUTO_RTL
+    bench.battery = BatteryWarning.EMERGENCY
+    out = bench.tick()
+    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.failsafe_reason is FailsafeReason.BATTERY_EMERGENCY
+
+
+def test_battery_emergency_refuses_every_mode_but_land() -> None:
+    bench = armed_in_offboard()
+    bench.battery = BatteryWarning.EMERGENCY
+    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    for cmd in (set_offboard(), set_auto(3), takeoff()):
+        ack = bench.command(cmd).acks[0]
+        assert ack.result is CommandResult.TEMPORARILY_REJECTED
+        assert ack.result_param1 == DenyReason.BATTERY_EMERGENCY
+    assert bench.command(land()).acks[0].result is CommandResult.ACCEPTED
+
+
+def test_battery_action_warning_never_changes_mode() -> None:
+    bench = armed_in_offboard(CommanderParams(low_battery_action=BatteryFailsafeAction.WARNING))
+    bench.battery = BatteryWarning.EMERGENCY
+    assert bench.run(1 * S)[-1].status.nav_state is NavState.OFFBOARD
+
+
+# -- the table ------------------------------------------------------------------------------
+
+
+def test_every_state_has_a_reaction_to_every_event() -> None:
+    missing = [(s, e) for s in FlightState for e in Event if (s, e) not in TRANSITIONS]
+    assert not missing, f"no row for {missing}"
+    assert len(TRANSITIONS) == len(FlightState) * len(Event)
+
+
+def test_the_module_docstring_shows_the_table_as_it_is() -> None:
+    assert commander_module.__doc__ is not None
+    assert render_transition_table() in commander_module.__doc__, (
+        "the table in the docstring is stale: paste render_transition_table()"
+    )
+
+
+def test_no_row_leads_a_disarmed_vehicle_into_a_mode_and_only_arm_leaves_disarmed() -> None:
+    for (state, event), row in TRANSITIONS.items():
+        if state is FlightState.DISARMED:
+            assert row.target is None or row.action.value == "remember", (event, row)
+        if row.target is FlightState.DISARMED:
+            assert event in (Event.DISARM, Event.AUTO_DISARM), (state, event)
+
+
+_COMMANDS = st.sampled_from(
+    [
+        arm(),
+        arm(force=True),
+        disarm(),
+        disarm(force=True),
+        set_offboard(),
+        set_auto(2),
+        set_auto(3),
+        set_auto(5),
+        set_auto(6),
+        set_auto(4),
+        takeoff(),
+        takeoff(HOME_AMSL_M + 1.0),
+        takeoff(HOME_AMSL_M + 99.0),
+        land(),
+        VehicleCommandData(VehicleCmd.NAV_RETURN_TO_LAUNCH),
+        VehicleCommandData(34),
+        VehicleCommandData(400, param1=math.nan),
+        replace(arm(), target_system=7),
+    ]
+)
+
+
+@st.composite
+def _ticks(draw: st.DrawFn) -> list[tuple[int, CommanderInputs]]:
+    now = 0
+    heartbeat: int | None = None
+    ticks = []
+    for _ in range(draw(st.integers(1, 60))):
+        now += draw(st.sampled_from([1 * MS, 20 * MS, 100 * MS, 400 * MS, 1500 * MS]))
+        if draw(st.booleans()):
+            heartbeat = now - draw(st.integers(0, 50 * MS))
+        ticks.append(
+            (
+                now,
+                CommanderInputs(
+                    now_us=now,
+                    offboard_heartbeat_us=heartbeat,
+                    landed=draw(st.booleans()),
+                    battery_warning=draw(st.sampled_from(list(BatteryWarning))),
+                    attitude_valid=draw(st.booleans()),
+                    position_valid=draw(st.booleans()),
+                    altitude_amsl_m=draw(st.one_of(st.floats(90.0, 120.0), st.just(math.nan))),
+                    commands=tuple(draw(st.lists(_COMMANDS, max_size=3))),
+                ),
+            )
+        )
+    return ticks
+
+
+@settings(max_examples=150, deadline=None)
+@given(ticks=_ticks())
+def test_random_command_sequences_keep_the_invariants(
+    ticks: list[tuple[int, CommanderInputs]],
+) -> None:
+    commander = Commander(CommanderParams(failsafe_hold_s=0.5, disarm_preflight_s=3.0))
+    previous = FlightState.DISARMED
+    for _, inputs in ticks:
+        out = commander.step(inputs)
+        status = out.status
+        addressed = [c for c in inputs.commands if c.target_system in (0, 1)]
+        assert len(out.acks) == len(addressed), "one ack per command for this vehicle"
+        assert all(isinstance(a.result, CommandResult) for a in out.acks)
+        armed = status.arming_state is ArmingState.ARMED
+        assert armed == status.state.armed
+        if not armed:
+            assert status.nav_state is not NavState.OFFBOARD, "disarmed implies not OFFBOARD"
+            assert not status.failsafe
+        assert status.nav_state is status.state.nav_state
+        if status.state is FlightState.OFFBOARD and previous is not FlightState.OFFBOARD:
+            assert status.offboard_signal_established, "OFFBOARD entered without the signal"
+        if not previous.armed and armed:
+            forced = any(
+                c.command == VehicleCmd.COMPONENT_ARM_DISARM and c.param2 == FORCE_ARM_DISARM_MAGIC
+                for c in inputs.commands
+            )
+            assert forced or inputs.landed, "armed in the air without force"
+        previous = status.state
+
+
+# -- parameters -----------------------------------------------------------------------------
+
+
+def test_the_config_file_loads() -> None:
+    params = load_commander_params()
+    assert params.offboard_loss_timeout_s == 1.0
+    assert params.disarm_land_s == 2.0
+    assert params.offboard_loss_action is OffboardLossAction.LAND
+
+
+def test_parameter_errors_name_the_key_and_the_range() -> None:
+    with pytest.raises(FcuParameterError, match=r"fcu_commander\.ros__parameters\.bogus"):
+        commander_params_from_mapping({"fcu_commander": {"ros__parameters": {"bogus": 1}}})
+    with pytest.raises(FcuParameterError, match=r"disarm_land_s.*\[-1, 20\] s"):
+        commander_params_from_mapping(
+            {"fcu_commander": {"ros__parameters": {"disarm_land_s": 99.0}}}
+        )
+    with pytest.raises(FcuParameterError, match=r"offboard_loss_action.*hold, land, return"):
+        commander_params_from_yaml(
+            "fcu_commander:\n  ros__parameters:\n    offboard_loss_action: explode\n"
+        )
+    with pytest.raises(FcuParameterError, match=r"failsafe_hold_s.*must be a number"):
+        CommanderParams(failsafe_hold_s="5")  # type: ignore[arg-type]

@@ -1,0 +1,151 @@
+"""Land detector: the three stages with their hysteresis, hover, takeoff, free fall."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sim.fcu.clock import FcuParameterError
+from sim.fcu.land_detector import (
+    Hysteresis,
+    LandDetectedData,
+    LandDetector,
+    LandDetectorInputs,
+    LandDetectorParams,
+)
+
+MS = 1000
+TICK_US = 20 * MS  # PX4's land detector runs at 50 Hz
+PARAMS = LandDetectorParams()
+
+
+def test_hysteresis_switches_only_after_the_request_held() -> None:
+    h = Hysteresis(False, to_true_us=300, to_false_us=0)
+    assert not h.update(True, 0)
+    assert not h.update(True, 299)
+    assert h.update(True, 300)
+    assert not h.update(False, 301), "no delay from true to false"
+    assert not h.update(True, 400)
+    assert not h.update(False, 500)
+    assert not h.update(True, 600), "an interrupted request starts over"
+    assert h.update(True, 900)
+
+
+def _descent_then_touchdown(
+    detector: LandDetector, descent_us: int, ground_us: int
+) -> tuple[list[LandDetectedData], int]:
+    """Descend at 0.7 m/s (commanded 0.7 m/s), touch down, idle; outputs and touchdown time."""
+    outs = []
+    now = 0
+    while now < descent_us:
+        outs.append(
+            detector.update(
+                LandDetectorInputs(now, armed=True, thrust=0.45, vz=0.7, vz_setpoint=0.7)
+            )
+        )
+        now += TICK_US
+    touchdown = now
+    while now < descent_us + ground_us:
+        outs.append(
+            detector.update(
+                LandDetectorInputs(now, armed=True, thrust=0.13, vz=0.02, vz_setpoint=0.7)
+            )
+        )
+        now += TICK_US
+    return outs, touchdown
+
+
+def test_a_descent_to_the_ground_reaches_landed_after_the_hysteresis() -> None:
+    detector = LandDetector()
+    outs, touchdown = _descent_then_touchdown(detector, 3_000_000, 2_000_000)
+    flying = [o for o in outs if o.timestamp_us < touchdown]
+    assert not any(o.landed or o.maybe_landed or o.ground_contact for o in flying[5:])
+
+    def first(flag: str) -> int:
+        return next(
+            o.timestamp_us for o in outs if o.timestamp_us >= touchdown and getattr(o, flag)
+        )
+
+    stage = PARAMS.stage_time_us
+    contact, maybe, landed = first("ground_contact"), first("maybe_landed"), first("landed")
+    assert stage <= contact - touchdown <= stage + TICK_US
+    assert stage <= maybe - contact <= stage + TICK_US
+    assert stage <= landed - maybe <= stage + TICK_US
+    assert 1_000_000 <= landed - touchdown <= 1_000_000 + 3 * TICK_US, "LNDMC_TRIG_TIME = 1 s"
+    assert outs[-1].landed and outs[-1].at_rest
+
+
+def test_the_stages_come_in_order_and_never_skip() -> None:
+    detector = LandDetector()
+    outs, _ = _descent_then_touchdown(detector, 1_000_000, 2_000_000)
+    for o in outs:
+        assert not o.landed or o.maybe_landed
+        assert not o.maybe_landed or o.ground_contact
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    thrust=st.floats(0.3, 0.9),
+    vz=st.floats(-0.2, 0.2),
+    vz_setpoint=st.floats(-1.0, 1.0),
+    climb_rate_control=st.booleans(),
+)
+def test_hover_never_reports_landed(
+    thrust: float, vz: float, vz_setpoint: float, climb_rate_control: bool
+) -> None:
+    """Hover thrust is far above the low-thrust threshold, whatever the velocity."""
+    detector = LandDetector()
+    detector.update(LandDetectorInputs(0, armed=True, thrust=0.5, vz=-0.5))  # lifted off
+    for k in range(1, 250):
+        out = detector.update(
+            LandDetectorInputs(
+                k * TICK_US,
+                armed=True,
+                thrust=thrust,
+                vz=vz,
+                vz_setpoint=vz_setpoint,
+                climb_rate_control=climb_rate_control,
+            )
+        )
+        assert not out.landed and not out.maybe_landed and not out.ground_contact
+
+
+def test_slow_low_thrust_flight_without_commanded_descent_is_not_ground_contact() -> None:
+    """Under climb-rate control, low thrust and no motion is not enough: PX4 wants a descent."""
+    detector = LandDetector()
+    detector.update(LandDetectorInputs(0, armed=True, thrust=0.6, vz=-1.0))
+    for k in range(1, 200):
+        out = detector.update(
+            LandDetectorInputs(k * TICK_US, armed=True, thrust=0.2, vz_setpoint=0)
+        )
+        assert not out.ground_contact
+
+
+def test_disarmed_is_landed_and_takeoff_clears_it_at_once() -> None:
+    detector = LandDetector()
+    out = detector.update(LandDetectorInputs(0, armed=False, thrust=0.0))
+    assert out.landed and out.maybe_landed and out.ground_contact
+    out = detector.update(LandDetectorInputs(TICK_US, armed=True, thrust=0.7, vz=-0.5))
+    assert not out.landed and not out.maybe_landed and not out.ground_contact
+
+
+def test_freefall_after_its_trigger_time() -> None:
+    detector = LandDetector()
+    detector.update(LandDetectorInputs(0, armed=True, thrust=0.5, vz=-0.5))
+    outs = [
+        detector.update(
+            LandDetectorInputs(k * TICK_US, armed=True, thrust=0.0, vz=3.0, specific_force_norm=0.3)
+        )
+        for k in range(1, 30)
+    ]
+    first = next(o.timestamp_us for o in outs if o.freefall)
+    assert first - TICK_US == pytest.approx(300 * MS, abs=TICK_US)
+    assert not any(o.landed for o in outs)
+
+
+def test_parameters_are_checked() -> None:
+    with pytest.raises(FcuParameterError, match="thrust_hover"):
+        LandDetectorParams(thrust_min=0.5, thrust_hover=0.4)
+    with pytest.raises(FcuParameterError, match=r"trigger_time_s.*\[0, 10\]"):
+        LandDetectorParams(trigger_time_s=-1.0)
