@@ -1,0 +1,863 @@
+"""PX4-style multicopter control cascade of the simulated FCU (pure numpy).
+
+Position -> velocity -> acceleration (``PositionControl``), acceleration + yaw -> attitude
+setpoint and collective thrust (``ControlMath::bodyzToAttitude``), quaternion attitude P
+control with de-prioritised yaw (``AttitudeControl``), body-rate PID (``RateControl``) and
+a quad-X mixer with PX4's airmode-off sequential desaturation
+(``ControlAllocationSequentialDesaturation``).
+
+Frames as on the FCU: world NED, body FRD, quaternions Hamilton ``[w, x, y, z]`` rotating
+body FRD into world NED (``VehicleAttitude.q``). The mixer of :mod:`sim.quadrotor` works
+in body FLU, so torques are converted at that one edge. Physical units throughout (N,
+N m, m/s^2) instead of PX4's normalised thrust and torque: the controller knows the
+vehicle's mass and inertia (PX4 learns the hover thrust instead).
+
+Time: every ``update`` takes ``dt_us``, the elapsed FCU time in integer microseconds.
+
+The small quaternion helpers below are single-vector fast paths for the control and
+estimation loops; :mod:`flight_control.frames` holds the general, broadcasting versions
+for the companion side (``sim`` sits below ``flight_control`` and does not import it).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+
+from sim.fcu.clock import FcuParameterError
+from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams, mix
+
+__all__ = [
+    "CONTROL_NODE_NAME",
+    "DEFAULT_CONTROL_CONFIG_PATH",
+    "AttitudeController",
+    "Cascade",
+    "CascadeOutput",
+    "ControlGains",
+    "InvalidSetpointError",
+    "MixerOutput",
+    "PositionControlOutput",
+    "PositionController",
+    "RateController",
+    "TrajectorySetpointData",
+    "VehicleState",
+    "attitude_from_thrust_vector",
+    "control_gains_from_yaml",
+    "cross3",
+    "load_control_gains",
+    "mix_with_desaturation",
+    "param_field",
+    "parameters_from_mapping",
+    "parameters_from_yaml",
+    "quat_from_axis_angle",
+    "quat_from_dcm",
+    "quat_multiply",
+    "quat_to_dcm",
+    "quat_yaw",
+    "validate_ranges",
+]
+
+FloatArray = npt.NDArray[np.float64]
+CONTROL_NODE_NAME = "fcu_control"
+DEFAULT_CONTROL_CONFIG_PATH = Path(__file__).resolve().parents[2] / "config" / "fcu_control.yaml"
+_US_PER_S = 1_000_000
+_EPS = 1e-9
+
+
+class InvalidSetpointError(ValueError):
+    """A trajectory setpoint the position controller cannot follow (PX4 ``_inputValid``)."""
+
+
+# --- quaternions [w, x, y, z], Hamilton; q_a_b rotates frame-b vectors into frame a -------
+
+
+def cross3(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``a x b`` for two 3-vectors (np.cross is slow on single vectors)."""
+    ax, ay, az = a.tolist()
+    bx, by, bz = b.tolist()
+    return np.array([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx])
+
+
+def quat_multiply(p: FloatArray, q: FloatArray) -> FloatArray:
+    """Hamilton product ``p (x) q`` of two quaternions of shape (4,)."""
+    pw, px, py, pz = p.tolist()
+    qw, qx, qy, qz = q.tolist()
+    return np.array(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ]
+    )
+
+
+def quat_to_dcm(q: FloatArray) -> FloatArray:
+    """Rotation matrix ``R_a_b`` of ``q_a_b`` (normalised first)."""
+    w, x, y, z = (q / math.sqrt(float(q @ q))).tolist()
+    return np.array(
+        [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+        ]
+    )
+
+
+def quat_from_dcm(r: FloatArray) -> FloatArray:
+    """Unit quaternion (``w >= 0``) of a rotation matrix (Shepperd's method)."""
+    trace = float(r[0, 0] + r[1, 1] + r[2, 2])
+    if trace > 0.0:
+        s = 2.0 * math.sqrt(trace + 1.0)
+        q = [0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
+    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
+        q = [(r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s]
+    elif r[1, 1] > r[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
+        q = [(r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s]
+    else:
+        s = 2.0 * math.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
+        q = [(r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s]
+    out = np.array(q, dtype=np.float64)
+    out /= math.sqrt(float(out @ out))
+    return -out if out[0] < 0.0 else out
+
+
+def quat_from_axis_angle(rotation_vector: FloatArray) -> FloatArray:
+    """Quaternion of the rotation by ``|v|`` rad about ``v / |v|`` (exponential map)."""
+    angle = math.sqrt(float(rotation_vector @ rotation_vector))
+    if angle < 1e-12:
+        return np.array([1.0, *(0.5 * rotation_vector).tolist()])
+    half = 0.5 * angle
+    return np.array([math.cos(half), *(math.sin(half) / angle * rotation_vector).tolist()])
+
+
+def quat_yaw(q: FloatArray) -> float:
+    """Euler yaw [rad] (Z-Y-X) of ``q_ned_frd``: heading from North, clockwise."""
+    w, x, y, z = q.tolist()
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def _quat_between(src: FloatArray, dst: FloatArray) -> FloatArray:
+    """Shortest rotation taking unit vector ``src`` to ``dst`` (matrix::Quaternion(src, dst))."""
+    cross = cross3(src, dst)
+    dot = float(src @ dst)
+    if float(cross @ cross) < 1e-10 and dot < 0.0:
+        a = np.abs(src)
+        axis = np.zeros(3)
+        axis[int(np.argmin(a))] = 1.0
+        q = np.array([0.0, *cross3(src, axis).tolist()])
+    else:
+        q = np.array([dot + math.sqrt(float(src @ src) * float(dst @ dst)), *cross.tolist()])
+    return q / math.sqrt(float(q @ q))
+
+
+def _conjugate(q: FloatArray) -> FloatArray:
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def _frd_flu(v: FloatArray) -> FloatArray:
+    """Body vector FRD <-> FLU (a pi rotation about x: y and z negated; an involution)."""
+    return np.array([v[0], -v[1], -v[2]])
+
+
+# --- typed data --------------------------------------------------------------------------
+
+
+def _vec3(value: npt.ArrayLike, name: str) -> FloatArray:
+    arr = np.array(value, dtype=np.float64).reshape(-1)
+    if arr.shape != (3,):
+        raise ValueError(f"{name}: expected 3 values, got shape {np.shape(value)}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True)
+class VehicleState:
+    """Estimated vehicle state as the FCU controllers see it (NED world, FRD body).
+
+    ``q`` is ``q_ned_frd`` ``[w, x, y, z]``; arrays are read-only float64 copies.
+    """
+
+    position_ned: FloatArray  # m
+    velocity_ned: FloatArray  # m/s
+    q: FloatArray  # [w, x, y, z], body FRD -> world NED
+    angular_velocity_frd: FloatArray  # rad/s
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position_ned", _vec3(self.position_ned, "position_ned"))
+        object.__setattr__(self, "velocity_ned", _vec3(self.velocity_ned, "velocity_ned"))
+        q = np.array(self.q, dtype=np.float64).reshape(-1)
+        norm = math.sqrt(float(q @ q)) if q.shape == (4,) else 0.0
+        if not (math.isfinite(norm) and norm > _EPS):
+            raise ValueError(f"q: {self.q!r} is not a finite non-zero [w, x, y, z] quaternion")
+        q = q / norm
+        q.setflags(write=False)
+        object.__setattr__(self, "q", q)
+        object.__setattr__(
+            self, "angular_velocity_frd", _vec3(self.angular_velocity_frd, "angular_velocity_frd")
+        )
+
+    @classmethod
+    def at_rest(
+        cls, position_ned: npt.ArrayLike = (0.0, 0.0, 0.0), yaw: float = 0.0
+    ) -> VehicleState:
+        """Level, still, heading ``yaw`` [rad] at ``position_ned`` [m]."""
+        q = np.array([math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)])
+        return cls(np.asarray(position_ned, dtype=np.float64), np.zeros(3), q, np.zeros(3))
+
+
+_NAN3 = (math.nan, math.nan, math.nan)
+
+
+@dataclass(frozen=True)
+class TrajectorySetpointData:
+    """px4_msgs/TrajectorySetpoint semantics (NED): a NaN component is not controlled.
+
+    Offboard modes as PX4 maps them: position (with optional velocity and acceleration
+    feed-forward), velocity only (position NaN), acceleration only (position and
+    velocity NaN). ``jerk`` is carried for logging only, as in PX4. ``yaw`` NaN holds the
+    current heading (turning at ``yawspeed`` when that is finite).
+    """
+
+    position: FloatArray = field(default_factory=lambda: np.array(_NAN3))  # m
+    velocity: FloatArray = field(default_factory=lambda: np.array(_NAN3))  # m/s
+    acceleration: FloatArray = field(default_factory=lambda: np.array(_NAN3))  # m/s^2
+    jerk: FloatArray = field(default_factory=lambda: np.array(_NAN3))  # m/s^3
+    yaw: float = math.nan  # rad
+    yawspeed: float = math.nan  # rad/s
+
+    def __post_init__(self) -> None:
+        for name in ("position", "velocity", "acceleration", "jerk"):
+            object.__setattr__(self, name, _vec3(getattr(self, name), name))
+
+    @classmethod
+    def hold_position(cls, position_ned: npt.ArrayLike, yaw: float = 0.0) -> TrajectorySetpointData:
+        """A position setpoint with no feed-forward."""
+        return cls(position=np.asarray(position_ned, dtype=np.float64), yaw=yaw)
+
+
+# --- parameters --------------------------------------------------------------------------
+
+P = TypeVar("P")
+
+
+def param_field(lo: float, hi: float, unit: str) -> Any:
+    """A parameter field with its allowed closed range and unit (read by the validator)."""
+    return field(metadata={"range": (lo, hi), "unit": unit})
+
+
+def validate_ranges(obj: object) -> None:
+    """Check every field of a parameter dataclass against its declared type and range.
+
+    Raises FcuParameterError naming the field, its allowed range and unit.
+    """
+    for f in fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        lo, hi = f.metadata["range"]
+        unit = f.metadata["unit"]
+        is_int = f.type in (int, "int")
+        if isinstance(value, bool) or not isinstance(value, int if is_int else (int, float)):
+            kind = "an integer" if is_int else "a number"
+            raise FcuParameterError(f.name, f"{value!r} must be {kind} [{unit}]")
+        if not lo <= value <= hi:  # also rejects NaN
+            raise FcuParameterError(
+                f.name, f"{value} is outside the allowed range [{lo}, {hi}] {unit}"
+            )
+        if not is_int:
+            object.__setattr__(obj, f.name, float(value))
+
+
+def parameters_from_mapping(cls: type[P], node_name: str, doc: object) -> P:
+    """``cls`` from a parsed ROS 2 parameter file ``{node_name: {ros__parameters: {...}}}``.
+
+    Every field must be present and no other key; errors name the key path. Other nodes'
+    sections are ignored.
+    """
+
+    def section(value: object, key: str) -> Mapping[str, Any]:
+        if not isinstance(value, Mapping):
+            raise FcuParameterError(key, f"expected a mapping, got {type(value).__name__}")
+        return value
+
+    top = section(doc, "")
+    if node_name not in top:
+        raise FcuParameterError(node_name, "missing")
+    node = section(top[node_name], node_name)
+    prefix = f"{node_name}.ros__parameters"
+    if set(node) != {"ros__parameters"}:
+        extra = sorted(set(node) - {"ros__parameters"})
+        key = f"{node_name}.{extra[0]}" if extra else prefix
+        raise FcuParameterError(
+            key, "missing" if not extra else "unknown key; allowed: ros__parameters"
+        )
+    values = section(node["ros__parameters"], prefix)
+    names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
+    for name in values:
+        if name not in names:
+            raise FcuParameterError(
+                f"{prefix}.{name}", "unknown key; allowed keys are " + ", ".join(names)
+            )
+    for name in names:
+        if name not in values:
+            raise FcuParameterError(f"{prefix}.{name}", "missing")
+    try:
+        return cls(**values)
+    except FcuParameterError as exc:
+        raise exc.prefixed(prefix) from None
+
+
+def parameters_from_yaml(cls: type[P], node_name: str, text: str, source: str | None = None) -> P:
+    """:func:`parameters_from_mapping` on YAML text; ``source`` names the file in errors."""
+    try:
+        return parameters_from_mapping(cls, node_name, yaml.safe_load(text))
+    except yaml.YAMLError as exc:
+        raise FcuParameterError("", f"not valid YAML: {exc}", source) from None
+    except FcuParameterError as exc:
+        raise (exc.with_source(source) if source else exc) from None
+
+
+@dataclass(frozen=True)
+class ControlGains:
+    """Gains, limits and loop rates of the cascade (``config/fcu_control.yaml``).
+
+    Velocity and rate gains are in acceleration units (m/s^2 per m/s, rad/s^2 per rad/s):
+    the controllers multiply by mass and inertia, so the tune does not depend on the
+    airframe's scale. Ranges and units are declared here once.
+    """
+
+    rate_loop_hz: int = param_field(50, 8000, "Hz")
+    attitude_loop_hz: int = param_field(10, 8000, "Hz")
+    position_loop_hz: int = param_field(5, 8000, "Hz")
+    position_p_xy: float = param_field(0.0, 10.0, "1/s")
+    position_p_z: float = param_field(0.0, 10.0, "1/s")
+    velocity_p_xy: float = param_field(0.0, 30.0, "1/s")
+    velocity_i_xy: float = param_field(0.0, 30.0, "1/s^2")
+    velocity_d_xy: float = param_field(0.0, 2.0, "s/s")
+    velocity_p_z: float = param_field(0.0, 30.0, "1/s")
+    velocity_i_z: float = param_field(0.0, 30.0, "1/s^2")
+    velocity_d_z: float = param_field(0.0, 2.0, "s/s")
+    velocity_d_cutoff_hz: float = param_field(0.5, 200.0, "Hz")
+    max_speed_xy: float = param_field(0.1, 20.0, "m/s")
+    max_speed_up: float = param_field(0.1, 10.0, "m/s")
+    max_speed_down: float = param_field(0.1, 10.0, "m/s")
+    max_tilt: float = param_field(0.05, 1.5, "rad")
+    thrust_min_fraction: float = param_field(0.0, 0.5, "of total max thrust")
+    thrust_max_fraction: float = param_field(0.1, 1.0, "of total max thrust")
+    thrust_xy_margin_fraction: float = param_field(0.0, 0.5, "of total max thrust")
+    attitude_p_roll_pitch: float = param_field(0.0, 30.0, "1/s")
+    attitude_p_yaw: float = param_field(0.0, 30.0, "1/s")
+    max_rate_roll_pitch: float = param_field(0.1, 30.0, "rad/s")
+    max_rate_yaw: float = param_field(0.1, 30.0, "rad/s")
+    rate_p_roll_pitch: float = param_field(0.0, 200.0, "1/s")
+    rate_i_roll_pitch: float = param_field(0.0, 500.0, "1/s^2")
+    rate_d_roll_pitch: float = param_field(0.0, 2.0, "s/s")
+    rate_integral_limit_roll_pitch: float = param_field(0.0, 200.0, "rad/s^2")
+    rate_p_yaw: float = param_field(0.0, 200.0, "1/s")
+    rate_i_yaw: float = param_field(0.0, 500.0, "1/s^2")
+    rate_d_yaw: float = param_field(0.0, 2.0, "s/s")
+    rate_integral_limit_yaw: float = param_field(0.0, 200.0, "rad/s^2")
+    rate_d_cutoff_hz: float = param_field(0.5, 1000.0, "Hz")
+
+    def __post_init__(self) -> None:
+        validate_ranges(self)
+        for name in ("attitude_loop_hz", "position_loop_hz"):
+            hz = getattr(self, name)
+            if hz > self.rate_loop_hz or self.rate_loop_hz % hz:
+                raise FcuParameterError(
+                    name,
+                    f"{hz} Hz must divide rate_loop_hz ({self.rate_loop_hz} Hz) exactly",
+                )
+        if self.thrust_min_fraction >= self.thrust_max_fraction:
+            raise FcuParameterError(
+                "thrust_min_fraction",
+                f"{self.thrust_min_fraction} must be below thrust_max_fraction "
+                f"({self.thrust_max_fraction})",
+            )
+
+    def period_us(self, hz: int) -> int:
+        """Loop period [us] of a loop at ``hz`` (rounded to the microsecond)."""
+        return round(_US_PER_S / hz)
+
+
+def control_gains_from_yaml(text: str, source: str | None = None) -> ControlGains:
+    """Gains from the text of a ROS 2 parameter file with an ``fcu_control`` section."""
+    return parameters_from_yaml(ControlGains, CONTROL_NODE_NAME, text, source)
+
+
+def load_control_gains(path: Path = DEFAULT_CONTROL_CONFIG_PATH) -> ControlGains:
+    """Gains from ``config/fcu_control.yaml`` (or ``path``)."""
+    return control_gains_from_yaml(path.read_text(encoding="utf-8"), str(path))
+
+
+# --- position control --------------------------------------------------------------------
+
+
+def _lowpass_alpha(cutoff_hz: float, dt_s: float) -> float:
+    return 1.0 - math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
+
+
+def _constrain_xy(v0: FloatArray, v1: FloatArray, limit: float) -> FloatArray:
+    """``v0 + v1`` limited to norm ``limit``, keeping ``v0`` first (ControlMath::constrainXY)."""
+    total = v0 + v1
+    n0, n1 = float(np.hypot(*v0)), float(np.hypot(*v1))
+    if float(np.hypot(*total)) <= limit:
+        return total
+    if n0 >= limit or n1 < 1e-3:
+        return v0 / n0 * limit if n0 > _EPS else np.zeros(2)
+    if n0 < 1e-3:
+        return v1 / n1 * limit
+    u1 = v1 / n1
+    m = float(u1 @ v0)
+    c = float(v0 @ v0) - limit * limit
+    return v0 + u1 * (-m + math.sqrt(m * m - c))
+
+
+def attitude_from_thrust_vector(thrust_ned: FloatArray, yaw: float) -> FloatArray:
+    """``q_ned_frd`` pointing body -z along ``thrust_ned`` with heading ``yaw`` [rad].
+
+    ControlMath::bodyzToAttitude: body z is ``-thrust``; body x is the yaw direction made
+    orthogonal to it.
+    """
+    norm = math.sqrt(float(thrust_ned @ thrust_ned))
+    body_z = np.array([0.0, 0.0, 1.0]) if norm < _EPS else -thrust_ned / norm
+    y_c = np.array([-math.sin(yaw), math.cos(yaw), 0.0])
+    body_x = cross3(y_c, body_z)
+    if body_z[2] < 0.0:
+        body_x = -body_x
+    if abs(body_z[2]) < 1e-6:
+        body_x = np.array([0.0, 0.0, 1.0])
+    body_x /= math.sqrt(float(body_x @ body_x))
+    body_y = cross3(body_z, body_x)
+    return quat_from_dcm(np.column_stack((body_x, body_y, body_z)))
+
+
+@dataclass(frozen=True)
+class PositionControlOutput:
+    """One position-loop result: setpoints after limits, thrust vector and attitude."""
+
+    velocity_setpoint_ned: FloatArray  # m/s (NaN: velocity not controlled on that axis)
+    acceleration_setpoint_ned: FloatArray  # m/s^2, what the velocity PID asked for
+    thrust_ned: FloatArray  # N, the limited thrust vector
+    collective_thrust: float  # N, |thrust_ned|
+    attitude_setpoint: FloatArray  # q_ned_frd
+    yawspeed_feedforward: float  # rad/s, NaN when none
+
+
+def _check_setpoint(sp: TrajectorySetpointData) -> None:
+    """PX4 ``PositionControl::_inputValid``: every axis controlled, x and y in pairs."""
+    fin = [np.isfinite(v) for v in (sp.position, sp.velocity, sp.acceleration)]
+    for name, mask in zip(("position", "velocity", "acceleration"), fin, strict=True):
+        if mask[0] != mask[1]:
+            raise InvalidSetpointError(f"{name}: x and y must both be set or both be NaN")
+    for axis in range(3):
+        if not any(mask[axis] for mask in fin):
+            raise InvalidSetpointError(
+                f"axis {'xyz'[axis]}: position, velocity and acceleration are all NaN"
+            )
+
+
+class PositionController:
+    """P on position, PID on velocity with anti-windup, tilt and thrust limits (PX4)."""
+
+    def __init__(self, gains: ControlGains, params: QuadrotorParams) -> None:
+        self._g = gains
+        self._mass = params.mass
+        total = NUM_ROTORS * params.max_motor_thrust
+        self._thrust_min = gains.thrust_min_fraction * total
+        self._thrust_max = gains.thrust_max_fraction * total
+        self._thrust_xy_margin = gains.thrust_xy_margin_fraction * total
+        self._kp_pos = np.array([gains.position_p_xy, gains.position_p_xy, gains.position_p_z])
+        self._kp_vel = np.array([gains.velocity_p_xy, gains.velocity_p_xy, gains.velocity_p_z])
+        self._ki_vel = np.array([gains.velocity_i_xy, gains.velocity_i_xy, gains.velocity_i_z])
+        self._kd_vel = np.array([gains.velocity_d_xy, gains.velocity_d_xy, gains.velocity_d_z])
+        self.reset()
+
+    def reset(self) -> None:
+        """Clear the integrator, the velocity-derivative filter and the held yaw."""
+        self._vel_int = np.zeros(3)
+        self._vel_dot = np.zeros(3)
+        self._last_vel: FloatArray | None = None
+        self._held_yaw: float | None = None
+
+    @property
+    def velocity_integral(self) -> FloatArray:
+        """Velocity integrator [m/s^2] (a copy)."""
+        return self._vel_int.copy()
+
+    def update(
+        self, state: VehicleState, setpoint: TrajectorySetpointData, dt_us: int
+    ) -> PositionControlOutput:
+        """Run one position-loop step of ``dt_us`` microseconds."""
+        _check_setpoint(setpoint)
+        dt = max(dt_us, 1) / _US_PER_S
+        g = self._g
+        vel = state.velocity_ned
+        if self._last_vel is not None:
+            raw = (vel - self._last_vel) / dt
+            self._vel_dot += _lowpass_alpha(g.velocity_d_cutoff_hz, dt) * (raw - self._vel_dot)
+        self._last_vel = vel.copy()
+
+        # position P + velocity feed-forward (PositionControl::_positionControl)
+        vel_sp = np.array(setpoint.velocity, dtype=np.float64)
+        vel_from_pos = (setpoint.position - state.position_ned) * self._kp_pos
+        pos_ok = np.isfinite(vel_from_pos)
+        vel_sp = np.where(pos_ok & ~np.isfinite(vel_sp), vel_from_pos, vel_sp)
+        vel_sp = np.where(pos_ok & np.isfinite(setpoint.velocity), vel_sp + vel_from_pos, vel_sp)
+        if np.isfinite(vel_sp[0]):
+            v0 = np.where(pos_ok[:2], vel_from_pos[:2], 0.0)
+            vel_sp[:2] = _constrain_xy(v0, vel_sp[:2] - v0, g.max_speed_xy)
+        if np.isfinite(vel_sp[2]):
+            vel_sp[2] = min(max(vel_sp[2], -g.max_speed_up), g.max_speed_down)
+
+        # velocity PID (PositionControl::_velocityControl)
+        self._vel_int[2] = min(max(self._vel_int[2], -GRAVITY), GRAVITY)
+        vel_error = vel_sp - vel
+        acc_from_vel = vel_error * self._kp_vel + self._vel_int - self._vel_dot * self._kd_vel
+        acc_sp = np.array(setpoint.acceleration, dtype=np.float64)
+        vel_ok = np.isfinite(vel_sp)
+        acc_sp = np.where(vel_ok & np.isfinite(acc_sp), acc_sp + acc_from_vel, acc_sp)
+        acc_sp = np.where(vel_ok & ~np.isfinite(acc_sp), acc_from_vel, acc_sp)
+
+        # acceleration -> thrust vector (PositionControl::_accelerationControl)
+        body_z = np.array([-acc_sp[0], -acc_sp[1], GRAVITY])
+        body_z /= math.sqrt(float(body_z @ body_z))
+        cos_tilt = body_z[2]
+        if cos_tilt < math.cos(g.max_tilt):
+            xy = float(np.hypot(body_z[0], body_z[1]))
+            body_z = np.array(
+                [
+                    body_z[0] / xy * math.sin(g.max_tilt),
+                    body_z[1] / xy * math.sin(g.max_tilt),
+                    math.cos(g.max_tilt),
+                ]
+            )
+        collective = self._mass * (GRAVITY - acc_sp[2]) / body_z[2]
+        collective = max(collective, self._thrust_min)
+        thrust = -body_z * collective
+
+        # vertical anti-windup, vertical priority with a horizontal margin
+        at_min = -thrust[2] <= self._thrust_min + _EPS
+        at_max = -thrust[2] >= self._thrust_max - _EPS
+        if (at_min and vel_error[2] >= 0.0) or (at_max and vel_error[2] <= 0.0):
+            vel_error[2] = 0.0
+        xy_norm = float(np.hypot(thrust[0], thrust[1]))
+        margin = min(xy_norm, self._thrust_xy_margin)
+        thrust[2] = max(thrust[2], -math.sqrt(self._thrust_max**2 - margin**2))
+        xy_left = math.sqrt(max(self._thrust_max**2 - thrust[2] ** 2, 0.0))
+        if xy_norm > xy_left:
+            thrust[:2] *= xy_left / xy_norm
+        # tracking anti-windup, horizontal
+        produced = thrust[:2] / self._mass
+        wanted = acc_sp[:2]
+        limited = produced if float(wanted @ wanted) > float(produced @ produced) else wanted
+        if self._kp_vel[0] > 0.0:
+            vel_error[:2] -= 2.0 / self._kp_vel[0] * (wanted - limited)
+        vel_error = np.where(np.isfinite(vel_error), vel_error, 0.0)
+        self._vel_int += vel_error * self._ki_vel * dt
+
+        # yaw: hold the current heading when the setpoint has none
+        if math.isfinite(setpoint.yaw):
+            yaw = setpoint.yaw
+            self._held_yaw = None
+        elif math.isfinite(setpoint.yawspeed):
+            yaw = self._held_yaw = quat_yaw(state.q)
+        else:
+            if self._held_yaw is None:
+                self._held_yaw = quat_yaw(state.q)
+            yaw = self._held_yaw
+        collective_norm = math.sqrt(float(thrust @ thrust))
+        return PositionControlOutput(
+            velocity_setpoint_ned=vel_sp,
+            acceleration_setpoint_ned=acc_sp,
+            thrust_ned=thrust,
+            collective_thrust=collective_norm,
+            attitude_setpoint=attitude_from_thrust_vector(thrust, yaw),
+            yawspeed_feedforward=setpoint.yawspeed,
+        )
+
+
+# --- attitude control ---------------------------------------------------------------------
+
+
+class AttitudeController:
+    """Quaternion P control with yaw de-prioritised, as PX4's ``AttitudeControl``."""
+
+    def __init__(self, gains: ControlGains) -> None:
+        self._kp = np.array(
+            [gains.attitude_p_roll_pitch, gains.attitude_p_roll_pitch, gains.attitude_p_yaw]
+        )
+        rp = gains.attitude_p_roll_pitch
+        self._yaw_weight = min(max(gains.attitude_p_yaw / rp, 0.0), 1.0) if rp > 0.0 else 1.0
+        if self._yaw_weight > 1e-4:  # the weighting scales the yaw error down: compensate
+            self._kp[2] /= self._yaw_weight
+        self._rate_limit = np.array(
+            [gains.max_rate_roll_pitch, gains.max_rate_roll_pitch, gains.max_rate_yaw]
+        )
+
+    def update(
+        self, q: FloatArray, q_setpoint: FloatArray, yawspeed_feedforward: float = math.nan
+    ) -> FloatArray:
+        """Body-rate setpoint [rad/s, FRD] driving ``q`` (q_ned_frd) to ``q_setpoint``."""
+        q = q / math.sqrt(float(q @ q))
+        qd = q_setpoint / math.sqrt(float(q_setpoint @ q_setpoint))
+        e_z = quat_to_dcm(q)[:, 2]
+        e_z_d = quat_to_dcm(qd)[:, 2]
+        qd_red = _quat_between(e_z, e_z_d)
+        if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
+            qd_red = qd
+        else:
+            qd_red = quat_multiply(qd_red, q)
+        q_mix = quat_multiply(_conjugate(qd_red), qd)
+        if q_mix[0] < 0.0:
+            q_mix = -q_mix
+        w = min(max(q_mix[0], -1.0), 1.0)
+        z = min(max(q_mix[3], -1.0), 1.0)
+        yw = self._yaw_weight
+        qd = quat_multiply(
+            qd_red, np.array([math.cos(yw * math.acos(w)), 0.0, 0.0, math.sin(yw * math.asin(z))])
+        )
+        qe = quat_multiply(_conjugate(q), qd)
+        if qe[0] < 0.0:
+            qe = -qe
+        rate_sp = 2.0 * qe[1:] * self._kp
+        if math.isfinite(yawspeed_feedforward):
+            rate_sp = rate_sp + quat_to_dcm(q)[2, :] * yawspeed_feedforward
+        return np.clip(rate_sp, -self._rate_limit, self._rate_limit)
+
+
+# --- rate control -------------------------------------------------------------------------
+
+
+class RateController:
+    """PID on body rates with anti-windup -> body torque [N m, FRD] (PX4 ``RateControl``)."""
+
+    def __init__(self, gains: ControlGains, params: QuadrotorParams) -> None:
+        ix, iy, iz = params.inertia
+        self._inertia = np.array([ix, iy, iz])
+        rp, yw = "roll_pitch", "yaw"
+        self._kp = np.array([getattr(gains, f"rate_p_{a}") for a in (rp, rp, yw)])
+        self._ki = np.array([getattr(gains, f"rate_i_{a}") for a in (rp, rp, yw)])
+        self._kd = np.array([getattr(gains, f"rate_d_{a}") for a in (rp, rp, yw)])
+        self._int_lim = np.array([getattr(gains, f"rate_integral_limit_{a}") for a in (rp, rp, yw)])
+        self._d_cutoff_hz = gains.rate_d_cutoff_hz
+        self.reset()
+
+    def reset(self) -> None:
+        """Clear the integrator, the derivative filter and the saturation flags."""
+        self._int = np.zeros(3)
+        self._ang_acc = np.zeros(3)
+        self._last_rate: FloatArray | None = None
+        self._sat_pos = np.zeros(3, dtype=bool)
+        self._sat_neg = np.zeros(3, dtype=bool)
+
+    @property
+    def integral(self) -> FloatArray:
+        """Rate integrator [rad/s^2] (a copy)."""
+        return self._int.copy()
+
+    def set_saturation(self, positive: npt.ArrayLike, negative: npt.ArrayLike) -> None:
+        """Per-axis flags from the mixer: the torque could not grow / shrink any further."""
+        self._sat_pos = np.asarray(positive, dtype=bool).reshape(3)
+        self._sat_neg = np.asarray(negative, dtype=bool).reshape(3)
+
+    def update(
+        self, rate_frd: FloatArray, rate_setpoint_frd: FloatArray, dt_us: int, landed: bool = False
+    ) -> FloatArray:
+        """Torque setpoint [N m, FRD] for one step of ``dt_us`` microseconds."""
+        dt = max(dt_us, 1) / _US_PER_S
+        if self._last_rate is not None:
+            raw = (rate_frd - self._last_rate) / dt
+            self._ang_acc += _lowpass_alpha(self._d_cutoff_hz, dt) * (raw - self._ang_acc)
+        self._last_rate = np.array(rate_frd, dtype=np.float64)
+        error = rate_setpoint_frd - rate_frd
+        acc = self._kp * error + self._int - self._kd * self._ang_acc
+        if not landed:
+            e = np.where(self._sat_pos, np.minimum(error, 0.0), error)
+            e = np.where(self._sat_neg, np.maximum(e, 0.0), e)
+            factor = np.maximum(0.0, 1.0 - (e / math.radians(400.0)) ** 2)
+            candidate = self._int + factor * self._ki * e * dt
+            if np.all(np.isfinite(candidate)):
+                self._int = np.clip(candidate, -self._int_lim, self._int_lim)
+        torque: FloatArray = self._inertia * acc
+        return torque
+
+
+# --- mixer with desaturation ----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MixerOutput:
+    """Rotor thrusts [N] (sim.quadrotor order) and what desaturation had to give up."""
+
+    motor_thrusts: FloatArray  # N, each in [0, max_motor_thrust]
+    collective_thrust: float  # N, achieved by the allocation (before the final clip)
+    saturated_positive: npt.NDArray[np.bool_]  # per FRD torque axis: could not increase
+    saturated_negative: npt.NDArray[np.bool_]  # per FRD torque axis: could not decrease
+
+
+def _desaturation_gain(vector: FloatArray, sp: FloatArray, lo: float, hi: float) -> float:
+    k_min = k_max = 0.0
+    for v, s in zip(vector.tolist(), sp.tolist(), strict=True):
+        if abs(v) < 1e-7:
+            continue
+        if s < lo:
+            k = (lo - s) / v
+            k_min, k_max = min(k_min, k), max(k_max, k)
+        if s > hi:
+            k = (hi - s) / v
+            k_min, k_max = min(k_min, k), max(k_max, k)
+    return k_min + k_max
+
+
+def _desaturate(
+    sp: FloatArray, vector: FloatArray, lo: float, hi: float, min_gain: float = -1.0
+) -> tuple[FloatArray, float]:
+    """PX4 ``desaturateActuators``: two passes along ``vector``; returns (sp, total gain).
+
+    The total gain only shrinks the contribution (kept in ``[min_gain, 0]``): a torque is
+    scaled towards zero, never inverted; thrust is only reduced (airmode off).
+    """
+    total = 0.0
+    for scale in (1.0, 0.5):
+        gain = scale * _desaturation_gain(vector, sp, lo, hi)
+        gain = min(max(gain, min_gain - total), -total if total < 0.0 else 0.0)
+        sp = sp + gain * vector
+        total += gain
+    return sp, total
+
+
+@functools.cache
+def _mixer_columns(params: QuadrotorParams) -> tuple[FloatArray, ...]:
+    """Rotor thrusts per unit collective thrust and per unit FLU torque about x, y, z."""
+    return tuple(mix(params, t, (x, y, z)) for t, x, y, z in np.eye(4).tolist())
+
+
+def mix_with_desaturation(
+    params: QuadrotorParams, collective_thrust: float, torque_frd: FloatArray
+) -> MixerOutput:
+    """Rotor thrusts for a collective thrust [N] and torque [N m, FRD], airmode off.
+
+    PX4's sequential desaturation: mix thrust, roll and pitch; reduce collective thrust
+    (never increase it) to unsaturate; then scale roll, then pitch; then add yaw, scaling
+    it with 15 % headroom above the top, and reduce thrust again. Attitude authority thus
+    wins over collective thrust, and yaw gives way first.
+    """
+    torque_flu = _frd_flu(np.asarray(torque_frd, dtype=np.float64))
+    col_thrust, col_x, col_y, col_z = _mixer_columns(params)
+    lo, hi = 0.0, params.max_motor_thrust
+    col_roll = col_x * torque_flu[0]
+    col_pitch = col_y * torque_flu[1]
+    col_yaw = col_z * torque_flu[2]
+    sp = col_thrust * collective_thrust + col_roll + col_pitch
+    no_thrust = -max(collective_thrust, 0.0)
+    sp, gain_t1 = _desaturate(sp, col_thrust, lo, hi, no_thrust)
+    sp, gain_roll = _desaturate(sp, col_roll, lo, hi)
+    sp, gain_pitch = _desaturate(sp, col_pitch, lo, hi)
+    sp = sp + col_yaw
+    sp, gain_yaw = _desaturate(sp, col_yaw, lo, hi + 0.15 * (hi - lo))
+    sp, gain_t2 = _desaturate(sp, col_thrust, lo, hi, no_thrust - gain_t1)
+    reduced = np.array([gain_roll < -1e-6, gain_pitch < -1e-6, gain_yaw < -1e-6])
+    sign_frd = np.sign(torque_frd)
+    return MixerOutput(
+        motor_thrusts=np.clip(sp, lo, hi),
+        collective_thrust=collective_thrust + gain_t1 + gain_t2,
+        saturated_positive=reduced & (sign_frd > 0.0),
+        saturated_negative=reduced & (sign_frd < 0.0),
+    )
+
+
+# --- the cascade --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CascadeOutput:
+    """One rate-loop tick of the cascade: every setpoint level, then the motors."""
+
+    motor_thrusts: FloatArray  # N, sim.quadrotor rotor order, in [0, max_motor_thrust]
+    collective_thrust: float  # N, after desaturation
+    torque_setpoint_frd: FloatArray  # N m
+    rate_setpoint_frd: FloatArray  # rad/s
+    attitude_setpoint: FloatArray  # q_ned_frd
+    velocity_setpoint_ned: FloatArray  # m/s
+    acceleration_setpoint_ned: FloatArray  # m/s^2
+    saturated: bool  # the mixer had to give up some torque
+
+
+class Cascade:
+    """Position (``position_loop_hz``) -> attitude (``attitude_loop_hz``) -> rate (each call).
+
+    Call :meth:`update` once per rate-loop period with the elapsed FCU time ``dt_us``;
+    the outer loops run when their own period has elapsed (the first call after
+    :meth:`reset` runs all three). :meth:`reset` on arming clears every integrator.
+    """
+
+    def __init__(self, gains: ControlGains, params: QuadrotorParams | None = None) -> None:
+        self.gains = gains
+        self.params = params if params is not None else QuadrotorParams()
+        self.position = PositionController(gains, self.params)
+        self.attitude = AttitudeController(gains)
+        self.rate = RateController(gains, self.params)
+        self._pos_period_us = gains.period_us(gains.position_loop_hz)
+        self._att_period_us = gains.period_us(gains.attitude_loop_hz)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget integrators, filters and held setpoints (call on arming)."""
+        self.position.reset()
+        self.rate.reset()
+        self._pos_elapsed_us: int | None = None
+        self._att_elapsed_us: int | None = None
+        self._pos_out: PositionControlOutput | None = None
+        self._rate_sp = np.zeros(3)
+
+    @staticmethod
+    def _due(elapsed_us: int | None, dt_us: int, period_us: int) -> int:
+        """The outer loop's dt [us] if it runs on this tick, else 0 (first tick: period)."""
+        if elapsed_us is None:
+            return period_us
+        total = elapsed_us + dt_us
+        return total if total + dt_us // 2 >= period_us else 0
+
+    def update(
+        self, state: VehicleState, setpoint: TrajectorySetpointData, dt_us: int
+    ) -> CascadeOutput:
+        """One rate-loop tick, ``dt_us`` microseconds after the previous one."""
+        if dt_us <= 0:
+            raise ValueError(f"dt_us: {dt_us} us must be > 0")
+        pos_dt = self._due(self._pos_elapsed_us, dt_us, self._pos_period_us)
+        if pos_dt or self._pos_out is None:
+            self._pos_out = self.position.update(state, setpoint, pos_dt)
+            self._pos_elapsed_us = 0
+        else:
+            self._pos_elapsed_us = (self._pos_elapsed_us or 0) + dt_us
+        pos = self._pos_out
+        if self._due(self._att_elapsed_us, dt_us, self._att_period_us):
+            self._rate_sp = self.attitude.update(
+                state.q, pos.attitude_setpoint, pos.yawspeed_feedforward
+            )
+            self._att_elapsed_us = 0
+        else:
+            self._att_elapsed_us = (self._att_elapsed_us or 0) + dt_us
+        torque = self.rate.update(state.angular_velocity_frd, self._rate_sp, dt_us)
+        mixed = mix_with_desaturation(self.params, pos.collective_thrust, torque)
+        self.rate.set_saturation(mixed.saturated_positive, mixed.saturated_negative)
+        return CascadeOutput(
+            motor_thrusts=mixed.motor_thrusts,
+            collective_thrust=mixed.collective_thrust,
+            torque_setpoint_frd=torque,
+            rate_setpoint_frd=self._rate_sp.copy(),
+            attitude_setpoint=pos.attitude_setpoint,
+            velocity_setpoint_ned=pos.velocity_setpoint_ned,
+            acceleration_setpoint_ned=pos.acceleration_setpoint_ned,
+            saturated=bool(mixed.saturated_positive.any() or mixed.saturated_negative.any()),
+        )

@@ -1,0 +1,202 @@
+"""FCU estimator: parameters, the filter alone on synthetic IMU, then in the closed loop.
+
+Closed-loop flights use the cascade of sim.fcu.control on the 1 kHz rigid body of
+sim.fcu.rigid_body with its noisy IMU and 30 Hz vision poses (1 cm noise). Seeded.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from sim.fcu.clock import FcuParameterError
+from sim.fcu.control import (
+    Cascade,
+    TrajectorySetpointData,
+    load_control_gains,
+    quat_from_axis_angle,
+    quat_multiply,
+    quat_to_dcm,
+)
+from sim.fcu.estimator import (
+    DEFAULT_ESTIMATOR_CONFIG_PATH,
+    Estimator,
+    EstimatorParams,
+    VisionSample,
+    estimator_params_from_yaml,
+    load_estimator_params,
+)
+from sim.fcu.rigid_body import FlightLog, RigidBody, VisionModel, fly
+from sim.quadrotor import GRAVITY, ImuNoiseModel, ImuNoiseParams, QuadrotorParams
+
+ALTITUDE = 1.5  # m
+HOVER_NED = np.array([0.0, 0.0, -ALTITUDE])
+IMU_PERIOD_US = 2_000  # 500 Hz
+LEVEL = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+@pytest.fixture(scope="module")
+def params() -> EstimatorParams:
+    return load_estimator_params()
+
+
+def _angle_between(p: np.ndarray, q: np.ndarray) -> float:
+    w = abs(float(np.dot(p, q)))
+    return 2.0 * math.acos(min(w, 1.0))
+
+
+def _rmse(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.mean((a - b) ** 2, axis=0))
+
+
+# --- parameters -----------------------------------------------------------------------------
+
+
+def test_default_config_loads(params: EstimatorParams) -> None:
+    assert params.buffer_length_us >= 100_000
+
+
+def test_bad_parameter_names_the_key_and_range() -> None:
+    text = DEFAULT_ESTIMATOR_CONFIG_PATH.read_text(encoding="utf-8").replace(
+        "buffer_length_us: 500000", "buffer_length_us: 0"
+    )
+    with pytest.raises(FcuParameterError) as info:
+        estimator_params_from_yaml(text, "fcu_estimator.yaml")
+    assert "fcu_estimator.ros__parameters.buffer_length_us" in str(info.value)
+    assert "[1000, 10000000] us" in str(info.value)
+
+
+# --- the filter alone -----------------------------------------------------------------------
+
+
+def _static_imu(q_ned_frd: np.ndarray) -> np.ndarray:
+    """Specific force [FRD] of a vehicle at rest with attitude q."""
+    return quat_to_dcm(q_ned_frd).T @ np.array([0.0, 0.0, -GRAVITY])
+
+
+def test_rewinds_to_the_sample_time_and_reports_dead_reckoning(params: EstimatorParams) -> None:
+    est = Estimator(params)
+    for k in range(1, 101):  # 200 ms at rest, IMU only
+        est.predict(k * IMU_PERIOD_US, _static_imu(LEVEL), np.zeros(3))
+    out = est.output()
+    assert not out.position_valid and out.dead_reckoning_time_us == 200_000
+    # a pose sampled 100 ms ago says we were 0.5 m North: fused there, then propagated
+    assert est.fuse_vision(VisionSample(100_000, np.array([0.5, 0.0, 0.0]), LEVEL))
+    out = est.output()
+    assert out.position_valid and out.dead_reckoning_time_us == 100_000
+    assert out.state.position_ned[0] > 0.4
+    assert out.position_variance_ned[0] < params.initial_position_std**2
+    # older than the buffer: rejected, counted
+    assert not est.fuse_vision(VisionSample(-1_000_000, np.zeros(3)))
+    assert est.output().vision_rejected == 1
+
+
+def test_converges_from_a_wrong_initial_position(params: EstimatorParams) -> None:
+    gains = load_control_gains()
+    body = RigidBody(position_enu=(0.0, 0.0, ALTITUDE), rng=np.random.default_rng(4))
+    wrong = HOVER_NED + np.array([1.0, -0.8, 0.5])
+    est = Estimator(params, position_ned=wrong)
+    log = fly(
+        body, Cascade(gains), lambda _t, _s: TrajectorySetpointData.hold_position(HOVER_NED),
+        3_000_000, estimator=est, vision=VisionModel(latency_us=50_000, seed=4),
+    )  # fmt: skip
+    error = np.linalg.norm(log.estimated_position_ned - log.true_position_ned, axis=1)
+    assert error[0] > 1.0
+    after = log.time_us >= 500_000
+    assert error[after].max() < 0.05, f"still {error[after].max():.3f} m off after 0.5 s"
+    assert est.output().position_valid
+
+
+def test_attitude_estimate_tracks_a_rotation(params: EstimatorParams) -> None:
+    """Tumbling in place at up to ~1 rad/s about all axes, noisy IMU with turn-on biases."""
+    rng = np.random.default_rng(5)
+    imu = ImuNoiseModel(ImuNoiseParams(), rng)
+    est = Estimator(params)
+    q_true = LEVEL.copy()
+    dt = IMU_PERIOD_US / 1e6
+    errors = []
+    for k in range(1, 2501):  # 5 s
+        t = k * dt
+        rate = np.array([0.8 * math.sin(1.1 * t), 0.6 * math.cos(0.7 * t), 1.0])
+        q_true = quat_multiply(q_true, quat_from_axis_angle(rate * dt))
+        sample = imu.sample(_static_imu(q_true), rate, dt)
+        est.predict(k * IMU_PERIOD_US, sample.accel, sample.gyro)
+        if k % 15 == 0:  # ~33 Hz vision: position and yaw
+            est.fuse_vision(VisionSample(k * IMU_PERIOD_US, np.zeros(3), q_true))
+        errors.append(_angle_between(est.output().state.q, q_true))
+    worst = math.degrees(max(errors[500:]))  # after the first second
+    assert worst < 2.0, f"attitude error reached {worst:.2f} deg"
+
+
+def test_dead_reckoning_invalidates_position_after_the_timeout(params: EstimatorParams) -> None:
+    est = Estimator(params)
+    est.predict(IMU_PERIOD_US, _static_imu(LEVEL), np.zeros(3))
+    est.fuse_vision(VisionSample(IMU_PERIOD_US, np.zeros(3), LEVEL))
+    assert est.output().position_valid
+    steps = params.vision_timeout_us // IMU_PERIOD_US + 2
+    for k in range(2, steps + 2):
+        est.predict(k * IMU_PERIOD_US, _static_imu(LEVEL), np.zeros(3))
+    out = est.output()
+    assert not out.position_valid
+    assert out.dead_reckoning_time_us > params.vision_timeout_us
+
+
+# --- delayed fusion in the loop -------------------------------------------------------------
+
+
+def _gust(time_s: float) -> np.ndarray:
+    """A deterministic turbulent push [N, ENU], about 0.1 g peak."""
+    t = time_s
+    return np.array(
+        [
+            1.5 * math.sin(1.3 * t) + 0.75 * math.sin(3.7 * t + 1.0),
+            1.25 * math.sin(0.9 * t + 2.0) + 0.75 * math.sin(2.9 * t),
+            0.0,
+        ]
+    )
+
+
+def _gusty_hover(fuse_at_arrival: bool, params: EstimatorParams) -> FlightLog:
+    body = RigidBody(
+        QuadrotorParams(), position_enu=(0.0, 0.0, ALTITUDE), yaw_enu=math.pi / 2,
+        rng=np.random.default_rng(1), external_force_enu=_gust,
+    )  # fmt: skip
+    est = Estimator(params, position_ned=HOVER_NED, fuse_at_arrival=fuse_at_arrival)
+    return fly(
+        body, Cascade(load_control_gains()),
+        lambda _t, _s: TrajectorySetpointData.hold_position(HOVER_NED, 0.0),
+        8_000_000, estimator=est, vision=VisionModel(latency_us=50_000, seed=1),
+    )  # fmt: skip
+
+
+def test_fusing_at_sample_time_beats_fusing_at_arrival_with_50_ms_latency(
+    params: EstimatorParams,
+) -> None:
+    at_sample = _gusty_hover(False, params)
+    at_arrival = _gusty_hover(True, params)
+
+    def horizontal(log: FlightLog) -> tuple[float, float]:
+        estimation = _rmse(log.estimated_position_ned, log.true_position_ned)[:2]
+        hover = _rmse(log.true_position_ned, HOVER_NED)[:2]
+        return float(np.linalg.norm(estimation)), float(np.linalg.norm(hover))
+
+    est_sample, hover_sample = horizontal(at_sample)
+    est_arrival, hover_arrival = horizontal(at_arrival)
+    assert est_sample < 0.8 * est_arrival, (
+        f"estimation RMSE {est_sample:.4f} m (sample time) vs {est_arrival:.4f} m (arrival)"
+    )
+    assert hover_sample < hover_arrival, (
+        f"hover RMSE {hover_sample:.4f} m (sample time) vs {hover_arrival:.4f} m (arrival)"
+    )
+
+
+def test_short_buffer_rejects_samples_older_than_it(params: EstimatorParams) -> None:
+    short = dataclasses.replace(params, buffer_length_us=10_000)
+    est = Estimator(short)
+    for k in range(1, 51):
+        est.predict(k * IMU_PERIOD_US, _static_imu(LEVEL), np.zeros(3))
+    assert not est.fuse_vision(VisionSample(50_000, np.zeros(3)))
+    assert est.fuse_vision(VisionSample(95_000, np.zeros(3)))
