@@ -98,8 +98,50 @@ def _sim_run(args: argparse.Namespace) -> int:
     return 0 if report.get("ok", report.get("all_decoded", True)) else 1
 
 
+# -- fcu-schedule ----------------------------------------------------------------------------
+def _fcu_schedule_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--offsets", default="balanced", choices=("balanced", "naive"),
+                   help="offset strategy for the periodic functions")
+    p.add_argument("--flight-s", type=float, default=10.0,
+                   help="simulated seconds of hover to measure duty and rates")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def _fcu_schedule_run(args: argparse.Namespace) -> int:
+    from sim.fcu.sitl import hover_flight, schedule_report
+
+    if args.flight_s <= 0:
+        raise ValueError(f"--flight-s must be positive, got {args.flight_s}")
+    print(f"flying {args.flight_s:.0f} s of hover to measure the schedule...", file=sys.stderr)
+    sitl, _ = hover_flight(args.flight_s, seed=args.seed, offsets=args.offsets)
+    report = schedule_report(sitl)
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"main loop {report['main_freq_hz']} Hz, offsets {report['offsets']}, "
+          f"functions per tick: peak {report['functions_per_tick']['peak']}, "
+          f"mean {report['functions_per_tick']['mean']}")
+    print("module order: " + " -> ".join(report["module_order"]))
+    print(f"\n{'group':<12}{'module':<20}{'function':<28}{'Hz':>7}{'presc':>7}{'offset':>7}"
+          f"{'achieved':>10}")
+    for p in report["periodics"]:
+        print(f"{p['group']:<12}{p['module']:<20}{p['function']:<28}{p['freq_hz']:>7g}"
+              f"{p['prescaler']:>7}{p['offset']:>7}{p['achieved_hz']:>10.2f}")
+    print(f"\n{'task group':<14}{'duty avg us':>12}{'min':>9}{'max':>9}{'Hz':>9}")
+    for g in report["groups"]:
+        print(f"{g['group']:<14}{g['duty_avg_us']:>12.1f}{g['duty_min_us']:>9.1f}"
+              f"{g['duty_max_us']:>9.1f}{g['freq_hz']:>9.2f}")
+    print(f"\ntick duty avg {report['tick_duty_avg_us']} us, max {report['tick_duty_max_us']} us"
+          f" over {report['ticks']} ticks; overruns {report['overruns']} (host time vs the "
+          f"{1e6 / report['main_freq_hz']:.0f} us period)")
+    return 0
+
+
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
+    Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
+            _fcu_schedule_args, _fcu_schedule_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
     Command("interfaces", "list message types, or show one with its defaults",
             _interfaces_args, _interfaces_run),

@@ -126,7 +126,14 @@ class Publisher(Generic[T]):
         )
 
     def publish(self, msg: Any) -> None:
-        """Serialize and send ``msg``; MessageError names a malformed field."""
+        """Serialize and send ``msg``; MessageError names a malformed field.
+
+        ``msg`` may also be the CDR bytes of a message of this topic's type, already
+        serialized (as rclpy publishes a serialized message): they are sent as they are.
+        """
+        if isinstance(msg, bytes):
+            self._writer.write(msg)
+            return
         actual = getattr(msg, "__msgtype__", type(msg).__name__)
         if actual != self.type_name:
             raise TopicTypeError(
@@ -151,12 +158,14 @@ class Subscription(Generic[T]):
         topic: str,
         callback: Callable[[Any], None],
         qos: QoSProfile,
+        raw: bool = False,
     ) -> None:
         self.msg_type = msg_type
         self.type_name = _type_name(msg_type)
         self.topic_name = node.resolve_name(topic)
         self.qos_profile = qos
         self.callback = callback
+        self.raw = raw
         self.malformed = 0
         self._node = node
         self._inbox = _Inbox(node, qos, (node.get_name(), "subscription", self.topic_name),
@@ -171,6 +180,9 @@ class Subscription(Generic[T]):
         return self._inbox.dropped
 
     def _handle(self, data: bytes, _request_id: RequestId | None) -> None:
+        if self.raw:
+            self.callback(data)
+            return
         try:
             msg = interfaces.deserialize(data, self.type_name)
         except interfaces.MessageError as exc:
@@ -450,8 +462,13 @@ class Node:
         topic: str,
         callback: Callable[[Any], None],
         qos_profile: QoSProfile | int,
+        *,
+        raw: bool = False,
     ) -> Subscription[Any]:
-        return self._keep(Subscription(self, msg_type, topic, callback, as_qos(qos_profile)))
+        """``raw=True`` hands the callback the CDR bytes instead of a message (rclpy's)."""
+        return self._keep(
+            Subscription(self, msg_type, topic, callback, as_qos(qos_profile), raw=raw)
+        )
 
     def create_timer(self, timer_period_sec: float, callback: Callable[[], None]) -> Timer:
         return self._keep(Timer(self, timer_period_sec, callback))

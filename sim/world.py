@@ -352,8 +352,9 @@ def run_world(
 ) -> WorldResult:
     """Step ``scene`` for ``duration_s`` with ``parts``, the executor in lockstep.
 
-    Parts run at t = 0 and then every period, in the order given; the crash detector and
-    the recorder run after them. The run ends early when ``stop`` says so or on a crash.
+    Parts run at every multiple of their period in [start, end), in the order given; the
+    crash detector and the recorder run after them. The run ends early when ``stop`` says
+    so or on a crash; calling again continues from where the last run ended.
     """
     if not duration_s > 0:
         raise SimError(f"duration_s: {duration_s} must be > 0")
@@ -363,7 +364,9 @@ def run_world(
     schedule = [*parts, crash_detector, recorder]
     periods = [scene.period_steps(p.name, p.rate_hz) for p in schedule]
     start_step = round(scene.data.time * scene.physics_hz)
-    next_due = [start_step] * len(schedule)
+    # parts run on absolute multiples of their period, so successive runs continue the
+    # same schedule; a run covers [start, end) and the next one starts where it ended
+    next_due = [-(-start_step // period) * period for period in periods]
     end_step = start_step + round(duration_s * scene.physics_hz)
     step = start_step
     status = WorldStatus.COMPLETED
@@ -372,6 +375,8 @@ def run_world(
     while True:
         t_ns = max(scene.time_ns(step), executor.now().nanoseconds)
         executor.spin_until(t_ns)  # node callbacks due up to now; the clock reads t_ns
+        if step >= end_step:
+            break
         for i, part in enumerate(schedule):
             if next_due[i] == step:
                 part.update(t_ns, scene)
@@ -379,11 +384,11 @@ def run_world(
         executor.spin_until(t_ns)  # what the parts just published, at its sample time
         if crash_detector.crash is not None:
             status = WorldStatus.CRASHED
-            break
-        if stop.done(t_ns, scene):
+        elif stop.done(t_ns, scene):
             status = WorldStatus.STOPPED
-            break
-        if step >= end_step:
+        if status is not WorldStatus.COMPLETED:
+            mujoco.mj_step(model, data)  # this step's parts ran: a next run starts after it
+            step += 1
             break
         target = min(min(next_due), end_step)
         mujoco.mj_step(model, data, nstep=target - step)

@@ -228,9 +228,11 @@ class Estimator:
         if prm.accel_correction_gain > 0.0 and abs(norm - GRAVITY) < prm.accel_gate:
             r = quat_to_dcm(self._q)
             reference_ned = r @ accel - self._x[:, 2]
-            reference_ned = prm.motion_compensation * reference_ned + (
-                1.0 - prm.motion_compensation
-            ) * np.array([0.0, 0.0, -GRAVITY])
+            # without vision the filter's acceleration is not observable: trust gravity
+            weight = prm.motion_compensation if self._aided() else 0.0
+            reference_ned = weight * reference_ned + (1.0 - weight) * np.array(
+                [0.0, 0.0, -GRAVITY]
+            )
             predicted = r.T @ reference_ned
             predicted /= math.sqrt(float(predicted @ predicted))
             error = cross3(accel / norm, predicted)
@@ -239,6 +241,11 @@ class Estimator:
             self._gyro_bias = np.clip(bias, -prm.gyro_bias_limit, prm.gyro_bias_limit)
         q = quat_multiply(self._q, quat_from_axis_angle(rate * dt))
         self._q = q / math.sqrt(float(q @ q))
+
+    def _aided(self) -> bool:
+        """Vision fused within ``vision_timeout_us``."""
+        last = self._last_vision_us
+        return last is not None and self._time_us - last <= self.params.vision_timeout_us
 
     def _propagate(
         self, x: FloatArray, p: FloatArray, u: FloatArray, dt: float

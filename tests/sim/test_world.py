@@ -51,7 +51,7 @@ def test_hover_thrust_holds_the_vehicle_for_ten_seconds(contest: ArenaSpec) -> N
     drift = np.linalg.norm(result.trajectory.position - result.trajectory.position[0], axis=1)
     assert drift.max() < 1e-3
     assert ex.now().seconds == pytest.approx(10.0)  # the executor kept in lockstep
-    assert len(result.trajectory) == 1001  # 100 Hz, both ends included
+    assert len(result.trajectory) == 1000  # 100 Hz over [0, 10) s
 
 
 def test_a_drop_from_height_is_a_crash(contest: ArenaSpec) -> None:
@@ -106,7 +106,7 @@ def test_the_same_seed_gives_the_same_run(contest: ArenaSpec) -> None:
     _, clouds_c, _ = _recorded_run(contest, seed=4)
     assert np.array_equal(a.trajectory.position, b.trajectory.position)
     assert np.array_equal(a.trajectory.quaternion, b.trajectory.quaternion)
-    assert clouds_a == clouds_b and len(clouds_a) == 3  # 2 Hz over [0, 1] s
+    assert clouds_a == clouds_b and len(clouds_a) == 2  # 2 Hz over [0, 1) s
     assert clouds_c != clouds_a  # the noise really is seeded
     assert np.array_equal(robots_a, robots_b)
     initial = Scene.build(contest).data.mocap_pos
@@ -135,7 +135,7 @@ def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec)
         listener.create_subscription("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, on_image,
                                      qos_profile_sensor_data)
         run_world(scene, ex, duration_s=1.0, parts=[*_hover_parts(scene), *parts])
-    assert len(frames) == 12 + 1
+    assert len(frames) == 12
     stamps = np.diff([s for s, _ in frames])
     assert np.all(np.abs(stamps - 1e9 / 12) < 1.0)
     assert frames[0][1].shape == (480, 640, 3)

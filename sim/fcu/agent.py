@@ -1,0 +1,162 @@
+"""The simulated FCU's face on the ROS graph: the uXRCE-DDS agent behind a serial link.
+
+On a real drone the flight controller talks uORB, a serial line carries the topics, and
+the Micro XRCE-DDS agent on the companion computer turns them into ROS 2 topics under
+``/fmu/in`` and ``/fmu/out``. :class:`FcuAgentNode` plays that part: every message in
+either direction crosses the :class:`~sim.fcu.link.Link` (latency, jitter, spikes, loss,
+wire time for its CDR size, FIFO order), so a companion node sees exactly what it would
+see over the wire and nothing else.
+
+- FCU -> companion: the firmware calls :meth:`FcuAgentNode.send` at its own tick; the
+  message is published on ``/fmu/out/<topic>`` at its delivery time (QoS as PX4's
+  uXRCE-DDS client: best effort, transient local).
+- companion -> FCU: ``/fmu/in/<topic>`` samples go into :class:`FcuInbox` with their
+  delivery time; the firmware takes those that have arrived with :meth:`FcuInbox.take`.
+- The agent also answers the FCU's own time-sync requests on the companion's clock, the
+  way the XRCE agent does, so the FCU can estimate the offset it reports in
+  ``/fmu/out/timesync_status``.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import interfaces
+from runtime import Node, qos_profile_px4_in, qos_profile_px4_out
+from sim.fcu.link import Link, LinkDirection
+
+#: /fmu/out topics: name -> px4_msgs type (rates are the firmware's, see firmware.py)
+OUT_TOPICS: dict[str, str] = {
+    "vehicle_odometry": "px4_msgs/msg/VehicleOdometry",
+    "vehicle_local_position": "px4_msgs/msg/VehicleLocalPosition",
+    "vehicle_attitude": "px4_msgs/msg/VehicleAttitude",
+    "vehicle_status": "px4_msgs/msg/VehicleStatus",
+    "battery_status": "px4_msgs/msg/BatteryStatus",
+    "timesync_status": "px4_msgs/msg/TimesyncStatus",
+    "vehicle_command_ack": "px4_msgs/msg/VehicleCommandAck",
+    "vehicle_land_detected": "px4_msgs/msg/VehicleLandDetected",
+    "failsafe_flags": "px4_msgs/msg/FailsafeFlags",
+    "sensor_combined": "px4_msgs/msg/SensorCombined",
+    "timesync": "px4_msgs/msg/Timesync",
+}
+#: /fmu/in topics: name -> px4_msgs type
+IN_TOPICS: dict[str, str] = {
+    "offboard_control_mode": "px4_msgs/msg/OffboardControlMode",
+    "trajectory_setpoint": "px4_msgs/msg/TrajectorySetpoint",
+    "vehicle_command": "px4_msgs/msg/VehicleCommand",
+    "vehicle_visual_odometry": "px4_msgs/msg/VehicleOdometry",
+    "timesync": "px4_msgs/msg/Timesync",
+}
+#: CDR size of the XRCE time-sync request/reply the agent answers (header + 3 stamps)
+XRCE_TIMESYNC_BYTES = 32
+
+
+@dataclass(frozen=True)
+class Arrival:
+    """A companion message as the FCU receives it."""
+
+    delivery_ns: int  # simulated time it arrived at the FCU
+    topic: str  # the /fmu/in topic name without the prefix
+    msg: Any
+
+
+@dataclass(frozen=True)
+class AgentTimesyncReply:
+    """The agent's answer to an FCU time-sync request, as the FCU receives it."""
+
+    delivery_ns: int
+    request_fcu_us: int  # the FCU's clock when it sent the request
+    agent_time_ns: int  # the companion's clock when the agent answered
+
+
+class FcuInbox:
+    """Companion messages in delivery order (the serial line is FIFO)."""
+
+    def __init__(self) -> None:
+        self._queue: deque[Arrival] = deque()
+        self._timesync: deque[AgentTimesyncReply] = deque()
+        self.received = 0
+
+    def put(self, arrival: Arrival) -> None:
+        self._queue.append(arrival)
+        self.received += 1
+
+    def take(self, now_ns: int) -> list[Arrival]:
+        """Every message delivered at or before ``now_ns``, oldest first."""
+        out = []
+        while self._queue and self._queue[0].delivery_ns <= now_ns:
+            out.append(self._queue.popleft())
+        return out
+
+    def put_timesync(self, reply: AgentTimesyncReply) -> None:
+        self._timesync.append(reply)
+
+    def take_timesync(self, now_ns: int) -> list[AgentTimesyncReply]:
+        out = []
+        while self._timesync and self._timesync[0].delivery_ns <= now_ns:
+            out.append(self._timesync.popleft())
+        return out
+
+
+class FcuAgentNode(Node):
+    """Publishes what the FCU sends and queues what the companion sends, across the link."""
+
+    def __init__(self, link: Link, **kwargs: Any) -> None:
+        super().__init__("fcu_agent", **kwargs)
+        self.link = link
+        self.inbox = FcuInbox()
+        self._publishers = {
+            topic: self.create_publisher(type_name, f"/fmu/out/{topic}", qos_profile_px4_out)
+            for topic, type_name in OUT_TOPICS.items()
+        }
+        for topic, type_name in IN_TOPICS.items():
+            self.create_subscription(type_name, f"/fmu/in/{topic}",
+                                     self._receiver(topic, type_name), qos_profile_px4_in,
+                                     raw=True)
+        self.malformed = 0
+        self.sent = dict.fromkeys(OUT_TOPICS, 0)
+        self.lost = dict.fromkeys(OUT_TOPICS, 0)
+
+    def _receiver(self, topic: str, type_name: str) -> Any:
+        def receive(data: bytes) -> None:
+            delivery = self.link.send(LinkDirection.TO_FCU, self.now().nanoseconds, len(data))
+            if delivery is None:
+                return
+            try:
+                msg = interfaces.deserialize(data, type_name)
+            except interfaces.MessageError as exc:  # the FCU drops what it cannot parse
+                self.malformed += 1
+                self.get_logger().error(f"/fmu/in/{topic}: {exc}")
+                return
+            self.inbox.put(Arrival(delivery, topic, msg))
+
+        return receive
+
+    def send(self, topic: str, msg: Any, t_ns: int) -> None:
+        """Send ``msg`` from the FCU at ``t_ns``: published on /fmu/out/``topic`` when it
+        arrives, or never if the link loses it."""
+        publisher = self._publishers[topic]
+        data = interfaces.serialize(msg, publisher.type_name)
+        delivery = self.link.send(LinkDirection.TO_COMPANION, t_ns, len(data))
+        if delivery is None:
+            self.lost[topic] += 1
+            return
+        self.sent[topic] += 1
+        self.context.loop.call_at(delivery, lambda: publisher.publish(data),
+                                  (self.get_name(), "link", topic))
+
+    def request_timesync(self, fcu_time_us: int, t_ns: int) -> None:
+        """The FCU asks the agent for its clock (the XRCE-DDS session's time sync)."""
+        arrival = self.link.send(LinkDirection.TO_COMPANION, t_ns, XRCE_TIMESYNC_BYTES)
+        if arrival is None:
+            return
+
+        def answer() -> None:
+            agent_ns = self.now().nanoseconds
+            back = self.link.send(LinkDirection.TO_FCU, agent_ns, XRCE_TIMESYNC_BYTES)
+            if back is not None:
+                self.inbox.put_timesync(AgentTimesyncReply(back, fcu_time_us, agent_ns))
+
+        self.context.loop.call_at(arrival, answer, (self.get_name(), "link", "xrce_timesync"))

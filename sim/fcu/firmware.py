@@ -1,0 +1,604 @@
+"""The simulated PX4-style firmware: modules declared as data, run by the static scheduler.
+
+:data:`FIRMWARE_MODULES` is the whole firmware as a table a reviewer can check against
+PX4: each module's task group, dependencies, what it provides, and its periodic
+functions with their rates. :func:`~sim.fcu.scheduler.resolve` orders them (seed 002,
+Algorithms 1-2) and places each function on the main loop (default 500 Hz) with a
+prescaler and an offset; :class:`Firmware` binds the names to its methods and runs one
+main-loop tick per :meth:`Firmware.tick`, on the FCU's own clock.
+
+Frames and units on this side are PX4's: NED world, FRD body, microseconds on the FCU
+clock. The firmware talks to the companion only through :class:`~sim.fcu.agent.FcuAgentNode`
+(uORB topics out, ``/fmu/in`` messages in), and to the simulator only through the IMU
+it reads and the motor thrusts it commands.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+import interfaces
+from flight_control.timesync import Px4Timesync, ns_to_us
+from sim.fcu.agent import FcuAgentNode
+from sim.fcu.battery import BatteryEstimator, BatteryModel, BatteryParams, BatteryStatusData
+from sim.fcu.clock import FcuClock
+from sim.fcu.commander import (
+    ArmingState,
+    Commander,
+    CommanderInputs,
+    CommanderParams,
+    CommanderStatus,
+    NavState,
+    VehicleCommandAckData,
+    VehicleCommandData,
+)
+from sim.fcu.control import (
+    AttitudeController,
+    ControlGains,
+    PositionController,
+    PositionControlOutput,
+    RateController,
+    TrajectorySetpointData,
+    VehicleState,
+    mix_with_desaturation,
+)
+from sim.fcu.estimator import Estimator, EstimatorOutput, EstimatorParams, VisionSample
+from sim.fcu.land_detector import (
+    LandDetectedData,
+    LandDetector,
+    LandDetectorInputs,
+    LandDetectorParams,
+)
+from sim.fcu.modules import ModuleSpec, PeriodicSpec, TaskGroup
+from sim.fcu.scheduler import DEFAULT_MAIN_FREQ_HZ, ResolvedSchedule, Scheduler, resolve
+from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams
+from sim.world import Imu, Scene
+
+FloatArray = npt.NDArray[np.float64]
+
+LAND_SPEED = 0.7  # m/s, PX4 MPC_LAND_SPEED
+LAND_CRAWL_SPEED = 0.3  # m/s, below LAND_CRAWL_HEIGHT
+LAND_CRAWL_HEIGHT = 0.5  # m above home
+IDLE_THRUST_FRACTION = 0.05  # of max per motor, armed on the ground (PX4 spins at idle)
+
+
+def _periodic(fun: str, hz: float) -> PeriodicSpec:
+    return PeriodicSpec(fun, freq_hz=hz)
+
+
+#: The firmware, as data. Rates are PX4's (uXRCE-DDS rate limits for the /fmu/out topics).
+FIRMWARE_MODULES: tuple[ModuleSpec, ...] = (
+    ModuleSpec("imu_driver", group=TaskGroup.SENSORS, provides=("imu",),
+               periodics=(_periodic("imu_update", 500),)),
+    ModuleSpec("battery_status", group=TaskGroup.SENSORS, provides=("battery",),
+               periodics=(_periodic("battery_update", 10),)),
+    ModuleSpec("ekf2", group=TaskGroup.ESTIMATION, depends=("imu_driver",),
+               provides=("estimator",), periodics=(_periodic("ekf_update", 500),)),
+    ModuleSpec("land_detector", group=TaskGroup.ESTIMATION, depends=("@estimator",),
+               periodics=(_periodic("land_detector_update", 50),)),
+    ModuleSpec("commander", group=TaskGroup.CORE,
+               depends=("@estimator", "land_detector", "@battery", "uxrce_dds_client"),
+               periodics=(_periodic("commander_update", 100),)),
+    ModuleSpec("flight_mode_manager", group=TaskGroup.CONTROL, depends=("commander",),
+               periodics=(_periodic("setpoint_update", 100),)),
+    ModuleSpec("mc_pos_control", group=TaskGroup.CONTROL,
+               depends=("@estimator", "flight_mode_manager"),
+               periodics=(_periodic("position_control", 100),)),
+    ModuleSpec("mc_att_control", group=TaskGroup.CONTROL, depends=("mc_pos_control",),
+               periodics=(_periodic("attitude_control", 250),)),
+    ModuleSpec("mc_rate_control", group=TaskGroup.CONTROL, depends=("mc_att_control",),
+               periodics=(_periodic("rate_control", 500),)),
+    ModuleSpec("control_allocator", group=TaskGroup.ACTUATORS, depends=("mc_rate_control",),
+               provides=("motors",), periodics=(_periodic("allocate", 500),)),
+    ModuleSpec("uxrce_dds_client", group=TaskGroup.DATALINK, provides=("datalink",),
+               periodics=(_periodic("dds_receive", 500), _periodic("timesync_request", 10))),
+    ModuleSpec("telemetry", group=TaskGroup.TELEMETRY, depends=("uxrce_dds_client", "@estimator"),
+               periodics=(
+                   _periodic("pub_vehicle_odometry", 100),
+                   _periodic("pub_vehicle_local_position", 50),
+                   _periodic("pub_vehicle_attitude", 50),
+                   _periodic("pub_vehicle_status", 5),
+                   _periodic("pub_battery_status", 1),
+                   _periodic("pub_timesync_status", 10),
+                   _periodic("pub_vehicle_land_detected", 5),
+                   _periodic("pub_failsafe_flags", 5),
+                   _periodic("pub_sensor_combined", 100),
+               )),
+)
+
+
+@dataclass
+class FirmwareConfig:
+    """Everything a :class:`Firmware` is built from (the YAMLs under config/fcu_*)."""
+
+    quad: QuadrotorParams = field(default_factory=QuadrotorParams)
+    control: ControlGains | None = None
+    estimator: EstimatorParams | None = None
+    commander: CommanderParams | None = None
+    battery: BatteryParams | None = None
+    main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ
+    offsets: str = "balanced"
+
+    def resolved(self) -> FirmwareConfig:
+        from sim.fcu.battery import load_battery_params
+        from sim.fcu.commander import load_commander_params
+        from sim.fcu.control import load_control_gains
+        from sim.fcu.estimator import load_estimator_params
+
+        return FirmwareConfig(
+            self.quad,
+            self.control or load_control_gains(),
+            self.estimator or load_estimator_params(),
+            self.commander or load_commander_params(),
+            self.battery or load_battery_params(),
+            self.main_freq_hz,
+            self.offsets,
+        )
+
+
+def firmware_schedule(main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ,
+                      offsets: str = "balanced") -> ResolvedSchedule:
+    """The resolved firmware: module order, prescalers and offsets."""
+    return resolve(FIRMWARE_MODULES, main_freq_hz=main_freq_hz, offsets=offsets)
+
+
+def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
+    return np.asarray(values, dtype=np.float32).reshape(n)
+
+
+def _flu_to_frd(v: FloatArray) -> FloatArray:
+    return np.array([v[0], -v[1], -v[2]])
+
+
+class Firmware:
+    """The flight controller: call :meth:`tick` once per main-loop period (a world part).
+
+    It also serves as the world's motor-command source (:meth:`commands`).
+    """
+
+    name = "fcu"
+
+    def __init__(self, agent: FcuAgentNode, imu: Imu, clock: FcuClock,
+                 config: FirmwareConfig | None = None) -> None:
+        cfg = (config or FirmwareConfig()).resolved()
+        assert cfg.control and cfg.estimator and cfg.commander and cfg.battery
+        self.config = cfg
+        self.rate_hz = float(cfg.main_freq_hz)
+        self.agent = agent
+        self.imu = imu
+        self.clock = clock
+        self.quad = cfg.quad
+        self.schedule = firmware_schedule(cfg.main_freq_hz, cfg.offsets)
+        self.position_controller = PositionController(cfg.control, cfg.quad)
+        self.attitude_controller = AttitudeController(cfg.control)
+        self.rate_controller = RateController(cfg.control, cfg.quad)
+        self.estimator = Estimator(cfg.estimator)
+        self.commander = Commander(cfg.commander)
+        self.land_detector = LandDetector(LandDetectorParams(
+            thrust_min=cfg.control.thrust_min_fraction,
+            thrust_hover=cfg.quad.hover_thrust / cfg.quad.max_motor_thrust,
+            descent_vz_threshold=0.5 * LAND_CRAWL_SPEED,  # a landing descent counts
+        ))
+        self.battery_model = BatteryModel(cfg.battery.model)
+        self.battery_estimator = BatteryEstimator(
+            cfg.battery.estimator, cfg.battery.model.cell_count, cfg.battery.model.capacity_mah
+        )
+        self.timesync = Px4Timesync()
+        self._dt_us = 1_000_000 // cfg.main_freq_hz
+        self._period_us = {p.fun: p.prescaler * self._dt_us for p in self.schedule.periodics}
+        self._now_ns = 0
+        self._now_us = 0
+        # the firmware's uORB: latest values of everything
+        self.accel_frd = np.array([0.0, 0.0, -GRAVITY])
+        self.gyro_frd = np.zeros(3)
+        self.imu_time_us = 0
+        self.estimate: EstimatorOutput | None = None
+        self.status: CommanderStatus | None = None
+        self.land: LandDetectedData | None = None
+        self.battery: BatteryStatusData | None = None
+        self.offboard_heartbeat_us: int | None = None
+        self.offboard_setpoint: TrajectorySetpointData | None = None
+        self.pending_commands: list[VehicleCommandData] = []
+        self.setpoint = TrajectorySetpointData()
+        self.position_out: PositionControlOutput | None = None
+        self.rate_setpoint = np.zeros(3)
+        self.torque_setpoint = np.zeros(3)
+        self.motor_commands = np.zeros(NUM_ROTORS)
+        self._hold_position: FloatArray | None = None
+        self._hold_yaw = 0.0
+        self._mode_of_hold: NavState | None = None
+        self._armed_before = False
+        self._timesync_seq = 0
+        self._last_timesync_status: Any = None
+        self._last_agent_us = 0
+        self.acks: list[VehicleCommandAckData] = []
+        functions = {
+            "imu_update": self.imu_update,
+            "battery_update": self.battery_update,
+            "ekf_update": self.ekf_update,
+            "land_detector_update": self.land_detector_update,
+            "commander_update": self.commander_update,
+            "setpoint_update": self.setpoint_update,
+            "position_control": self.position_control,
+            "attitude_control": self.attitude_control,
+            "rate_control": self.rate_control,
+            "allocate": self.allocate,
+            "dds_receive": self.dds_receive,
+            "timesync_request": self.timesync_request,
+            **{f"pub_{topic}": self._publisher(topic) for topic in (
+                "vehicle_odometry", "vehicle_local_position", "vehicle_attitude",
+                "vehicle_status", "battery_status", "timesync_status",
+                "vehicle_land_detected", "failsafe_flags", "sensor_combined")},
+        }
+        self.scheduler = Scheduler(self.schedule, functions, clock=self)
+        self.scheduler.init()
+
+    # -- the scheduler's clock and the world part -------------------------------------------
+    def now_us(self) -> int:
+        return self._now_us
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        """One main-loop tick at simulated time ``t_ns`` (the world calls this)."""
+        self.tick(t_ns)
+
+    def tick(self, t_ns: int) -> None:
+        self._now_ns = t_ns
+        self._now_us = self.clock.fcu_time_us(t_ns)
+        self.scheduler.tick()
+
+    def commands(self, t_ns: int, scene: Scene) -> FloatArray:
+        """Commanded rotor thrusts [N] (the world's MotorCommands)."""
+        return self.motor_commands
+
+    @property
+    def armed(self) -> bool:
+        return self.status is not None and self.status.arming_state is ArmingState.ARMED
+
+    @property
+    def nav_state(self) -> NavState:
+        return self.status.nav_state if self.status else NavState.AUTO_LOITER
+
+    # -- sensors ------------------------------------------------------------------------
+    def imu_update(self) -> None:
+        sample = self.imu.latest
+        if sample is None:
+            return
+        self.accel_frd = _flu_to_frd(sample.accel)
+        self.gyro_frd = _flu_to_frd(sample.gyro)
+        self.imu_time_us = self._now_us
+
+    def battery_update(self) -> None:
+        measurement = self.battery_model.step(self._period_us["battery_update"],
+                                              self.motor_commands.tolist())
+        self.battery = self.battery_estimator.update(measurement, self.armed)
+
+    # -- estimation ---------------------------------------------------------------------
+    def ekf_update(self) -> None:
+        if self.imu.latest is None:
+            return
+        if self.estimate is None:  # boot: start the filter one tick before the first sample
+            self.estimator.reset(self._now_us - self._dt_us)
+        self.estimator.predict(self._now_us, self.accel_frd, self.gyro_frd)
+        self.estimate = self.estimator.output()
+
+    def land_detector_update(self) -> None:
+        est = self.estimate
+        if est is None:
+            return
+        v = est.state.velocity_ned
+        rates = est.state.angular_velocity_frd
+        collective = float(np.sum(self.motor_commands))
+        self.land = self.land_detector.update(LandDetectorInputs(
+            now_us=self._now_us,
+            armed=self.armed,
+            thrust=collective / (NUM_ROTORS * self.quad.max_motor_thrust),
+            vx=float(v[0]), vy=float(v[1]), vz=float(v[2]),
+            v_xy_valid=est.position_valid, v_z_valid=est.position_valid,
+            roll_rate=float(rates[0]), pitch_rate=float(rates[1]),
+            specific_force_norm=float(np.linalg.norm(self.accel_frd)),
+            climb_rate_control=True,
+            vz_setpoint=float(self.setpoint.velocity[2]) if math.isfinite(
+                self.setpoint.velocity[2]) else math.nan,
+        ))
+
+    # -- commander and setpoints ----------------------------------------------------------
+    def commander_update(self) -> None:
+        est = self.estimate
+        valid = est is not None and est.position_valid
+        out = self.commander.step(CommanderInputs(
+            now_us=self._now_us,
+            offboard_heartbeat_us=self.offboard_heartbeat_us,
+            landed=self.land.landed if self.land else True,
+            battery_warning=self.battery_warning(),
+            attitude_valid=est is not None,
+            position_valid=valid,
+            altitude_amsl_m=-float(est.state.position_ned[2]) if est else math.nan,
+            commands=tuple(self.pending_commands),
+        ))
+        self.pending_commands.clear()
+        self.status = out.status
+        for ack in out.acks:
+            self.acks.append(ack)
+            self.agent.send("vehicle_command_ack", self._ack_msg(ack), self._now_ns)
+        if self.armed and not self._armed_before:
+            self.position_controller.reset()
+            self.rate_controller.reset()
+        self._armed_before = self.armed
+
+    def battery_warning(self) -> Any:
+        from sim.fcu.battery import BatteryWarning
+
+        return BatteryWarning(self.battery.warning) if self.battery else BatteryWarning.NONE
+
+    def _hold_here(self, mode: NavState) -> FloatArray:
+        """The position captured on entering ``mode`` (hold, land, takeoff)."""
+        if self._mode_of_hold is not mode or self._hold_position is None:
+            assert self.estimate is not None
+            self._hold_position = self.estimate.state.position_ned.copy()
+            self._hold_yaw = _yaw(self.estimate.state.q)
+            self._mode_of_hold = mode
+        return self._hold_position
+
+    def setpoint_update(self) -> None:
+        """PX4's flight mode manager: the trajectory setpoint of the current mode."""
+        if self.estimate is None or not self.armed:
+            self._mode_of_hold = None
+            return
+        mode = self.nav_state
+        if mode is NavState.OFFBOARD and self.offboard_setpoint is not None:
+            self.setpoint = self.offboard_setpoint
+        elif mode is NavState.AUTO_TAKEOFF and self.status and self.status.takeoff_target:
+            start = self._hold_here(mode)
+            z = -self.status.takeoff_target.altitude_amsl_m  # altitude is -z (NED)
+            self.setpoint = TrajectorySetpointData(position=np.array([start[0], start[1], z]),
+                                                   yaw=self._hold_yaw)
+        elif mode in (NavState.AUTO_LAND, NavState.AUTO_RTL):
+            here = self._hold_here(mode)
+            height = -float(self.estimate.state.position_ned[2])
+            speed = LAND_CRAWL_SPEED if height < LAND_CRAWL_HEIGHT else LAND_SPEED
+            self.setpoint = TrajectorySetpointData(
+                position=np.array([here[0], here[1], math.nan]),
+                velocity=np.array([math.nan, math.nan, speed]), yaw=self._hold_yaw)
+        else:  # hold (AUTO_LOITER) and anything else: stay where we are
+            here = self._hold_here(NavState.AUTO_LOITER)
+            self.setpoint = TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw)
+
+    # -- control ------------------------------------------------------------------------
+    def _state(self) -> VehicleState:
+        assert self.estimate is not None
+        return self.estimate.state
+
+    def position_control(self) -> None:
+        if self.estimate is None or not self.armed:
+            return
+        dt_us = self._period_us["position_control"]
+        try:
+            self.position_out = self.position_controller.update(self._state(), self.setpoint,
+                                                                dt_us)
+        except ValueError:  # an invalid offboard setpoint: hold instead, as PX4 does
+            here = self._hold_here(NavState.AUTO_LOITER)
+            self.position_out = self.position_controller.update(
+                self._state(), TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw),
+                dt_us)
+
+    def attitude_control(self) -> None:
+        if self.position_out is None or not self.armed:
+            return
+        self.rate_setpoint = self.attitude_controller.update(
+            self._state().q, self.position_out.attitude_setpoint,
+            self.position_out.yawspeed_feedforward)
+
+    def rate_control(self) -> None:
+        if self.estimate is None or not self.armed:
+            return
+        landed = bool(self.land.landed) if self.land else True
+        self.torque_setpoint = self.rate_controller.update(
+            self.gyro_frd, self.rate_setpoint, self._dt_us, landed=landed)
+
+    def allocate(self) -> None:
+        if not self.armed or self.position_out is None:
+            idle = IDLE_THRUST_FRACTION * self.quad.max_motor_thrust if self.armed else 0.0
+            self.motor_commands = np.full(NUM_ROTORS, idle)
+            return
+        mixed = mix_with_desaturation(self.quad, self.position_out.collective_thrust,
+                                      self.torque_setpoint)
+        self.rate_controller.set_saturation(mixed.saturated_positive, mixed.saturated_negative)
+        self.motor_commands = mixed.motor_thrusts
+
+    # -- datalink -----------------------------------------------------------------------
+    def dds_receive(self) -> None:
+        for arrival in self.agent.inbox.take(self._now_ns):
+            handler = getattr(self, f"_on_{arrival.topic}")
+            handler(arrival.msg)
+        for reply in self.agent.inbox.take_timesync(self._now_ns):
+            # (t1, t2, t3): our send time, the agent's clock, our receive time [us]
+            self.timesync.update(reply.request_fcu_us, ns_to_us(reply.agent_time_ns),
+                                 self._now_us)
+            self._last_timesync_status = self.timesync.estimate
+            self._last_agent_us = ns_to_us(reply.agent_time_ns)
+
+    def timesync_request(self) -> None:
+        self.agent.request_timesync(self._now_us, self._now_ns)
+
+    def _on_offboard_control_mode(self, msg: Any) -> None:
+        self.offboard_heartbeat_us = self._now_us
+
+    def _on_trajectory_setpoint(self, msg: Any) -> None:
+        self.offboard_setpoint = TrajectorySetpointData(
+            position=np.asarray(msg.position, dtype=np.float64),
+            velocity=np.asarray(msg.velocity, dtype=np.float64),
+            acceleration=np.asarray(msg.acceleration, dtype=np.float64),
+            jerk=np.asarray(msg.jerk, dtype=np.float64),
+            yaw=float(msg.yaw), yawspeed=float(msg.yawspeed))
+
+    def _on_vehicle_command(self, msg: Any) -> None:
+        self.pending_commands.append(VehicleCommandData(
+            command=int(msg.command), param1=float(msg.param1), param2=float(msg.param2),
+            param3=float(msg.param3), param4=float(msg.param4), param5=float(msg.param5),
+            param6=float(msg.param6), param7=float(msg.param7),
+            target_system=int(msg.target_system), target_component=int(msg.target_component),
+            source_system=int(msg.source_system), source_component=int(msg.source_component),
+            confirmation=int(msg.confirmation), from_external=bool(msg.from_external),
+            timestamp_us=int(msg.timestamp)))
+
+    def _on_vehicle_visual_odometry(self, msg: Any) -> None:
+        sample_us = int(msg.timestamp_sample) or self._now_us
+        q = np.asarray(msg.q, dtype=np.float64)
+        var = float(np.nanmax(msg.position_variance)) if np.isfinite(
+            msg.position_variance).any() else math.nan
+        self.estimator.fuse_vision(VisionSample(
+            sample_time_us=sample_us,
+            position_ned=np.asarray(msg.position, dtype=np.float64),
+            q=q if np.all(np.isfinite(q)) else None,
+            position_variance=var))
+
+    def _on_timesync(self, msg: Any) -> None:
+        """Answer a companion's Timesync request: tc1 = our clock [ns], ts1 echoed."""
+        if int(msg.tc1) != 0:
+            return
+        reply = interfaces.new("px4_msgs/msg/Timesync", timestamp=self._now_us, seq=int(msg.seq),
+                               tc1=self._now_us * 1000, ts1=int(msg.ts1))
+        self.agent.send("timesync", reply, self._now_ns)
+
+    # -- telemetry ----------------------------------------------------------------------
+    def _publisher(self, topic: str) -> Any:
+        build = getattr(self, f"_msg_{topic}")
+
+        def publish() -> None:
+            msg = build()
+            if msg is not None:
+                self.agent.send(topic, msg, self._now_ns)
+
+        return publish
+
+    def _msg_vehicle_odometry(self) -> Any:
+        est = self.estimate
+        if est is None:
+            return None
+        s = est.state
+        return interfaces.new(
+            "px4_msgs/msg/VehicleOdometry", timestamp=self._now_us, timestamp_sample=est.time_us,
+            pose_frame=1, position=_arr(s.position_ned), q=_arr(s.q, 4), velocity_frame=1,
+            velocity=_arr(s.velocity_ned), angular_velocity=_arr(s.angular_velocity_frd),
+            position_variance=_arr(est.position_variance_ned),
+            orientation_variance=_arr(np.full(3, 1e-4)),
+            velocity_variance=_arr(est.velocity_variance_ned), quality=100)
+
+    def _msg_vehicle_local_position(self) -> Any:
+        est = self.estimate
+        if est is None:
+            return None
+        s, valid = est.state, est.position_valid
+        p, v = s.position_ned, s.velocity_ned
+        acc = self.position_out.acceleration_setpoint_ned if self.position_out else np.zeros(3)
+        return interfaces.new(
+            "px4_msgs/msg/VehicleLocalPosition", timestamp=self._now_us,
+            timestamp_sample=est.time_us, xy_valid=valid, z_valid=valid, v_xy_valid=valid,
+            v_z_valid=valid, x=float(p[0]), y=float(p[1]), z=float(p[2]), vx=float(v[0]),
+            vy=float(v[1]), vz=float(v[2]), z_deriv=float(v[2]),
+            ax=float(np.nan_to_num(acc[0])), ay=float(np.nan_to_num(acc[1])),
+            az=float(np.nan_to_num(acc[2])), heading=_yaw(s.q), heading_good_for_control=True,
+            eph=float(math.sqrt(max(est.position_variance_ned[:2]))),
+            epv=float(math.sqrt(est.position_variance_ned[2])),
+            evh=float(math.sqrt(max(est.velocity_variance_ned[:2]))),
+            evv=float(math.sqrt(est.velocity_variance_ned[2])),
+            dead_reckoning=not valid, vxy_max=math.inf, vz_max=math.inf, hagl_min=math.inf,
+            hagl_max_z=math.inf, hagl_max_xy=math.inf, dist_bottom=-float(p[2]),
+            dist_bottom_valid=valid)
+
+    def _msg_vehicle_attitude(self) -> Any:
+        if self.estimate is None:
+            return None
+        return interfaces.new("px4_msgs/msg/VehicleAttitude", timestamp=self._now_us,
+                              timestamp_sample=self.estimate.time_us,
+                              q=_arr(self.estimate.state.q, 4))
+
+    def _msg_vehicle_status(self) -> Any:
+        st = self.status
+        if st is None:
+            return None
+        return interfaces.new(
+            "px4_msgs/msg/VehicleStatus", timestamp=self._now_us, armed_time=st.armed_time_us,
+            takeoff_time=st.takeoff_time_us, arming_state=int(st.arming_state),
+            latest_arming_reason=int(st.latest_arming_reason),
+            latest_disarming_reason=int(st.latest_disarming_reason),
+            nav_state_timestamp=st.nav_state_timestamp_us,
+            nav_state_user_intention=int(st.nav_state_user_intention),
+            nav_state=int(st.nav_state), failsafe=st.failsafe, vehicle_type=1, system_type=2,
+            system_id=self.config.commander.system_id if self.config.commander else 1,
+            component_id=1, pre_flight_checks_pass=st.pre_flight_checks_pass,
+            power_input_valid=True, safety_off=True)
+
+    def _msg_battery_status(self) -> Any:
+        b = self.battery
+        if b is None:
+            return None
+        return interfaces.new(
+            "px4_msgs/msg/BatteryStatus", timestamp=self._now_us, connected=b.connected,
+            voltage_v=b.voltage_v, current_a=b.current_a, current_average_a=b.current_average_a,
+            discharged_mah=b.discharged_mah, remaining=b.remaining,
+            time_remaining_s=b.time_remaining_s, cell_count=b.cell_count,
+            capacity=int(b.capacity_mah), warning=int(self.battery_warning()), id=1,
+            temperature=math.nan, scale=1.0)
+
+    def _msg_timesync_status(self) -> Any:
+        est = self._last_timesync_status
+        if est is None:
+            return None
+        return interfaces.new(
+            "px4_msgs/msg/TimesyncStatus", timestamp=self._now_us, source_protocol=2,
+            remote_timestamp=max(0, self._last_agent_us),
+            observed_offset=int(est.observed_offset_us),
+            estimated_offset=int(est.offset_us),
+            round_trip_time=max(0, min(2**32 - 1, int(est.rtt_us))))
+
+    def _msg_vehicle_land_detected(self) -> Any:
+        ld = self.land
+        if ld is None:
+            return None
+        return interfaces.new(
+            "px4_msgs/msg/VehicleLandDetected", timestamp=self._now_us, freefall=ld.freefall,
+            ground_contact=ld.ground_contact, maybe_landed=ld.maybe_landed, landed=ld.landed,
+            in_ground_effect=ld.in_ground_effect, in_descend=ld.in_descend,
+            has_low_throttle=ld.has_low_throttle, vertical_movement=ld.vertical_movement,
+            horizontal_movement=ld.horizontal_movement,
+            rotational_movement=ld.rotational_movement,
+            close_to_ground_or_skipped_check=ld.close_to_ground_or_skipped_check,
+            at_rest=ld.at_rest)
+
+    def _msg_failsafe_flags(self) -> Any:
+        st = self.status
+        if st is None:
+            return None
+        est = self.estimate
+        invalid = est is None or not est.position_valid
+        return interfaces.new(
+            "px4_msgs/msg/FailsafeFlags", timestamp=self._now_us,
+            offboard_control_signal_lost=st.offboard_control_signal_lost,
+            local_position_invalid=invalid, local_velocity_invalid=invalid,
+            local_altitude_invalid=invalid, attitude_invalid=est is None,
+            battery_warning=int(self.battery_warning()), global_position_invalid=True,
+            home_position_invalid=False)
+
+    def _msg_sensor_combined(self) -> Any:
+        return interfaces.new(
+            "px4_msgs/msg/SensorCombined", timestamp=self.imu_time_us,
+            gyro_rad=_arr(self.gyro_frd), gyro_integral_dt=self._dt_us,
+            accelerometer_m_s2=_arr(self.accel_frd), accelerometer_integral_dt=self._dt_us)
+
+    def _ack_msg(self, ack: VehicleCommandAckData) -> Any:
+        return interfaces.new(
+            "px4_msgs/msg/VehicleCommandAck", timestamp=self._now_us, command=int(ack.command),
+            result=int(ack.result), result_param1=int(ack.result_param1),
+            result_param2=int(ack.result_param2), target_system=int(ack.target_system),
+            target_component=int(ack.target_component), from_external=bool(ack.from_external))
+
+
+def _yaw(q: FloatArray) -> float:
+    w, x, y, z = (float(v) for v in q)
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

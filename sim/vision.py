@@ -1,0 +1,106 @@
+"""A simulated visual-odometry measurement (the role ORB-SLAM2 plays in seed 003).
+
+:class:`VisionPose` is a world part: at ``rate_hz`` it takes the vehicle's true pose,
+adds white noise and a slowly drifting offset (a random walk, as odometry drifts), and
+publishes it on ``/sim/vision/pose`` (geometry_msgs/PoseWithCovarianceStamped, ``map``
+frame, ENU/FLU) after a processing ``latency_s``, stamped with the time the pose was
+true. Setting ``tracking`` to False cuts the stream, as a lost SLAM track does. The
+companion node that forwards it to the flight controller sees only this topic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+import interfaces
+from runtime import Node, Time, qos_profile_sensor_data
+from runtime.clock import seconds_to_ns
+from sim.scene import quad_state
+from sim.world import Scene
+
+VISION_POSE_TOPIC = "/sim/vision/pose"
+MAP_FRAME = "map"
+
+
+@dataclass(frozen=True)
+class VisionNoise:
+    """Noise and drift of the visual odometry; zeros give the truth."""
+
+    position_std: float = 0.01  # m, white noise per sample
+    yaw_std: float = 0.005  # rad, white noise per sample
+    drift_rate: float = 0.002  # m/sqrt(s), random-walk drift of the position
+    latency_s: float = 0.05  # s, processing delay before the pose is published
+
+    def __post_init__(self) -> None:
+        for name in ("position_std", "yaw_std", "drift_rate", "latency_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"VisionNoise.{name}: {value!r} must be >= 0")
+
+
+class VisionNode(Node):
+    """Owns the vision topic's publisher (the sim side of the measurement)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("sim_vision", **kwargs)
+        self.pose = self.create_publisher("geometry_msgs/msg/PoseWithCovarianceStamped",
+                                          VISION_POSE_TOPIC, qos_profile_sensor_data)
+
+
+@dataclass
+class VisionPose:
+    """The world part that measures and publishes the pose."""
+
+    node: VisionNode
+    noise: VisionNoise = field(default_factory=VisionNoise)
+    seed: int = 0
+    rate_hz: float = 30.0
+    name: str = "vision"
+    tracking: bool = True
+    published: int = 0
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+        self._drift = np.zeros(3)
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        n = self.noise
+        self._drift += self._rng.normal(0.0, n.drift_rate * math.sqrt(1.0 / self.rate_hz), 3)
+        white = self._rng.normal(0.0, n.position_std, 3)
+        dyaw = float(self._rng.normal(0.0, n.yaw_std))
+        if not self.tracking:
+            return
+        state = quad_state(scene.data, scene.index)
+        position = state.position + self._drift + white
+        w, x, y, z = state.quaternion
+        half = dyaw / 2.0  # yaw noise: rotate about world z
+        cw, sz = math.cos(half), math.sin(half)
+        q = (cw * w - sz * z, cw * x - sz * y, cw * y + sz * x, cw * z + sz * w)
+        variance = n.position_std**2 + 1e-6
+        cov = np.zeros(36)
+        for i in range(3):
+            cov[i * 7] = variance
+        for i in range(3, 6):
+            cov[i * 7] = n.yaw_std**2 + 1e-6
+        msg = interfaces.new(
+            "geometry_msgs/msg/PoseWithCovarianceStamped",
+            header=interfaces.new("std_msgs/msg/Header", stamp=Time(t_ns).to_msg(),
+                                  frame_id=MAP_FRAME),
+            pose=interfaces.new(
+                "geometry_msgs/msg/PoseWithCovariance",
+                pose=interfaces.new(
+                    "geometry_msgs/msg/Pose",
+                    position=interfaces.new("geometry_msgs/msg/Point", x=float(position[0]),
+                                            y=float(position[1]), z=float(position[2])),
+                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(q[1]),
+                                               y=float(q[2]), z=float(q[3]), w=float(q[0]))),
+                covariance=cov),
+        )
+        publish_at = t_ns + seconds_to_ns(n.latency_s)
+        self.node.context.loop.call_at(publish_at, lambda: self.node.pose.publish(msg),
+                                       (self.node.get_name(), "vision", VISION_POSE_TOPIC))
+        self.published += 1

@@ -1,0 +1,162 @@
+"""The simulated flight controller in the loop: px4 topics only, the real link and sim.
+
+Each test flies the MuJoCo quadrotor with the firmware (scheduler, estimator, control
+cascade, commander) behind the serial link, driven by a companion node that speaks only
+/fmu/in and /fmu/out, and judges the flight on the simulator's ground truth.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from runtime import Node, qos_profile_px4_subscriber
+from sim.fcu.commander import CommandResult, NavState, VehicleCmd
+from sim.fcu.offboard_harness import HarnessPhase, OffboardHarness
+from sim.fcu.sitl import Sitl, build_sitl, hover_flight, schedule_report
+from sim.scenarios import ScenarioOptions, square
+from sim.world import Scene, WorldStatus
+
+
+class _When:
+    """Stop the world when a condition holds."""
+
+    def __init__(self, condition: Any) -> None:
+        self.condition = condition
+
+    def done(self, t_ns: int, scene: Scene) -> bool:
+        return bool(self.condition())
+
+
+class _Watcher(Node):
+    """A companion node that records what the FCU says about itself."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("watcher", **kwargs)
+        self.status: list[tuple[int, int, int, int]] = []  # (t_ns, nav, arming, fcu stamp)
+        self.acks: list[Any] = []
+        self.create_subscription("px4_msgs/msg/VehicleStatus", "/fmu/out/vehicle_status",
+                                 self._on_status, qos_profile_px4_subscriber)
+        self.create_subscription("px4_msgs/msg/VehicleCommandAck",
+                                 "/fmu/out/vehicle_command_ack", self.acks.append,
+                                 qos_profile_px4_subscriber)
+
+    def _on_status(self, msg: Any) -> None:
+        self.status.append((self.now().nanoseconds, int(msg.nav_state), int(msg.arming_state),
+                            int(msg.timestamp)))
+
+
+def _fly(sitl: Sitl, harness: OffboardHarness, seconds: float, until: Any = None) -> Any:
+    return sitl.run(seconds, stop=_When(until) if until else None)
+
+
+def test_fcu_refuses_offboard_without_heartbeat_and_arming_without_position() -> None:
+    sitl = build_sitl(seed=1)
+    watcher = _Watcher(context=sitl.executor.context)
+    harness = OffboardHarness([[0, 0, 0]], context=sitl.executor.context)
+    harness.heartbeat = False  # never stream OffboardControlMode
+    sitl.run(0.5)  # booted, but no vision forwarded yet: no position estimate
+    harness.command(VehicleCmd.COMPONENT_ARM_DISARM, param1=1.0)
+    sitl.run(0.5)
+    assert watcher.acks and watcher.acks[-1].command == VehicleCmd.COMPONENT_ARM_DISARM
+    assert watcher.acks[-1].result == CommandResult.DENIED
+    sitl.run(4.0, stop=_When(lambda: harness.position_valid))
+    assert harness.position_valid
+    harness.command(VehicleCmd.DO_SET_MODE, param1=1.0, param2=6.0)
+    sitl.run(0.5)
+    ack = watcher.acks[-1]
+    assert ack.command == VehicleCmd.DO_SET_MODE
+    assert ack.result == CommandResult.TEMPORARILY_REJECTED
+    assert all(nav != NavState.OFFBOARD for _, nav, _, _ in watcher.status)
+
+
+def test_take_off_hold_within_10_cm_for_10_s_then_land_and_disarm() -> None:
+    sitl, result = hover_flight(10.0, seed=2)
+    harness = next(n for n in sitl.executor.context.nodes if isinstance(n, OffboardHarness))
+    assert result.crash is None
+    # the hover window: from reaching the climb target to the end of the hold
+    traj = result.trajectory
+    start = np.array(sitl.scene.arena.takeoff_position) + [0.0, 0.0, sitl.scene.quad.leg_height]
+    target = start + [0.0, 0.0, 1.5]
+    at_altitude = np.flatnonzero(np.linalg.norm(traj.position - target, axis=1) < 0.1)
+    assert at_altitude.size, "never reached 1.5 m"
+    first = at_altitude[0]
+    window = traj.position[first + 100:first + 1000]  # 100 Hz: 1 s settling, then 9 s
+    assert len(window) == 900
+    error = np.linalg.norm(window - target, axis=1)
+    assert error.max() < 0.1, f"hover error {error.max():.3f} m"
+    # then land: NAV_LAND, touchdown, landed, auto-disarm
+    sitl.run(40.0, stop=_When(lambda: harness.done))
+    assert harness.phase is HarnessPhase.DONE and not harness.armed
+    final = quad_height(sitl)
+    assert final == pytest.approx(start[2], abs=0.05)
+
+
+def quad_height(sitl: Sitl) -> float:
+    from sim.scene import quad_state
+
+    return float(quad_state(sitl.scene.data, sitl.scene.index).position[2])
+
+
+def test_losing_the_companion_heartbeat_makes_the_fcu_hold_then_land() -> None:
+    sitl = build_sitl(seed=3)
+    watcher = _Watcher(context=sitl.executor.context)
+    harness = OffboardHarness([[0, 0, 0]], fly=False, hover_s=60.0,
+                              context=sitl.executor.context)
+    sitl.run(30.0, stop=_When(lambda: harness.phase is HarnessPhase.CLIMB
+                              and quad_height(sitl) > 1.4))
+    harness.heartbeat = False
+    lost_at = sitl.executor.now().nanoseconds
+    result = sitl.run(40.0, stop=_When(lambda: not harness.armed
+                                       and sitl.executor.now().nanoseconds > lost_at + 2e9))
+    assert result.crash is None
+    after = [(t, nav) for t, nav, _, _ in watcher.status if t > lost_at]
+    navs = [nav for _, nav in after]
+    assert NavState.AUTO_LOITER in navs and NavState.AUTO_LAND in navs
+    hold_t = next(t for t, nav in after if nav == NavState.AUTO_LOITER)
+    land_t = next(t for t, nav in after if nav == NavState.AUTO_LAND)
+    assert 1.0 <= (hold_t - lost_at) / 1e9 <= 1.8  # COM_OF_LOSS_T = 1 s (+ status period)
+    assert 4.5 <= (land_t - hold_t) / 1e9 <= 5.5  # hold for COM_FAIL_ACT_T = 5 s
+    assert not harness.armed and quad_height(sitl) < 0.3
+
+
+def test_fcu_stamps_its_topics_on_its_own_clock() -> None:
+    sitl = build_sitl(seed=4)
+    watcher = _Watcher(context=sitl.executor.context)
+    sitl.run(3.0)
+    clock = sitl.link.clock
+    assert len(watcher.status) >= 10  # 5 Hz
+    for t_ns, _, _, stamp_us in watcher.status:
+        # stamped on the FCU clock when sent, received one link latency later
+        latency_us = clock.fcu_time_us(t_ns) - stamp_us
+        assert 0 < latency_us < 20_000
+    assert abs(watcher.status[-1][3] - sitl.executor.now().nanoseconds / 1e3) > 1e6  # offset
+
+
+def test_square_scenario_tracks_within_10_cm(tmp_path: Path) -> None:
+    report = square(ScenarioOptions(out=tmp_path))
+    assert report["completed"] and not report["crashed"], report
+    assert report["tracking_rmse_m"]["x"] < 0.1
+    assert report["tracking_rmse_m"]["y"] < 0.1
+    assert (tmp_path / "path.png").stat().st_size > 1000
+    on_disk = json.loads((tmp_path / "report.json").read_text())
+    assert on_disk["tracking_rmse_m"] == report["tracking_rmse_m"]
+    assert on_disk["rtf"] > 0 and on_disk["sim_time_s"] > 20
+
+
+def test_schedule_report_after_a_short_flight() -> None:
+    sitl, result = hover_flight(2.0, seed=5, offsets="naive")
+    assert result.status is WorldStatus.COMPLETED
+    report = schedule_report(sitl)
+    assert report["offsets"] == "naive"
+    rates = {p["function"]: p for p in report["periodics"]}
+    assert rates["rate_control"]["prescaler"] == 1
+    assert rates["pub_vehicle_odometry"]["freq_hz"] == 100
+    for p in report["periodics"]:  # every function ran at its rate in simulated time
+        assert p["achieved_hz"] == pytest.approx(p["freq_hz"], rel=0.01)
+    assert {g["group"] for g in report["groups"]} >= {"sensors", "estimation", "control"}
+    assert report["module_order"].index("ekf2") < report["module_order"].index("mc_pos_control")
