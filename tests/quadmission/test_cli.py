@@ -55,3 +55,17 @@ def test_launch_of_a_missing_file_says_so(capsys: pytest.CaptureFixture[str]) ->
 def test_parser_requires_a_subcommand() -> None:
     with pytest.raises(SystemExit):
         build_parser().parse_args([])
+
+
+def test_fcu_schedule_prints_the_schedule_and_measured_rates(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["fcu-schedule", "--flight-s", "1", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    functions = {p["function"]: p for p in report["periodics"]}
+    assert functions["ekf_update"]["freq_hz"] == 500 and functions["ekf_update"]["prescaler"] == 1
+    assert functions["pub_battery_status"]["prescaler"] == 500
+    assert report["module_order"][0] == "imu_driver"
+    assert main(["fcu-schedule", "--flight-s", "1", "--offsets", "naive"]) == 0
+    text = capsys.readouterr().out
+    assert "offsets naive" in text and "mc_rate_control" in text and "duty avg us" in text
