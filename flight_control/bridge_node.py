@@ -1,0 +1,341 @@
+"""The time-synchronised FCU bridge: the only node that speaks px4_msgs.
+
+Below it, the flight controller's world: ``/fmu/in/*`` and ``/fmu/out/*``, NED/FRD,
+microseconds on the FCU clock. Above it, ours: ENU ``map`` and FLU ``base_link``
+(REP 103), builtin Time on the companion clock. The bridge alone converts frames
+(:mod:`flight_control.frames`) and clocks (:mod:`flight_control.timesync`, the
+estimator chosen by parameter), so no other node knows PX4 is there:
+
+- it runs the Timesync exchange with the FCU (``/fmu/in/timesync`` ->
+  ``/fmu/out/timesync``) and publishes the filter's state on ``/fcu/timesync_status``;
+- ``/fmu/out`` -> ``/fcu/odometry`` (nav_msgs/Odometry), ``/fcu/imu``, ``/fcu/battery``,
+  ``/fcu/status`` (FcuStatus), ``/fcu/command_ack``, each stamped with the FCU's sample
+  time converted to the companion clock;
+- ``/fcu/setpoint`` -> OffboardControlMode heartbeat + TrajectorySetpoint,
+  ``/fcu/command`` -> VehicleCommand, ``/fcu/vision`` -> vehicle_visual_odometry (its
+  sample time kept), each stamped on the FCU clock;
+- ``/fcu/pose_at`` answers "where was the vehicle at time t" from a bounded history.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import interfaces
+from flight_control.frames import (
+    enu_to_ned,
+    frd_to_flu,
+    ned_to_enu,
+    quat_conjugate,
+    quat_enu_flu_to_ned_frd,
+    quat_from_xyzw,
+    quat_ned_frd_to_enu_flu,
+    quat_rotate,
+    quat_to_xyzw,
+    variance_ned_to_enu,
+    yaw_enu_to_ned,
+)
+from flight_control.pose_history import PoseHistory, PoseSample
+from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
+from runtime import (
+    Node,
+    Time,
+    param,
+    qos_profile_default,
+    qos_profile_px4_in,
+    qos_profile_px4_subscriber,
+    qos_profile_sensor_data,
+)
+
+MAP_FRAME = "map"
+BODY_FRAME = "base_link"
+COMPANION_COMPONENT = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
+_NAN3 = np.full(3, math.nan, dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class BridgeParams:
+    timesync_rate_hz: float = param(unit="Hz", range=(0.5, 500.0),
+                                    description="Timesync exchanges per second")
+    timesync_estimator: str = param(choices=("px4", "kalman"),
+                                    description="seed 000 / PX4 filter, or ours")
+    pose_history_s: float = param(unit="s", range=(0.1, 60.0),
+                                  description="odometry kept for /fcu/pose_at")
+    connection_timeout_s: float = param(unit="s", range=(0.05, 10.0),
+                                        description="FCU silent this long: disconnected")
+    status_rate_hz: float = param(unit="Hz", range=(0.5, 100.0),
+                                  description="/fcu/status republish rate")
+
+
+def _vec3(msg_type: str, v: Any) -> Any:
+    return interfaces.new(msg_type, x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+class FcuBridgeNode(Node):
+    """See the module docstring; parameters in ``config/fcu_bridge.yaml``."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("fcu_bridge", **kwargs)
+        self.params = self.declare_params(BridgeParams)
+        self.timesync: TimesyncEstimator = make_estimator(self.params.timesync_estimator)
+        self.history = PoseHistory(round(self.params.pose_history_s * 1e9))
+        self._seq = 0
+        self._last_fcu_ns: int | None = None
+        self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
+                                      battery_remaining=math.nan)
+        px4_out, px4_in = qos_profile_px4_subscriber, qos_profile_px4_in
+        # companion side
+        self.odometry_pub = self.create_publisher("nav_msgs/msg/Odometry", "/fcu/odometry",
+                                                  qos_profile_sensor_data)
+        self.imu_pub = self.create_publisher("sensor_msgs/msg/Imu", "/fcu/imu",
+                                             qos_profile_sensor_data)
+        self.battery_pub = self.create_publisher("sensor_msgs/msg/BatteryState", "/fcu/battery",
+                                                 qos_profile_default)
+        self.status_pub = self.create_publisher("quadmission_interfaces/msg/FcuStatus",
+                                                "/fcu/status", qos_profile_default)
+        self.ack_pub = self.create_publisher("quadmission_interfaces/msg/FcuCommandAck",
+                                             "/fcu/command_ack", qos_profile_default)
+        self.timesync_pub = self.create_publisher(
+            "quadmission_interfaces/msg/TimesyncDiagnostics", "/fcu/timesync_status",
+            qos_profile_default)
+        self.create_subscription("quadmission_interfaces/msg/FcuSetpoint", "/fcu/setpoint",
+                                 self._on_setpoint, qos_profile_sensor_data)
+        self.create_subscription("quadmission_interfaces/msg/FcuCommand", "/fcu/command",
+                                 self._on_command, qos_profile_default)
+        self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped", "/fcu/vision",
+                                 self._on_vision, qos_profile_sensor_data)
+        self.create_service("quadmission_interfaces/srv/PoseAt", "/fcu/pose_at", self._pose_at)
+        # FCU side
+        self.mode_out = self.create_publisher("px4_msgs/msg/OffboardControlMode",
+                                              "/fmu/in/offboard_control_mode", px4_in)
+        self.setpoint_out = self.create_publisher("px4_msgs/msg/TrajectorySetpoint",
+                                                  "/fmu/in/trajectory_setpoint", px4_in)
+        self.command_out = self.create_publisher("px4_msgs/msg/VehicleCommand",
+                                                 "/fmu/in/vehicle_command", px4_in)
+        self.vision_out = self.create_publisher("px4_msgs/msg/VehicleOdometry",
+                                                "/fmu/in/vehicle_visual_odometry", px4_in)
+        self.timesync_out = self.create_publisher("px4_msgs/msg/Timesync", "/fmu/in/timesync",
+                                                  px4_in)
+        for topic, type_name, handler in (
+            ("timesync", "Timesync", self._on_timesync),
+            ("vehicle_odometry", "VehicleOdometry", self._on_odometry),
+            ("sensor_combined", "SensorCombined", self._on_imu),
+            ("battery_status", "BatteryStatus", self._on_battery),
+            ("vehicle_status", "VehicleStatus", self._on_vehicle_status),
+            ("vehicle_land_detected", "VehicleLandDetected", self._on_land_detected),
+            ("failsafe_flags", "FailsafeFlags", self._on_failsafe_flags),
+            ("vehicle_local_position", "VehicleLocalPosition", self._on_local_position),
+            ("vehicle_command_ack", "VehicleCommandAck", self._on_ack),
+        ):
+            self.create_subscription(f"px4_msgs/msg/{type_name}", f"/fmu/out/{topic}",
+                                     handler, px4_out)
+        self.create_timer(1.0 / self.params.timesync_rate_hz, self._send_timesync)
+        self.create_timer(1.0 / self.params.status_rate_hz, self._publish_status)
+
+    # -- clocks ---------------------------------------------------------------------------
+    @property
+    def synced(self) -> bool:
+        return self.timesync.estimate.converged
+
+    def to_fcu_us(self, t_ns: int) -> int:
+        """A companion time [ns] on the FCU clock [us]."""
+        return self.timesync.local_to_remote(ns_to_us(t_ns))
+
+    def to_companion_ns(self, fcu_us: int) -> int:
+        """An FCU time [us] on the companion clock [ns]; before the filter has converged,
+        the receive time (PX4's sync_stamp does the same)."""
+        self._last_fcu_ns = self.now().nanoseconds
+        if not self.synced or fcu_us <= 0:
+            return self.now().nanoseconds
+        return min(self.timesync.remote_to_local(fcu_us) * 1000, self.now().nanoseconds)
+
+    def _stamp(self, fcu_us: int) -> Any:
+        return Time(self.to_companion_ns(fcu_us)).to_msg()
+
+    def _send_timesync(self) -> None:
+        self._seq = (self._seq + 1) % 256
+        now_ns = self.now().nanoseconds
+        self.timesync_out.publish(interfaces.new(
+            "px4_msgs/msg/Timesync", timestamp=self.to_fcu_us(now_ns), seq=self._seq, tc1=0,
+            ts1=now_ns))
+
+    def _on_timesync(self, msg: Any) -> None:
+        if int(msg.tc1) <= 0:
+            return
+        now_us = ns_to_us(self.now().nanoseconds)
+        est = self.timesync.update(ns_to_us(int(msg.ts1)), ns_to_us(int(msg.tc1)), now_us)
+        self._last_fcu_ns = self.now().nanoseconds
+        self.timesync_pub.publish(interfaces.new(
+            "quadmission_interfaces/msg/TimesyncDiagnostics",
+            header=interfaces.new("std_msgs/msg/Header", stamp=self.now().to_msg()),
+            offset_observed_us=est.observed_offset_us, offset_estimated_us=est.offset_us,
+            skew_estimated_us=est.skew_ppm, rtt_us=est.rtt_us, samples=est.samples,
+            high_deviation_count=est.high_deviation_total, high_rtt_count=est.high_rtt_total,
+            resets=est.resets, converged=est.converged))
+
+    # -- FCU -> companion -----------------------------------------------------------------
+    def _on_odometry(self, msg: Any) -> None:
+        stamp_ns = self.to_companion_ns(int(msg.timestamp_sample))
+        position = ned_to_enu(np.asarray(msg.position, dtype=np.float64))
+        q = np.asarray(quat_ned_frd_to_enu_flu(np.asarray(msg.q, dtype=np.float64)))
+        velocity = ned_to_enu(np.asarray(msg.velocity, dtype=np.float64))
+        body_velocity = quat_rotate(quat_conjugate(q), velocity)
+        rate = frd_to_flu(np.asarray(msg.angular_velocity, dtype=np.float64))
+        if np.all(np.isfinite(position)) and np.all(np.isfinite(q)):
+            self.history.add(PoseSample(stamp_ns, position, q,
+                                        np.nan_to_num(velocity)))
+        pose_cov = np.zeros(36)
+        pose_cov[[0, 7, 14]] = variance_ned_to_enu(np.asarray(msg.position_variance))
+        pose_cov[[21, 28, 35]] = np.asarray(msg.orientation_variance)
+        twist_cov = np.zeros(36)
+        twist_cov[[0, 7, 14]] = variance_ned_to_enu(np.asarray(msg.velocity_variance))
+        x, y, z, w = quat_to_xyzw(q)
+        self.odometry_pub.publish(interfaces.new(
+            "nav_msgs/msg/Odometry",
+            header=interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
+                                  frame_id=MAP_FRAME),
+            child_frame_id=BODY_FRAME,
+            pose=interfaces.new(
+                "geometry_msgs/msg/PoseWithCovariance",
+                pose=interfaces.new(
+                    "geometry_msgs/msg/Pose",
+                    position=_vec3("geometry_msgs/msg/Point", position),
+                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(x),
+                                               y=float(y), z=float(z), w=float(w))),
+                covariance=np.nan_to_num(pose_cov)),
+            twist=interfaces.new(
+                "geometry_msgs/msg/TwistWithCovariance",
+                twist=interfaces.new(
+                    "geometry_msgs/msg/Twist",
+                    linear=_vec3("geometry_msgs/msg/Vector3", body_velocity),
+                    angular=_vec3("geometry_msgs/msg/Vector3", rate)),
+                covariance=np.nan_to_num(twist_cov)),
+        ))
+
+    def _on_imu(self, msg: Any) -> None:
+        gyro = frd_to_flu(np.asarray(msg.gyro_rad, dtype=np.float64))
+        accel = frd_to_flu(np.asarray(msg.accelerometer_m_s2, dtype=np.float64))
+        self.imu_pub.publish(interfaces.new(
+            "sensor_msgs/msg/Imu",
+            header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp)),
+                                  frame_id=BODY_FRAME),
+            orientation_covariance=np.array([-1.0] + [0.0] * 8),  # no orientation here
+            angular_velocity=_vec3("geometry_msgs/msg/Vector3", gyro),
+            linear_acceleration=_vec3("geometry_msgs/msg/Vector3", accel)))
+
+    def _on_battery(self, msg: Any) -> None:
+        self._status.battery_warning = int(msg.warning)
+        self._status.battery_remaining = float(msg.remaining)
+        self.battery_pub.publish(interfaces.new(
+            "sensor_msgs/msg/BatteryState",
+            header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp))),
+            voltage=float(msg.voltage_v), current=-float(msg.current_a),
+            charge=math.nan, capacity=float(msg.capacity) / 1000.0,
+            design_capacity=float(msg.capacity) / 1000.0, percentage=float(msg.remaining),
+            power_supply_status=2, power_supply_health=1, power_supply_technology=3,
+            present=bool(msg.connected)))
+
+    def _on_vehicle_status(self, msg: Any) -> None:
+        s = self._status
+        s.header = interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp)))
+        s.armed = int(msg.arming_state) == 2
+        s.nav_state = int(msg.nav_state)
+        s.offboard = s.nav_state == s.NAV_STATE_OFFBOARD
+        s.failsafe = bool(msg.failsafe)
+        s.pre_flight_checks_pass = bool(msg.pre_flight_checks_pass)
+        self._publish_status()
+
+    def _on_land_detected(self, msg: Any) -> None:
+        self._status.landed = bool(msg.landed)
+
+    def _on_failsafe_flags(self, msg: Any) -> None:
+        self._status.offboard_signal_lost = bool(msg.offboard_control_signal_lost)
+
+    def _on_local_position(self, msg: Any) -> None:
+        self._status.position_valid = bool(msg.xy_valid and msg.z_valid)
+
+    def _on_ack(self, msg: Any) -> None:
+        self.ack_pub.publish(interfaces.new(
+            "quadmission_interfaces/msg/FcuCommandAck",
+            header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp))),
+            command=int(msg.command), result=int(msg.result),
+            result_param1=int(msg.result_param1)))
+
+    def _publish_status(self) -> None:
+        last = self._last_fcu_ns
+        timeout_ns = self.params.connection_timeout_s * 1e9
+        self._status.connected = last is not None and self.now().nanoseconds - last < timeout_ns
+        self.status_pub.publish(self._status)
+
+    # -- companion -> FCU -----------------------------------------------------------------
+    def _on_setpoint(self, msg: Any) -> None:
+        stamp = self.to_fcu_us(self.now().nanoseconds)
+        p = enu_to_ned([msg.position.x, msg.position.y, msg.position.z])
+        v = enu_to_ned([msg.velocity.x, msg.velocity.y, msg.velocity.z])
+        a = enu_to_ned([msg.acceleration.x, msg.acceleration.y, msg.acceleration.z])
+        self.mode_out.publish(interfaces.new(
+            "px4_msgs/msg/OffboardControlMode", timestamp=stamp,
+            position=bool(np.isfinite(p).any()), velocity=bool(np.isfinite(v).any()),
+            acceleration=bool(np.isfinite(a).any())))
+        yaw = float(msg.yaw)
+        self.setpoint_out.publish(interfaces.new(
+            "px4_msgs/msg/TrajectorySetpoint", timestamp=stamp,
+            position=p.astype(np.float32), velocity=v.astype(np.float32),
+            acceleration=a.astype(np.float32), jerk=_NAN3,
+            yaw=float(yaw_enu_to_ned(yaw)) if math.isfinite(yaw) else math.nan,
+            yawspeed=-float(msg.yaw_rate)))
+
+    def _on_command(self, msg: Any) -> None:
+        self.command_out.publish(interfaces.new(
+            "px4_msgs/msg/VehicleCommand", timestamp=self.to_fcu_us(self.now().nanoseconds),
+            command=int(msg.command), param1=float(msg.param1), param2=float(msg.param2),
+            param3=float(msg.param3), param4=float(msg.param4), param5=float(msg.param5),
+            param6=float(msg.param6), param7=float(msg.param7), target_system=1,
+            target_component=1, source_system=1, source_component=COMPANION_COMPONENT,
+            from_external=True))
+
+    def _on_vision(self, msg: Any) -> None:
+        if not self.synced:  # a sample time on the wrong clock would be fused at the
+            return  # wrong time: wait for the time sync, as PX4's EKF2 would gate it
+        p = msg.pose.pose.position
+        o = msg.pose.pose.orientation
+        q_ned = quat_enu_flu_to_ned_frd(quat_from_xyzw([o.x, o.y, o.z, o.w]))
+        cov = np.asarray(msg.pose.covariance, dtype=np.float64)
+        position_var = np.array([cov[7], cov[0], cov[14]], dtype=np.float32)  # ENU -> NED
+        now_ns = self.now().nanoseconds
+        self.vision_out.publish(interfaces.new(
+            "px4_msgs/msg/VehicleOdometry", timestamp=self.to_fcu_us(now_ns),
+            timestamp_sample=self.to_fcu_us(Time.from_msg(msg.header.stamp).nanoseconds),
+            pose_frame=1, position=enu_to_ned([p.x, p.y, p.z]).astype(np.float32),
+            q=np.asarray(q_ned, dtype=np.float32), velocity_frame=1, velocity=_NAN3,
+            angular_velocity=_NAN3, position_variance=position_var,
+            orientation_variance=np.array([cov[21], cov[28], cov[35]], dtype=np.float32),
+            velocity_variance=_NAN3, quality=100))
+
+    def _pose_at(self, request: Any, response: Any) -> Any:
+        t_ns = Time.from_msg(request.stamp).nanoseconds
+        sample = self.history.at(t_ns)
+        if sample is None:
+            span = self.history.span
+            response.success = False
+            response.message = (
+                "no odometry kept yet" if span is None else
+                f"{t_ns / 1e9:.3f} s is outside the kept history "
+                f"[{span[0] / 1e9:.3f}, {span[1] / 1e9:.3f}] s")
+            return response
+        x, y, z, w = quat_to_xyzw(sample.q)
+        response.success = True
+        response.odometry = interfaces.new(
+            "nav_msgs/msg/Odometry",
+            header=interfaces.new("std_msgs/msg/Header", stamp=request.stamp, frame_id=MAP_FRAME),
+            child_frame_id=BODY_FRAME,
+            pose=interfaces.new("geometry_msgs/msg/PoseWithCovariance", pose=interfaces.new(
+                "geometry_msgs/msg/Pose",
+                position=_vec3("geometry_msgs/msg/Point", sample.position),
+                orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(x),
+                                           y=float(y), z=float(z), w=float(w)))))
+        return response
