@@ -138,10 +138,31 @@ def _fcu_schedule_run(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- latency -------------------------------------------------------------------------------
+def _latency_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--duration", type=float, default=60.0, help="simulated seconds to run")
+    p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same run)")
+    p.add_argument("--estimator", default="kalman", choices=("kalman", "px4"),
+                   help="time-sync estimator of the top-level JSON figures (both always run)")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def _latency_run(args: argparse.Namespace) -> int:
+    from flight_control.latency import LatencyConfig, format_report, run_latency_experiment
+
+    config = LatencyConfig(duration_s=args.duration, seed=args.seed, primary=args.estimator)
+    print(f"running the latency test for {args.duration:g} s simulated...", file=sys.stderr)
+    report = run_latency_experiment(config)
+    print(json.dumps(report.to_json(), indent=2) if args.json else format_report(report))
+    return 0
+
+
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
     Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
             _fcu_schedule_args, _fcu_schedule_run),
+    Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
+            _latency_args, _latency_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
     Command("interfaces", "list message types, or show one with its defaults",
             _interfaces_args, _interfaces_run),

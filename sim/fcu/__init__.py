@@ -1,9 +1,10 @@
-"""Simulated PX4-style flight controller: Paparazzi-style static scheduler (seed 002)."""
+"""Simulated PX4-style flight controller: static scheduler, firmware modules, serial link, SITL."""
 
 from sim.fcu.errors import (
     BindingError,
     ConflictError,
     DependencyCycleError,
+    FcuParameterError,
     MissingFunctionalityError,
     ModuleSpecError,
     RateError,
@@ -60,6 +61,7 @@ __all__ = [
     "DutyStats",
     "DutyWindow",
     "EventSpec",
+    "FcuParameterError",
     "FrequencyStats",
     "InitSpec",
     "ManualClock",

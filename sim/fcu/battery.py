@@ -37,16 +37,21 @@ and PyYAML, no runtime, no MuJoCo, no message classes; the node converts
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import yaml
 
-from sim.fcu.clock import FcuParameterError
+from sim.fcu.errors import FcuParameterError
+from sim.fcu.params import (
+    load_parameters,
+    param,
+    parameters_from_mapping,
+    parameters_from_yaml,
+    validate_parameters,
+)
 
 __all__ = [
     "BATTERY_NODE_NAME",
@@ -124,78 +129,30 @@ class BatteryWarning(IntEnum):
 
 
 @dataclass(frozen=True, slots=True)
-class _Range:
-    kind: type[int] | type[float]
-    lo: float
-    hi: float
-    unit: str
-    lo_open: bool = False
-
-    def describe(self) -> str:
-        unit = f" {self.unit}" if self.unit else ""
-        return f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]{unit}"
-
-    def check(self, key: str, value: object) -> None:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or (self.kind is int and not isinstance(value, int))
-        ):
-            what = "an integer" if self.kind is int else "a number"
-            raise FcuParameterError(
-                key, f"{value!r} must be {what} in the allowed range {self.describe()}"
-            )
-        above = value > self.lo if self.lo_open else value >= self.lo
-        if not (above and value <= self.hi):  # also rejects NaN
-            raise FcuParameterError(
-                key, f"{value!r} is outside the allowed range {self.describe()}"
-            )
-
-
-def _param(
-    default: float,
-    kind: type[int] | type[float],
-    lo: float,
-    hi: float,
-    unit: str = "",
-    *,
-    lo_open: bool = False,
-) -> Any:
-    return field(default=default, metadata={"range": _Range(kind, lo, hi, unit, lo_open)})
-
-
-def _check_fields(obj: object) -> None:
-    for f in fields(obj):  # type: ignore[arg-type]
-        spec = f.metadata.get("range")
-        if isinstance(spec, _Range):
-            spec.check(f.name, getattr(obj, f.name))
-
-
-@dataclass(frozen=True, slots=True)
 class BatteryModelParams:
     """The pack and the power drawn by the rotors (see the module docstring)."""
 
-    cell_count: int = _param(4, int, 1, 14, "cells")
+    cell_count: int = param(1, 14, "cells", default=4)
     """Cells in series (4S)."""
-    capacity_mah: float = _param(4000.0, float, 0.0, 1e6, "mAh", lo_open=True)
+    capacity_mah: float = param(0.0, 1e6, "mAh", default=4000.0, lo_open=True)
     """Charge from full to empty [mAh]."""
-    internal_resistance_ohm: float = _param(0.008, float, 0.0, 1.0, "Ohm")
+    internal_resistance_ohm: float = param(0.0, 1.0, "Ohm", default=0.008)
     """Internal resistance of one cell [Ohm]; the pack's is ``cell_count`` times that."""
-    initial_soc: float = _param(1.0, float, 0.0, 1.0)
+    initial_soc: float = param(0.0, 1.0, default=1.0)
     """State of charge at the start [0..1]."""
-    rotor_radius_m: float = _param(0.127, float, 0.0, 2.0, "m", lo_open=True)
+    rotor_radius_m: float = param(0.0, 2.0, "m", default=0.127, lo_open=True)
     """Propeller radius [m] (10" props), for the rotor disk area."""
-    air_density_kg_m3: float = _param(1.225, float, 0.0, 2.0, "kg/m^3", lo_open=True)
+    air_density_kg_m3: float = param(0.0, 2.0, "kg/m^3", default=1.225, lo_open=True)
     """Air density [kg/m^3]."""
-    figure_of_merit: float = _param(0.6, float, 0.0, 1.0, lo_open=True)
+    figure_of_merit: float = param(0.0, 1.0, default=0.6, lo_open=True)
     """Rotor figure of merit: ideal induced power over actual aerodynamic power."""
-    drive_efficiency: float = _param(0.75, float, 0.0, 1.0, lo_open=True)
+    drive_efficiency: float = param(0.0, 1.0, default=0.75, lo_open=True)
     """Motor and ESC efficiency: shaft power over electrical power."""
-    avionics_power_w: float = _param(8.0, float, 0.0, 1e3, "W")
+    avionics_power_w: float = param(0.0, 1e3, "W", default=8.0)
     """Power of the flight controller, companion computer and sensors [W], always drawn."""
 
     def __post_init__(self) -> None:
-        _check_fields(self)
+        validate_parameters(self)
 
     @property
     def pack_resistance_ohm(self) -> float:
@@ -207,25 +164,25 @@ class BatteryModelParams:
 class BatteryEstimatorParams:
     """PX4's ``BAT1_*`` and ``BAT_*_THR`` parameters, for the FCU's estimate."""
 
-    v_empty: float = _param(3.6, float, 2.5, 4.5, "V")
+    v_empty: float = param(2.5, 4.5, "V", default=3.6)
     """``BAT1_V_EMPTY``: cell voltage [V] at 0 % under the load compensation."""
-    v_charged: float = _param(4.05, float, 2.5, 4.5, "V")
+    v_charged: float = param(2.5, 4.5, "V", default=4.05)
     """``BAT1_V_CHARGED``: cell voltage [V] at 100 %, > v_empty."""
-    r_internal_ohm: float = _param(0.008, float, 0.0, 1.0, "Ohm")
+    r_internal_ohm: float = param(0.0, 1.0, "Ohm", default=0.008)
     """``BAT1_R_INTERNAL``: per-cell resistance [Ohm] used for load compensation."""
-    low_thr: float = _param(0.15, float, 0.12, 0.5)
+    low_thr: float = param(0.12, 0.5, default=0.15)
     """``BAT_LOW_THR``: remaining fraction below which the warning is LOW."""
-    crit_thr: float = _param(0.07, float, 0.05, 0.5)
+    crit_thr: float = param(0.05, 0.5, default=0.07)
     """``BAT_CRIT_THR``: remaining fraction below which the warning is CRITICAL."""
-    emergen_thr: float = _param(0.05, float, 0.03, 0.5)
+    emergen_thr: float = param(0.03, 0.5, default=0.05)
     """``BAT_EMERGEN_THR``: remaining fraction below which the warning is EMERGENCY."""
-    current_filter_tau_s: float = _param(2.0, float, 0.0, 100.0, "s")
+    current_filter_tau_s: float = param(0.0, 100.0, "s", default=2.0)
     """Time constant [s] of the averaged current (``current_average_a``); 0: no filter."""
-    voltage_weight_per_s: float = _param(0.03, float, 0.0, 10.0, "1/s")
+    voltage_weight_per_s: float = param(0.0, 10.0, "1/s", default=0.03)
     """Pull of the voltage-based estimate on the fused one at 0 % [1/s] (PX4: 3e-4 @ 100 Hz)."""
 
     def __post_init__(self) -> None:
-        _check_fields(self)
+        validate_parameters(self)
         if self.v_charged <= self.v_empty:
             raise FcuParameterError(
                 "v_charged", f"{self.v_charged!r} must be above v_empty = {self.v_empty!r} V"
@@ -246,63 +203,23 @@ class BatteryParams:
     estimator: BatteryEstimatorParams = field(default_factory=BatteryEstimatorParams)
 
 
-def _section(value: object, key: str) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise FcuParameterError(key, f"expected a mapping, got {type(value).__name__}")
-    return value
-
-
-def _only_keys(section: Mapping[str, Any], allowed: Sequence[str], key: str) -> None:
-    for name in section:
-        if name not in allowed:
-            where = f"{key}.{name}" if key else str(name)
-            raise FcuParameterError(where, f"unknown key; allowed keys are {', '.join(allowed)}")
-
-
-def _build(cls: type, value: object, key: str) -> Any:
-    section = _section(value, key)
-    _only_keys(section, [f.name for f in fields(cls)], key)
-    try:
-        return cls(**section)
-    except FcuParameterError as exc:
-        raise exc.prefixed(key) from None
-
-
 def battery_params_from_mapping(doc: object) -> BatteryParams:
     """Battery parameters from a parsed ROS 2 parameter file (``fcu_battery: ros__parameters``).
 
     Keys left out take their defaults; unknown keys, wrong types and values out of range
     raise :class:`FcuParameterError` naming the key path and the allowed range.
     """
-    top = _section(doc, "")
-    if BATTERY_NODE_NAME not in top:
-        raise FcuParameterError(BATTERY_NODE_NAME, "missing")
-    node = _section(top[BATTERY_NODE_NAME], BATTERY_NODE_NAME)
-    _only_keys(node, ("ros__parameters",), BATTERY_NODE_NAME)
-    prefix = f"{BATTERY_NODE_NAME}.ros__parameters"
-    section = _section(node.get("ros__parameters", {}), prefix)
-    _only_keys(section, ("model", "estimator"), prefix)
-    return BatteryParams(
-        model=_build(BatteryModelParams, section.get("model", {}), f"{prefix}.model"),
-        estimator=_build(
-            BatteryEstimatorParams, section.get("estimator", {}), f"{prefix}.estimator"
-        ),
-    )
+    return parameters_from_mapping(BatteryParams, BATTERY_NODE_NAME, doc)
 
 
 def battery_params_from_yaml(text: str, source: str | None = None) -> BatteryParams:
     """Battery parameters from the text of a ROS 2 parameter file; ``source`` names it."""
-    try:
-        return battery_params_from_mapping(yaml.safe_load(text))
-    except yaml.YAMLError as exc:
-        raise FcuParameterError("", f"not valid YAML: {exc}", source) from None
-    except FcuParameterError as exc:
-        raise (exc.with_source(source) if source else exc) from None
+    return parameters_from_yaml(BatteryParams, BATTERY_NODE_NAME, text, source)
 
 
 def load_battery_params(path: Path = DEFAULT_BATTERY_CONFIG_PATH) -> BatteryParams:
     """Battery parameters from a ROS 2 parameter file (default: ``config/fcu_battery.yaml``)."""
-    return battery_params_from_yaml(path.read_text(encoding="utf-8"), str(path))
+    return load_parameters(BatteryParams, BATTERY_NODE_NAME, path)
 
 
 # -- the pack ------------------------------------------------------------------------------

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.errors import ParameterError
+from sim.fcu.errors import FcuParameterError  # re-exported: its old home
 
 __all__ = [
     "BOOT_OFFSET_RANGE_US",
@@ -45,35 +45,6 @@ SKEW_RANGE_PPM = (-1000.0, 1000.0)
 
 _PPB_PER_UNIT = 10**9  # parts per billion in a factor of 1
 _NS_PER_US = 1000
-
-
-class FcuParameterError(ParameterError):
-    """A link or clock parameter of the simulated FCU outside its allowed values.
-
-    ``key`` is the parameter's path (``skew_ppm``, or ``fcu_link.ros__parameters.clock.skew_ppm``
-    when it came from the YAML), ``problem`` says what is wrong and what is allowed,
-    ``source`` is the file it came from, if any. Shared by :mod:`sim.fcu.clock` and
-    :mod:`sim.fcu.link` (its natural home, ``sim/fcu/errors.py``, has another owner).
-    """
-
-    def __init__(self, key: str, problem: str, source: str | None = None) -> None:
-        self.key = key
-        self.problem = problem
-        self.source = source
-        super().__init__(key, problem, source)
-
-    def prefixed(self, prefix: str) -> FcuParameterError:
-        """The same error with ``prefix.`` in front of its key."""
-        key = f"{prefix}.{self.key}" if prefix and self.key else prefix or self.key
-        return type(self)(key, self.problem, self.source)
-
-    def with_source(self, source: str) -> FcuParameterError:
-        """The same error, attributed to the file ``source``."""
-        return type(self)(self.key, self.problem, source)
-
-    def __str__(self) -> str:
-        where = ": ".join(part for part in (self.source, self.key) if part)
-        return f"{where}: {self.problem}" if where else self.problem
 
 
 @dataclass(frozen=True, slots=True)

@@ -152,15 +152,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, replace
 from enum import Enum, IntEnum
 from pathlib import Path
-from typing import Any
-
-import yaml
 
 from sim.fcu.battery import BatteryWarning
-from sim.fcu.clock import FcuParameterError
+from sim.fcu.errors import FcuParameterError
+from sim.fcu.params import (
+    load_parameters,
+    param,
+    parameters_from_mapping,
+    parameters_from_yaml,
+    validate_parameters,
+)
 
 __all__ = [
     "COMMANDER_NODE_NAME",
@@ -573,74 +577,38 @@ class BatteryFailsafeAction(Enum):
 
 
 @dataclass(frozen=True, slots=True)
-class _Range:
-    kind: type[int] | type[float]
-    lo: float
-    hi: float
-    unit: str
-
-    def check(self, key: str, value: object) -> None:
-        unit = f" {self.unit}" if self.unit else ""
-        allowed = f"[{self.lo:g}, {self.hi:g}]{unit}"
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or (self.kind is int and not isinstance(value, int))
-        ):
-            what = "an integer" if self.kind is int else "a number"
-            raise FcuParameterError(key, f"{value!r} must be {what} in the allowed range {allowed}")
-        if not self.lo <= value <= self.hi:  # also rejects NaN
-            raise FcuParameterError(key, f"{value!r} is outside the allowed range {allowed}")
-
-
-def _param(default: float, kind: type[int] | type[float], lo: float, hi: float, unit: str) -> Any:
-    return field(default=default, metadata={"range": _Range(kind, lo, hi, unit)})
-
-
-@dataclass(frozen=True, slots=True)
 class CommanderParams:
     """Everything in ``config/fcu_commander.yaml``; defaults are PX4's where PX4 has one."""
 
-    system_id: int = _param(1, int, 1, 255, "")
+    system_id: int = param(1, 255, default=1)
     """``MAV_SYS_ID``: commands for another system are ignored (0 = broadcast)."""
-    component_id: int = _param(1, int, 1, 255, "")
+    component_id: int = param(1, 255, default=1)
     """``MAV_COMP_ID``: commands for another component are ignored (0 = all)."""
-    offboard_min_rate_hz: float = _param(2.0, float, 0.1, 1000.0, "Hz")
+    offboard_min_rate_hz: float = param(0.1, 1000.0, "Hz", default=2.0)
     """The offboard heartbeat must be faster than this (gaps below 1 / rate)."""
-    offboard_min_stream_s: float = _param(1.0, float, 0.0, 60.0, "s")
+    offboard_min_stream_s: float = param(0.0, 60.0, "s", default=1.0)
     """... for longer than this before OFFBOARD can be entered."""
-    offboard_loss_timeout_s: float = _param(1.0, float, 0.0, 60.0, "s")
+    offboard_loss_timeout_s: float = param(0.0, 60.0, "s", default=1.0)
     """``COM_OF_LOSS_T``: heartbeat silence in OFFBOARD that counts as loss."""
     offboard_loss_action: OffboardLossAction = OffboardLossAction.LAND
     """``COM_OBL_RC_ACT``: action after the hold (hold, land, return)."""
-    failsafe_hold_s: float = _param(5.0, float, 0.0, 60.0, "s")
+    failsafe_hold_s: float = param(0.0, 60.0, "s", default=5.0)
     """``COM_FAIL_ACT_T``: hold after offboard loss before the action."""
     low_battery_action: BatteryFailsafeAction = BatteryFailsafeAction.LAND
     """``COM_LOW_BAT_ACT``: warning, land, or return at critical (land at emergency)."""
-    disarm_land_s: float = _param(2.0, float, -1.0, 20.0, "s")
+    disarm_land_s: float = param(-1.0, 20.0, "s", default=2.0)
     """``COM_DISARM_LAND``: landed this long after flight -> disarm; negative: never."""
-    disarm_preflight_s: float = _param(10.0, float, -1.0, 60.0, "s")
+    disarm_preflight_s: float = param(-1.0, 60.0, "s", default=10.0)
     """``COM_DISARM_PRFLT``: landed this long without taking off -> disarm; negative: never."""
-    takeoff_height_m: float = _param(2.5, float, 0.1, 100.0, "m")
+    takeoff_height_m: float = param(0.1, 100.0, "m", default=2.5)
     """``MIS_TAKEOFF_ALT``: takeoff height above home without (or below) a requested one."""
-    takeoff_max_height_m: float = _param(10.0, float, 0.1, 1000.0, "m")
+    takeoff_max_height_m: float = param(0.1, 1000.0, "m", default=10.0)
     """Requested takeoff heights above this are refused."""
-    takeoff_acceptance_m: float = _param(0.3, float, 0.01, 10.0, "m")
+    takeoff_acceptance_m: float = param(0.01, 10.0, "m", default=0.3)
     """Takeoff is done within this of the target height."""
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            spec = f.metadata.get("range")
-            if isinstance(spec, _Range):
-                spec.check(f.name, getattr(self, f.name))
-        for name, kind in (
-            ("offboard_loss_action", OffboardLossAction),
-            ("low_battery_action", BatteryFailsafeAction),
-        ):
-            value = getattr(self, name)
-            if not isinstance(value, kind):
-                allowed = ", ".join(m.value for m in kind)
-                raise FcuParameterError(name, f"{value!r} is not one of {allowed}")
+        validate_parameters(self)
         if self.takeoff_max_height_m < self.takeoff_height_m:
             raise FcuParameterError(
                 "takeoff_max_height_m",
@@ -653,71 +621,23 @@ class CommanderParams:
         return round(_US_PER_S / self.offboard_min_rate_hz)
 
 
-_ENUM_PARAMS: dict[str, type[Enum]] = {
-    "offboard_loss_action": OffboardLossAction,
-    "low_battery_action": BatteryFailsafeAction,
-}
-
-
-def _mapping(value: object, key: str) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise FcuParameterError(key, f"expected a mapping, got {type(value).__name__}")
-    return value
-
-
 def commander_params_from_mapping(doc: object) -> CommanderParams:
     """Parameters from a parsed ROS 2 parameter file (``fcu_commander: ros__parameters``).
 
     Keys left out take their defaults; unknown keys, wrong types, values out of range and
     unknown action names raise :class:`FcuParameterError` naming the key and what is allowed.
     """
-    top = _mapping(doc, "")
-    if COMMANDER_NODE_NAME not in top:
-        raise FcuParameterError(COMMANDER_NODE_NAME, "missing")
-    node = _mapping(top[COMMANDER_NODE_NAME], COMMANDER_NODE_NAME)
-    for name in node:
-        if name != "ros__parameters":
-            raise FcuParameterError(
-                f"{COMMANDER_NODE_NAME}.{name}", "unknown key; allowed keys are ros__parameters"
-            )
-    prefix = f"{COMMANDER_NODE_NAME}.ros__parameters"
-    section = _mapping(node.get("ros__parameters", {}), prefix)
-    names = [f.name for f in fields(CommanderParams)]
-    values: dict[str, Any] = {}
-    for name, value in section.items():
-        if name not in names:
-            raise FcuParameterError(
-                f"{prefix}.{name}", f"unknown key; allowed keys are {', '.join(names)}"
-            )
-        kind = _ENUM_PARAMS.get(name)
-        if kind is not None:
-            try:
-                value = kind(value)
-            except ValueError:
-                allowed = ", ".join(m.value for m in kind)
-                raise FcuParameterError(
-                    f"{prefix}.{name}", f"{value!r} is not one of {allowed}"
-                ) from None
-        values[name] = value
-    try:
-        return CommanderParams(**values)
-    except FcuParameterError as exc:
-        raise exc.prefixed(prefix) from None
+    return parameters_from_mapping(CommanderParams, COMMANDER_NODE_NAME, doc)
 
 
 def commander_params_from_yaml(text: str, source: str | None = None) -> CommanderParams:
     """Parameters from the text of a ROS 2 parameter file; ``source`` names it in errors."""
-    try:
-        return commander_params_from_mapping(yaml.safe_load(text))
-    except yaml.YAMLError as exc:
-        raise FcuParameterError("", f"not valid YAML: {exc}", source) from None
-    except FcuParameterError as exc:
-        raise (exc.with_source(source) if source else exc) from None
+    return parameters_from_yaml(CommanderParams, COMMANDER_NODE_NAME, text, source)
 
 
 def load_commander_params(path: Path = DEFAULT_COMMANDER_CONFIG_PATH) -> CommanderParams:
     """Parameters from a ROS 2 parameter file (default: ``config/fcu_commander.yaml``)."""
-    return commander_params_from_yaml(path.read_text(encoding="utf-8"), str(path))
+    return load_parameters(CommanderParams, COMMANDER_NODE_NAME, path)
 
 
 # -- inputs and outputs --------------------------------------------------------------------

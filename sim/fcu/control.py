@@ -23,16 +23,14 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
-import yaml
 
-from sim.fcu.clock import FcuParameterError
+from sim.fcu.errors import FcuParameterError
+from sim.fcu.params import load_parameters, param, parameters_from_yaml, validate_parameters
 from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams, mix
 
 __all__ = [
@@ -54,15 +52,11 @@ __all__ = [
     "cross3",
     "load_control_gains",
     "mix_with_desaturation",
-    "param_field",
-    "parameters_from_mapping",
-    "parameters_from_yaml",
     "quat_from_axis_angle",
     "quat_from_dcm",
     "quat_multiply",
     "quat_to_dcm",
     "quat_yaw",
-    "validate_ranges",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -248,83 +242,6 @@ class TrajectorySetpointData:
 
 # --- parameters --------------------------------------------------------------------------
 
-P = TypeVar("P")
-
-
-def param_field(lo: float, hi: float, unit: str) -> Any:
-    """A parameter field with its allowed closed range and unit (read by the validator)."""
-    return field(metadata={"range": (lo, hi), "unit": unit})
-
-
-def validate_ranges(obj: object) -> None:
-    """Check every field of a parameter dataclass against its declared type and range.
-
-    Raises FcuParameterError naming the field, its allowed range and unit.
-    """
-    for f in fields(obj):  # type: ignore[arg-type]
-        value = getattr(obj, f.name)
-        lo, hi = f.metadata["range"]
-        unit = f.metadata["unit"]
-        is_int = f.type in (int, "int")
-        if isinstance(value, bool) or not isinstance(value, int if is_int else (int, float)):
-            kind = "an integer" if is_int else "a number"
-            raise FcuParameterError(f.name, f"{value!r} must be {kind} [{unit}]")
-        if not lo <= value <= hi:  # also rejects NaN
-            raise FcuParameterError(
-                f.name, f"{value} is outside the allowed range [{lo}, {hi}] {unit}"
-            )
-        if not is_int:
-            object.__setattr__(obj, f.name, float(value))
-
-
-def parameters_from_mapping(cls: type[P], node_name: str, doc: object) -> P:
-    """``cls`` from a parsed ROS 2 parameter file ``{node_name: {ros__parameters: {...}}}``.
-
-    Every field must be present and no other key; errors name the key path. Other nodes'
-    sections are ignored.
-    """
-
-    def section(value: object, key: str) -> Mapping[str, Any]:
-        if not isinstance(value, Mapping):
-            raise FcuParameterError(key, f"expected a mapping, got {type(value).__name__}")
-        return value
-
-    top = section(doc, "")
-    if node_name not in top:
-        raise FcuParameterError(node_name, "missing")
-    node = section(top[node_name], node_name)
-    prefix = f"{node_name}.ros__parameters"
-    if set(node) != {"ros__parameters"}:
-        extra = sorted(set(node) - {"ros__parameters"})
-        key = f"{node_name}.{extra[0]}" if extra else prefix
-        raise FcuParameterError(
-            key, "missing" if not extra else "unknown key; allowed: ros__parameters"
-        )
-    values = section(node["ros__parameters"], prefix)
-    names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
-    for name in values:
-        if name not in names:
-            raise FcuParameterError(
-                f"{prefix}.{name}", "unknown key; allowed keys are " + ", ".join(names)
-            )
-    for name in names:
-        if name not in values:
-            raise FcuParameterError(f"{prefix}.{name}", "missing")
-    try:
-        return cls(**values)
-    except FcuParameterError as exc:
-        raise exc.prefixed(prefix) from None
-
-
-def parameters_from_yaml(cls: type[P], node_name: str, text: str, source: str | None = None) -> P:
-    """:func:`parameters_from_mapping` on YAML text; ``source`` names the file in errors."""
-    try:
-        return parameters_from_mapping(cls, node_name, yaml.safe_load(text))
-    except yaml.YAMLError as exc:
-        raise FcuParameterError("", f"not valid YAML: {exc}", source) from None
-    except FcuParameterError as exc:
-        raise (exc.with_source(source) if source else exc) from None
-
 
 @dataclass(frozen=True)
 class ControlGains:
@@ -335,41 +252,41 @@ class ControlGains:
     airframe's scale. Ranges and units are declared here once.
     """
 
-    rate_loop_hz: int = param_field(50, 8000, "Hz")
-    attitude_loop_hz: int = param_field(10, 8000, "Hz")
-    position_loop_hz: int = param_field(5, 8000, "Hz")
-    position_p_xy: float = param_field(0.0, 10.0, "1/s")
-    position_p_z: float = param_field(0.0, 10.0, "1/s")
-    velocity_p_xy: float = param_field(0.0, 30.0, "1/s")
-    velocity_i_xy: float = param_field(0.0, 30.0, "1/s^2")
-    velocity_d_xy: float = param_field(0.0, 2.0, "s/s")
-    velocity_p_z: float = param_field(0.0, 30.0, "1/s")
-    velocity_i_z: float = param_field(0.0, 30.0, "1/s^2")
-    velocity_d_z: float = param_field(0.0, 2.0, "s/s")
-    velocity_d_cutoff_hz: float = param_field(0.5, 200.0, "Hz")
-    max_speed_xy: float = param_field(0.1, 20.0, "m/s")
-    max_speed_up: float = param_field(0.1, 10.0, "m/s")
-    max_speed_down: float = param_field(0.1, 10.0, "m/s")
-    max_tilt: float = param_field(0.05, 1.5, "rad")
-    thrust_min_fraction: float = param_field(0.0, 0.5, "of total max thrust")
-    thrust_max_fraction: float = param_field(0.1, 1.0, "of total max thrust")
-    thrust_xy_margin_fraction: float = param_field(0.0, 0.5, "of total max thrust")
-    attitude_p_roll_pitch: float = param_field(0.0, 30.0, "1/s")
-    attitude_p_yaw: float = param_field(0.0, 30.0, "1/s")
-    max_rate_roll_pitch: float = param_field(0.1, 30.0, "rad/s")
-    max_rate_yaw: float = param_field(0.1, 30.0, "rad/s")
-    rate_p_roll_pitch: float = param_field(0.0, 200.0, "1/s")
-    rate_i_roll_pitch: float = param_field(0.0, 500.0, "1/s^2")
-    rate_d_roll_pitch: float = param_field(0.0, 2.0, "s/s")
-    rate_integral_limit_roll_pitch: float = param_field(0.0, 200.0, "rad/s^2")
-    rate_p_yaw: float = param_field(0.0, 200.0, "1/s")
-    rate_i_yaw: float = param_field(0.0, 500.0, "1/s^2")
-    rate_d_yaw: float = param_field(0.0, 2.0, "s/s")
-    rate_integral_limit_yaw: float = param_field(0.0, 200.0, "rad/s^2")
-    rate_d_cutoff_hz: float = param_field(0.5, 1000.0, "Hz")
+    rate_loop_hz: int = param(50, 8000, "Hz")
+    attitude_loop_hz: int = param(10, 8000, "Hz")
+    position_loop_hz: int = param(5, 8000, "Hz")
+    position_p_xy: float = param(0.0, 10.0, "1/s")
+    position_p_z: float = param(0.0, 10.0, "1/s")
+    velocity_p_xy: float = param(0.0, 30.0, "1/s")
+    velocity_i_xy: float = param(0.0, 30.0, "1/s^2")
+    velocity_d_xy: float = param(0.0, 2.0, "s/s")
+    velocity_p_z: float = param(0.0, 30.0, "1/s")
+    velocity_i_z: float = param(0.0, 30.0, "1/s^2")
+    velocity_d_z: float = param(0.0, 2.0, "s/s")
+    velocity_d_cutoff_hz: float = param(0.5, 200.0, "Hz")
+    max_speed_xy: float = param(0.1, 20.0, "m/s")
+    max_speed_up: float = param(0.1, 10.0, "m/s")
+    max_speed_down: float = param(0.1, 10.0, "m/s")
+    max_tilt: float = param(0.05, 1.5, "rad")
+    thrust_min_fraction: float = param(0.0, 0.5, "of total max thrust")
+    thrust_max_fraction: float = param(0.1, 1.0, "of total max thrust")
+    thrust_xy_margin_fraction: float = param(0.0, 0.5, "of total max thrust")
+    attitude_p_roll_pitch: float = param(0.0, 30.0, "1/s")
+    attitude_p_yaw: float = param(0.0, 30.0, "1/s")
+    max_rate_roll_pitch: float = param(0.1, 30.0, "rad/s")
+    max_rate_yaw: float = param(0.1, 30.0, "rad/s")
+    rate_p_roll_pitch: float = param(0.0, 200.0, "1/s")
+    rate_i_roll_pitch: float = param(0.0, 500.0, "1/s^2")
+    rate_d_roll_pitch: float = param(0.0, 2.0, "s/s")
+    rate_integral_limit_roll_pitch: float = param(0.0, 200.0, "rad/s^2")
+    rate_p_yaw: float = param(0.0, 200.0, "1/s")
+    rate_i_yaw: float = param(0.0, 500.0, "1/s^2")
+    rate_d_yaw: float = param(0.0, 2.0, "s/s")
+    rate_integral_limit_yaw: float = param(0.0, 200.0, "rad/s^2")
+    rate_d_cutoff_hz: float = param(0.5, 1000.0, "Hz")
 
     def __post_init__(self) -> None:
-        validate_ranges(self)
+        validate_parameters(self)
         for name in ("attitude_loop_hz", "position_loop_hz"):
             hz = getattr(self, name)
             if hz > self.rate_loop_hz or self.rate_loop_hz % hz:
@@ -396,7 +313,7 @@ def control_gains_from_yaml(text: str, source: str | None = None) -> ControlGain
 
 def load_control_gains(path: Path = DEFAULT_CONTROL_CONFIG_PATH) -> ControlGains:
     """Gains from ``config/fcu_control.yaml`` (or ``path``)."""
-    return control_gains_from_yaml(path.read_text(encoding="utf-8"), str(path))
+    return load_parameters(ControlGains, CONTROL_NODE_NAME, path)
 
 
 # --- position control --------------------------------------------------------------------

@@ -32,14 +32,12 @@ import numpy.typing as npt
 from sim.fcu.control import (
     VehicleState,
     cross3,
-    param_field,
-    parameters_from_yaml,
     quat_from_axis_angle,
     quat_multiply,
     quat_to_dcm,
     quat_yaw,
-    validate_ranges,
 )
+from sim.fcu.params import load_parameters, param, parameters_from_yaml, validate_parameters
 from sim.quadrotor import GRAVITY
 
 __all__ = [
@@ -66,25 +64,25 @@ _GRAVITY_NED = np.array([0.0, 0.0, GRAVITY])
 class EstimatorParams:
     """Tuning of the estimator (``config/fcu_estimator.yaml``); ranges declared once."""
 
-    accel_correction_gain: float = param_field(0.0, 20.0, "1/s")
-    accel_gate: float = param_field(0.0, 10.0, "m/s^2")
-    motion_compensation: float = param_field(0.0, 1.0, "-")
-    gyro_bias_gain: float = param_field(0.0, 10.0, "1/s^2")
-    gyro_bias_limit: float = param_field(0.0, 1.0, "rad/s")
-    yaw_correction_fraction: float = param_field(0.0, 1.0, "per vision sample")
-    yaw_bias_gain: float = param_field(0.0, 10.0, "1/s per vision sample")
-    accel_noise: float = param_field(1e-4, 100.0, "m/s^2/sqrt(Hz)")
-    accel_bias_noise: float = param_field(0.0, 10.0, "m/s^3/sqrt(Hz)")
-    vision_position_std: float = param_field(1e-4, 100.0, "m")
-    vision_velocity_std: float = param_field(1e-4, 100.0, "m/s")
-    initial_position_std: float = param_field(1e-3, 1000.0, "m")
-    initial_velocity_std: float = param_field(1e-3, 100.0, "m/s")
-    initial_accel_bias_std: float = param_field(0.0, 10.0, "m/s^2")
-    buffer_length_us: int = param_field(1_000, 10_000_000, "us")
-    vision_timeout_us: int = param_field(1_000, 100_000_000, "us")
+    accel_correction_gain: float = param(0.0, 20.0, "1/s")
+    accel_gate: float = param(0.0, 10.0, "m/s^2")
+    motion_compensation: float = param(0.0, 1.0, "-")
+    gyro_bias_gain: float = param(0.0, 10.0, "1/s^2")
+    gyro_bias_limit: float = param(0.0, 1.0, "rad/s")
+    yaw_correction_fraction: float = param(0.0, 1.0, "per vision sample")
+    yaw_bias_gain: float = param(0.0, 10.0, "1/s per vision sample")
+    accel_noise: float = param(1e-4, 100.0, "m/s^2/sqrt(Hz)")
+    accel_bias_noise: float = param(0.0, 10.0, "m/s^3/sqrt(Hz)")
+    vision_position_std: float = param(1e-4, 100.0, "m")
+    vision_velocity_std: float = param(1e-4, 100.0, "m/s")
+    initial_position_std: float = param(1e-3, 1000.0, "m")
+    initial_velocity_std: float = param(1e-3, 100.0, "m/s")
+    initial_accel_bias_std: float = param(0.0, 10.0, "m/s^2")
+    buffer_length_us: int = param(1_000, 10_000_000, "us")
+    vision_timeout_us: int = param(1_000, 100_000_000, "us")
 
     def __post_init__(self) -> None:
-        validate_ranges(self)
+        validate_parameters(self)
 
 
 def estimator_params_from_yaml(text: str, source: str | None = None) -> EstimatorParams:
@@ -94,7 +92,7 @@ def estimator_params_from_yaml(text: str, source: str | None = None) -> Estimato
 
 def load_estimator_params(path: Path = DEFAULT_ESTIMATOR_CONFIG_PATH) -> EstimatorParams:
     """Parameters from ``config/fcu_estimator.yaml`` (or ``path``)."""
-    return estimator_params_from_yaml(path.read_text(encoding="utf-8"), str(path))
+    return load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME, path)
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ it reads and the motor thrusts it commands.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -47,6 +48,7 @@ from sim.fcu.control import (
     VehicleState,
     mix_with_desaturation,
 )
+from sim.fcu.errors import ModuleSpecError
 from sim.fcu.estimator import Estimator, EstimatorOutput, EstimatorParams, VisionSample
 from sim.fcu.land_detector import (
     LandDetectedData,
@@ -112,9 +114,46 @@ FIRMWARE_MODULES: tuple[ModuleSpec, ...] = (
 )
 
 
+def firmware_modules(rates_hz: Mapping[str, float] | None = None) -> tuple[ModuleSpec, ...]:
+    """:data:`FIRMWARE_MODULES` with some periodic functions at other rates.
+
+    ``rates_hz`` maps a periodic function's name to its rate [Hz], e.g.
+    ``{"pub_sensor_combined": 200.0}``; the others keep the table's rate. A name the table
+    does not declare raises ModuleSpecError. Whether the main loop can realise a rate is
+    checked when the schedule is resolved (RateError).
+    """
+    rates = dict(rates_hz or {})
+    declared = {p.fun for m in FIRMWARE_MODULES for p in m.periodics}
+    for fun in rates:
+        if fun not in declared:
+            raise ModuleSpecError(
+                f"rates_hz.{fun}", f"no such periodic function; declared: {sorted(declared)}")
+    if not rates:
+        return FIRMWARE_MODULES
+    return tuple(
+        replace(m, periodics=tuple(
+            replace(p, freq_hz=rates[p.fun], period_s=None) if p.fun in rates else p
+            for p in m.periodics))
+        for m in FIRMWARE_MODULES
+    )
+
+
+@dataclass(frozen=True)
+class ConsumedVision:
+    """An external-vision sample as the FCU's estimator consumed it (FCU clock, us)."""
+
+    timestamp_us: int  # the message's ``timestamp``
+    timestamp_sample_us: int  # the message's ``timestamp_sample``
+    consumed_us: int  # FCU clock when the estimator took it (the dds_receive tick)
+
+
 @dataclass
 class FirmwareConfig:
-    """Everything a :class:`Firmware` is built from (the YAMLs under config/fcu_*)."""
+    """Everything a :class:`Firmware` is built from (the YAMLs under config/fcu_*).
+
+    ``rates_hz`` overrides periodic-function rates of :data:`FIRMWARE_MODULES` by function
+    name [Hz] (see :func:`firmware_modules`); empty keeps the table's rates.
+    """
 
     quad: QuadrotorParams = field(default_factory=QuadrotorParams)
     control: ControlGains | None = None
@@ -123,6 +162,7 @@ class FirmwareConfig:
     battery: BatteryParams | None = None
     main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ
     offsets: str = "balanced"
+    rates_hz: Mapping[str, float] = field(default_factory=dict)
 
     def resolved(self) -> FirmwareConfig:
         from sim.fcu.battery import load_battery_params
@@ -138,13 +178,15 @@ class FirmwareConfig:
             self.battery or load_battery_params(),
             self.main_freq_hz,
             self.offsets,
+            self.rates_hz,
         )
 
 
 def firmware_schedule(main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ,
-                      offsets: str = "balanced") -> ResolvedSchedule:
+                      offsets: str = "balanced",
+                      rates_hz: Mapping[str, float] | None = None) -> ResolvedSchedule:
     """The resolved firmware: module order, prescalers and offsets."""
-    return resolve(FIRMWARE_MODULES, main_freq_hz=main_freq_hz, offsets=offsets)
+    return resolve(firmware_modules(rates_hz), main_freq_hz=main_freq_hz, offsets=offsets)
 
 
 def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
@@ -173,7 +215,7 @@ class Firmware:
         self.imu = imu
         self.clock = clock
         self.quad = cfg.quad
-        self.schedule = firmware_schedule(cfg.main_freq_hz, cfg.offsets)
+        self.schedule = firmware_schedule(cfg.main_freq_hz, cfg.offsets, cfg.rates_hz)
         self.position_controller = PositionController(cfg.control, cfg.quad)
         self.attitude_controller = AttitudeController(cfg.control)
         self.rate_controller = RateController(cfg.control, cfg.quad)
@@ -217,6 +259,8 @@ class Firmware:
         self._last_timesync_status: Any = None
         self._last_agent_us = 0
         self.acks: list[VehicleCommandAckData] = []
+        # called with every external-vision sample the estimator consumes (evaluation)
+        self.vision_observers: list[Callable[[ConsumedVision], None]] = []
         functions = {
             "imu_update": self.imu_update,
             "battery_update": self.battery_update,
@@ -456,6 +500,10 @@ class Firmware:
             position_ned=np.asarray(msg.position, dtype=np.float64),
             q=q if np.all(np.isfinite(q)) else None,
             position_variance=var))
+        if self.vision_observers:
+            consumed = ConsumedVision(int(msg.timestamp), int(msg.timestamp_sample), self._now_us)
+            for observer in self.vision_observers:
+                observer(consumed)
 
     def _on_timesync(self, msg: Any) -> None:
         """Answer a companion's Timesync request: tc1 = our clock [ns], ts1 echoed."""

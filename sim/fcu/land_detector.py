@@ -30,9 +30,10 @@ Pure module, no runtime, no MuJoCo; the node converts :class:`LandDetectedData` 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from sim.fcu.clock import FcuParameterError
+from sim.fcu.errors import FcuParameterError
+from sim.fcu.params import param, validate_parameters
 
 __all__ = [
     "Hysteresis",
@@ -53,46 +54,27 @@ _MIN_THRUST_FRACTION = 0.1  # of (hover - min): maybe landed
 class LandDetectorParams:
     """PX4's ``LNDMC_*``, ``LNDMC_FFALL_*`` and ``MPC_THR_*`` parameters (PX4 defaults)."""
 
-    z_vel_max: float = 0.25
+    z_vel_max: float = param(0.0, 10.0, "m/s", default=0.25)
     """``LNDMC_Z_VEL_MAX`` [m/s]: vertical speed below which the vehicle is not moving."""
-    xy_vel_max: float = 1.5
+    xy_vel_max: float = param(0.0, 10.0, "m/s", default=1.5)
     """``LNDMC_XY_VEL_MAX`` [m/s]: horizontal speed allowed while landed."""
-    rot_max_deg_s: float = 20.0
+    rot_max_deg_s: float = param(0.0, 1000.0, "deg/s", default=20.0)
     """``LNDMC_ROT_MAX`` [deg/s]: roll/pitch rate allowed while landed."""
-    trigger_time_s: float = 1.0
+    trigger_time_s: float = param(0.0, 10.0, "s", default=1.0)
     """``LNDMC_TRIG_TIME`` [s]: total hysteresis, a third per stage."""
-    freefall_acc_threshold: float = 2.0
+    freefall_acc_threshold: float = param(0.0, 10.0, "m/s^2", default=2.0)
     """``LNDMC_FFALL_THR`` [m/s^2]: specific-force norm below which the vehicle falls."""
-    freefall_trigger_time_s: float = 0.3
+    freefall_trigger_time_s: float = param(0.0, 5.0, "s", default=0.3)
     """``LNDMC_FFALL_TTRI`` [s]."""
-    thrust_min: float = 0.12
+    thrust_min: float = param(0.0, 1.0, default=0.12)
     """``MPC_THR_MIN``: minimum collective thrust in auto modes [0..1]."""
-    thrust_hover: float = 0.5
+    thrust_hover: float = param(0.0, 1.0, default=0.5)
     """``MPC_THR_HOVER``: hover collective thrust [0..1]."""
-    descent_vz_threshold: float = 0.6
+    descent_vz_threshold: float = param(0.0, 10.0, "m/s", default=0.6)
     """Commanded descent speed [m/s, NED down] above which the vehicle is ``in_descend``."""
 
     def __post_init__(self) -> None:
-        ranges = {
-            "z_vel_max": (0.0, 10.0),
-            "xy_vel_max": (0.0, 10.0),
-            "rot_max_deg_s": (0.0, 1000.0),
-            "trigger_time_s": (0.0, 10.0),
-            "freefall_acc_threshold": (0.0, 10.0),
-            "freefall_trigger_time_s": (0.0, 5.0),
-            "thrust_min": (0.0, 1.0),
-            "thrust_hover": (0.0, 1.0),
-            "descent_vz_threshold": (0.0, 10.0),
-        }
-        for f in fields(self):
-            value = getattr(self, f.name)
-            lo, hi = ranges[f.name]
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise FcuParameterError(f.name, f"{value!r} must be a number in [{lo:g}, {hi:g}]")
-            if not lo <= value <= hi:
-                raise FcuParameterError(
-                    f.name, f"{value!r} is outside the allowed range [{lo:g}, {hi:g}]"
-                )
+        validate_parameters(self)
         if self.thrust_hover <= self.thrust_min:
             raise FcuParameterError(
                 "thrust_hover",

@@ -39,17 +39,23 @@ Pure module: numpy and PyYAML, no runtime, no MuJoCo.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
-import yaml
 
 from sim.errors import SimError
-from sim.fcu.clock import FcuClock, FcuParameterError
+from sim.fcu.clock import FcuClock
+from sim.fcu.errors import FcuParameterError
+from sim.fcu.params import (
+    load_parameters,
+    param,
+    parameters_from_mapping,
+    parameters_from_yaml,
+    validate_parameters,
+)
 
 __all__ = [
     "DEFAULT_LINK_CONFIG_PATH",
@@ -109,74 +115,32 @@ class LinkOrderError(SimError, ValueError):
 
 
 @dataclass(frozen=True, slots=True)
-class _Range:
-    """Type, allowed closed range and unit of one parameter, declared on its field."""
-
-    kind: type[int] | type[float]
-    lo: float
-    hi: float
-    unit: str
-
-    def describe(self) -> str:
-        unit = f" {self.unit}" if self.unit else ""
-        if self.kind is int:
-            return f"[{int(self.lo)}, {int(self.hi)}]{unit}"
-        return f"[{self.lo:g}, {self.hi:g}]{unit}"
-
-    def check(self, key: str, value: object) -> None:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or (self.kind is int and not isinstance(value, int))
-        ):
-            what = "an integer" if self.kind is int else "a number"
-            raise FcuParameterError(
-                key, f"{value!r} must be {what} in the allowed range {self.describe()}"
-            )
-        if not self.lo <= value <= self.hi:  # also rejects NaN
-            raise FcuParameterError(
-                key, f"{value!r} is outside the allowed range {self.describe()}"
-            )
-
-
-def _param(kind: type[int] | type[float], lo: float, hi: float, unit: str = "") -> Any:
-    return field(metadata={"range": _Range(kind, lo, hi, unit)})
-
-
-def _check_fields(obj: object) -> None:
-    for f in fields(obj):  # type: ignore[arg-type]
-        spec = f.metadata.get("range")
-        if isinstance(spec, _Range):
-            spec.check(f.name, getattr(obj, f.name))
-
-
-@dataclass(frozen=True, slots=True)
 class LinkDirectionParams:
     """Latency, spikes, loss and line settings of one direction (see the module docstring)."""
 
-    base_latency_us: float = _param(float, 0.0, 1e6, "us")
+    base_latency_us: float = param(0.0, 1e6, "us")
     """Fixed latency floor on top of the wire time [us]."""
-    jitter_shape: float = _param(float, 1e-3, 1e3)
+    jitter_shape: float = param(1e-3, 1e3)
     """Shape k of the gamma jitter (skewness 2/sqrt(k); large k looks Gaussian)."""
-    jitter_scale_us: float = _param(float, 0.0, 1e6, "us")
+    jitter_scale_us: float = param(0.0, 1e6, "us")
     """Scale theta of the gamma jitter [us]: mean k*theta, variance k*theta^2."""
-    spike_probability: float = _param(float, 0.0, 1.0)
+    spike_probability: float = param(0.0, 1.0)
     """Chance that a message gets a load spike on top of its latency."""
-    spike_min_us: float = _param(float, 0.0, 1e7, "us")
+    spike_min_us: float = param(0.0, 1e7, "us")
     """Smallest extra latency of a spike [us]."""
-    spike_max_us: float = _param(float, 0.0, 1e7, "us")
+    spike_max_us: float = param(0.0, 1e7, "us")
     """Largest extra latency of a spike [us], >= spike_min_us; uniform in between."""
-    loss_probability: float = _param(float, 0.0, 1.0)
+    loss_probability: float = param(0.0, 1.0)
     """Chance that a message is lost (never delivered)."""
-    baud_rate: int = _param(int, 300, 100_000_000, "bit/s")
+    baud_rate: int = param(300, 100_000_000, "bit/s")
     """Line rate [bit/s] (symbols per second of the UART)."""
-    bits_per_byte: int = _param(int, 0, 12, "bit")
+    bits_per_byte: int = param(0, 12, "bit")
     """Bits on the line per byte: 10 for 8N1 (start + 8 data + stop); 0 is an ideal line."""
-    framing_overhead_bytes: int = _param(int, 0, 65_535, "bytes")
+    framing_overhead_bytes: int = param(0, 65_535, "bytes")
     """Bytes added to each message's CDR size by the transport's framing and headers."""
 
     def __post_init__(self) -> None:
-        _check_fields(self)
+        validate_parameters(self)
         if self.spike_max_us < self.spike_min_us:
             raise FcuParameterError(
                 "spike_max_us",
@@ -281,13 +245,13 @@ class LinkParams:
     """Companion computer -> flight controller (``/fmu/in/*``)."""
     to_companion: LinkDirectionParams
     """Flight controller -> companion computer (``/fmu/out/*``)."""
-    seed: int = _param(int, 0, 2**63 - 1)
+    seed: int = param(0, 2**63 - 1)
     """Seed of the per-direction random generators."""
     clock: FcuClock = field(default_factory=FcuClock.ideal)
     """The FCU's clock against simulated time."""
 
     def __post_init__(self) -> None:
-        _check_fields(self)
+        validate_parameters(self)
 
     def direction(self, direction: LinkDirection) -> LinkDirectionParams:
         """The parameters of one direction."""
@@ -303,34 +267,6 @@ class LinkParams:
 # -- loading from YAML -----------------------------------------------------------------------
 
 
-def _field_names(cls: type) -> list[str]:
-    return [f.name for f in fields(cls)]
-
-
-def _section(value: object, key: str) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise FcuParameterError(key, f"expected a mapping, got {type(value).__name__}")
-    return value
-
-
-def _build(cls: type, value: object, key: str) -> Any:
-    """``cls(**value)``: every field present, no other key, errors prefixed with ``key``."""
-    section = _section(value, key)
-    names = _field_names(cls)
-    for name in section:
-        if name not in names:
-            raise FcuParameterError(
-                f"{key}.{name}", f"unknown key; allowed keys are {', '.join(names)}"
-            )
-    for name in names:
-        if name not in section:
-            raise FcuParameterError(f"{key}.{name}", "missing")
-    try:
-        return cls(**section)
-    except FcuParameterError as exc:
-        raise exc.prefixed(key) from None
-
-
 def link_params_from_mapping(doc: object) -> LinkParams:
     """Link parameters from a parsed ROS 2 parameter file (``fcu_link: ros__parameters: ...``).
 
@@ -338,53 +274,17 @@ def link_params_from_mapping(doc: object) -> LinkParams:
     FcuParameterError naming the key path and the allowed range. Other nodes' sections
     in the same file are ignored.
     """
-    top = _section(doc, "")
-    if LINK_NODE_NAME not in top:
-        raise FcuParameterError(LINK_NODE_NAME, "missing")
-    node = _section(top[LINK_NODE_NAME], LINK_NODE_NAME)
-    for name in node:
-        if name != "ros__parameters":
-            raise FcuParameterError(
-                f"{LINK_NODE_NAME}.{name}", "unknown key; allowed keys are ros__parameters"
-            )
-    prefix = f"{LINK_NODE_NAME}.ros__parameters"
-    if "ros__parameters" not in node:
-        raise FcuParameterError(prefix, "missing")
-    section = _section(node["ros__parameters"], prefix)
-    allowed = ("seed", "clock", LinkDirection.TO_FCU.value, LinkDirection.TO_COMPANION.value)
-    for name in section:
-        if name not in allowed:
-            raise FcuParameterError(
-                f"{prefix}.{name}", f"unknown key; allowed keys are {', '.join(allowed)}"
-            )
-    for name in allowed:
-        if name not in section:
-            raise FcuParameterError(f"{prefix}.{name}", "missing")
-    to_fcu = _build(LinkDirectionParams, section["to_fcu"], f"{prefix}.to_fcu")
-    to_companion = _build(LinkDirectionParams, section["to_companion"], f"{prefix}.to_companion")
-    clock = _build(FcuClock, section["clock"], f"{prefix}.clock")
-    try:
-        return LinkParams(
-            to_fcu=to_fcu, to_companion=to_companion, seed=section["seed"], clock=clock
-        )
-    except FcuParameterError as exc:
-        raise exc.prefixed(prefix) from None
+    return parameters_from_mapping(LinkParams, LINK_NODE_NAME, doc)
 
 
 def link_params_from_yaml(text: str, source: str | None = None) -> LinkParams:
     """Link parameters from the text of a ROS 2 parameter file; ``source`` names it in errors."""
-    try:
-        doc = yaml.safe_load(text)
-        return link_params_from_mapping(doc)
-    except yaml.YAMLError as exc:
-        raise FcuParameterError("", f"not valid YAML: {exc}", source) from None
-    except FcuParameterError as exc:
-        raise (exc.with_source(source) if source else exc) from None
+    return parameters_from_yaml(LinkParams, LINK_NODE_NAME, text, source)
 
 
 def load_link_params(path: Path = DEFAULT_LINK_CONFIG_PATH) -> LinkParams:
     """Link parameters from a ROS 2 parameter file (default: ``config/fcu_link.yaml``)."""
-    return link_params_from_yaml(path.read_text(encoding="utf-8"), str(path))
+    return load_parameters(LinkParams, LINK_NODE_NAME, path)
 
 
 # -- the link ------------------------------------------------------------------------------

@@ -19,7 +19,7 @@ from sim.fcu.battery import (
     load_battery_params,
     warning_for_remaining,
 )
-from sim.fcu.clock import FcuParameterError
+from sim.fcu.errors import FcuParameterError
 
 STEP_US = 100_000  # 10 Hz
 HOVER_N = (1.5 * 9.80665 / 4,) * 4  # the default 1.5 kg quad

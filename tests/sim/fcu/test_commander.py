@@ -11,7 +11,6 @@ from hypothesis import strategies as st
 
 import sim.fcu.commander as commander_module
 from sim.fcu.battery import BatteryWarning
-from sim.fcu.clock import FcuParameterError
 from sim.fcu.commander import (
     FORCE_ARM_DISARM_MAGIC,
     TRANSITIONS,
@@ -36,6 +35,7 @@ from sim.fcu.commander import (
     load_commander_params,
     render_transition_table,
 )
+from sim.fcu.errors import FcuParameterError
 
 MS = 1000
 S = 1_000_000

@@ -15,7 +15,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.fcu.clock import FcuParameterError
 from sim.fcu.control import (
     AttitudeController,
     Cascade,
@@ -32,6 +31,7 @@ from sim.fcu.control import (
     quat_to_dcm,
     quat_yaw,
 )
+from sim.fcu.errors import FcuParameterError
 from sim.fcu.estimator import Estimator, load_estimator_params
 from sim.fcu.rigid_body import (
     FlightLog,

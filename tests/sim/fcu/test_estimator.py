@@ -12,7 +12,6 @@ import math
 import numpy as np
 import pytest
 
-from sim.fcu.clock import FcuParameterError
 from sim.fcu.control import (
     Cascade,
     TrajectorySetpointData,
@@ -21,6 +20,7 @@ from sim.fcu.control import (
     quat_multiply,
     quat_to_dcm,
 )
+from sim.fcu.errors import FcuParameterError
 from sim.fcu.estimator import (
     DEFAULT_ESTIMATOR_CONFIG_PATH,
     Estimator,

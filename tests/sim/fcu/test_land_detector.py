@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.fcu.clock import FcuParameterError
+from sim.fcu.errors import FcuParameterError
 from sim.fcu.land_detector import (
     Hysteresis,
     LandDetectedData,

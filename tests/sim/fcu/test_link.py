@@ -13,7 +13,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.fcu.clock import FcuClock, FcuParameterError
+from sim.fcu.clock import FcuClock
+from sim.fcu.errors import FcuParameterError
 from sim.fcu.link import (
     DEFAULT_LINK_CONFIG_PATH,
     TABLE3_MESSAGE_SIZE_BYTES,

@@ -1,0 +1,146 @@
+"""The companion side of seed 000's latency test (section 2.9, Algorithm 2), as a node.
+
+:class:`LatencyTestNode` speaks only the px4 topics and the sensor topics, as a node on a
+real companion computer would:
+
+- **time sync**: a Timesync exchange over ``/fmu/in/timesync`` -> ``/fmu/out/timesync``
+  at ``timesync_hz``, half a stream period out of phase with the stream; every reply
+  updates *each* estimator in ``estimators`` (by default ``"px4"`` and ``"kalman"``,
+  :func:`~flight_control.timesync.make_estimator`), so they run side by side on the same
+  exchanges. Each estimate is logged with the local time.
+- **forward stream** (companion -> FCU): at ``rate_hz`` a ``VehicleOdometry`` on
+  ``/fmu/in/vehicle_visual_odometry`` carrying the latest ``/sim/vision/pose`` (ENU/FLU
+  turned into NED/FRD). ``timestamp`` is the creation time on the companion clock, raw
+  (it doubles as the sample's key); ``timestamp_sample`` is that time on the FCU clock
+  by the ``primary`` estimator, the stamp the FCU's estimator fuses at. The creation time
+  converted by every estimator is logged in :attr:`LatencyTestNode.sent`, so the latency
+  can be measured where the FCU consumes the sample, for each estimator.
+- **reverse stream** (FCU -> companion): every ``/fmu/out/sensor_combined`` (stamped on
+  the FCU clock at the IMU sample) is logged in :attr:`LatencyTestNode.received` with its
+  receive time on the companion clock and its stamp converted by every estimator.
+
+The node only logs; :mod:`flight_control.latency` turns the logs into figures. QoS as
+seed 000 section 3.1: best effort, keep last, (transient local on the FCU's side).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+import interfaces
+from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
+from flight_control.latency import OffsetLog, ReceivedImu, SentVision
+from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
+from runtime import Node, qos_profile_px4_subscriber, qos_profile_sensor_data
+from runtime.qos import QoSProfile, ReliabilityPolicy
+
+__all__ = ["LatencyTestNode"]
+
+_VISION_POSE_TOPIC = "/sim/vision/pose"  # PoseWithCovarianceStamped, map (ENU), DESIGN.md
+
+_PX4_IN = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)  # keep last 1
+
+
+class LatencyTestNode(Node):
+    """Seed 000's latency-test node: two 200 Hz streams and the estimators, logged."""
+
+    def __init__(
+        self,
+        *,
+        rate_hz: float = 200.0,
+        timesync_hz: float = 100.0,
+        estimators: Sequence[str] = ("px4", "kalman"),
+        primary: str = "kalman",
+        **kwargs: Any,
+    ) -> None:
+        super().__init__("latency_test", **kwargs)
+        if not rate_hz > 0 or not timesync_hz > 0:
+            raise ValueError(f"rate_hz={rate_hz}, timesync_hz={timesync_hz}: must be > 0")
+        if primary not in estimators:
+            raise ValueError(f"primary={primary!r} is not one of estimators={list(estimators)}")
+        self.primary = primary
+        self.estimators: dict[str, TimesyncEstimator] = {
+            name: make_estimator(name) for name in estimators}
+        self.sent: dict[int, SentVision] = {}
+        self.received: list[ReceivedImu] = []
+        self.offsets: list[OffsetLog] = []
+        self.converged_us: dict[str, int | None] = dict.fromkeys(self.estimators)
+        self._pose: tuple[np.ndarray, np.ndarray, float] | None = None
+        self._seq = 0
+        self.create_subscription("px4_msgs/msg/Timesync", "/fmu/out/timesync",
+                                 self._on_timesync, qos_profile_px4_subscriber)
+        self.create_subscription("px4_msgs/msg/SensorCombined", "/fmu/out/sensor_combined",
+                                 self._on_imu, qos_profile_px4_subscriber)
+        self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped",
+                                 _VISION_POSE_TOPIC, self._on_pose, qos_profile_sensor_data)
+        self.vision_pub = self.create_publisher("px4_msgs/msg/VehicleOdometry",
+                                                "/fmu/in/vehicle_visual_odometry", _PX4_IN)
+        self.timesync_pub = self.create_publisher("px4_msgs/msg/Timesync", "/fmu/in/timesync",
+                                                  _PX4_IN)
+        self.create_timer(1.0 / rate_hz, self._send_vision)
+        # exchanges half a stream period after the vision samples, so that neither waits
+        # behind the other on the serial line (it is FIFO) every time they coincide
+        self._timesync_period_s = 1.0 / timesync_hz
+        self._start_timer = self.create_timer(0.5 / rate_hz, self._start_timesync)
+
+    def _now_us(self) -> int:
+        return ns_to_us(self.now().nanoseconds)
+
+    # -- time sync --------------------------------------------------------------------
+    def _start_timesync(self) -> None:
+        self._start_timer.cancel()
+        self._send_timesync()
+        self.create_timer(self._timesync_period_s, self._send_timesync)
+
+    def _send_timesync(self) -> None:
+        self._seq = (self._seq + 1) % 256
+        now_ns = self.now().nanoseconds
+        self.timesync_pub.publish(interfaces.new(
+            "px4_msgs/msg/Timesync", timestamp=ns_to_us(now_ns), seq=self._seq, tc1=0,
+            ts1=now_ns))
+
+    def _on_timesync(self, msg: Any) -> None:
+        if int(msg.tc1) <= 0:
+            return
+        now_us = self._now_us()
+        estimates = {name: est.update(ns_to_us(int(msg.ts1)), ns_to_us(int(msg.tc1)), now_us)
+                     for name, est in self.estimators.items()}
+        for name, estimate in estimates.items():
+            if estimate.converged and self.converged_us[name] is None:
+                self.converged_us[name] = now_us
+        self.offsets.append(OffsetLog(now_us, {name: e.offset_us for name, e in estimates.items()}))
+
+    # -- forward stream: vision to the FCU ----------------------------------------------
+    def _on_pose(self, msg: Any) -> None:
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        self._pose = (enu_to_ned([p.x, p.y, p.z]),
+                      np.asarray(quat_enu_flu_to_ned_frd(quat_from_xyzw([o.x, o.y, o.z, o.w]))),
+                      float(msg.pose.covariance[0]))
+
+    def _send_vision(self) -> None:
+        if self._pose is None:  # nothing to send until the first pose
+            return
+        created_us = self._now_us()
+        stamps = {name: est.local_to_remote(created_us) for name, est in self.estimators.items()}
+        self.sent[created_us] = SentVision(created_us, stamps)
+        position, q, var = self._pose
+        nan3 = np.full(3, math.nan, dtype=np.float32)
+        self.vision_pub.publish(interfaces.new(
+            "px4_msgs/msg/VehicleOdometry", timestamp=created_us,
+            timestamp_sample=stamps[self.primary], pose_frame=1,
+            position=position.astype(np.float32), q=q.astype(np.float32), velocity_frame=1,
+            velocity=nan3, angular_velocity=nan3,
+            position_variance=np.full(3, var, dtype=np.float32),
+            orientation_variance=np.full(3, 1e-4, dtype=np.float32), velocity_variance=nan3,
+            quality=100))
+
+    # -- reverse stream: IMU from the FCU -----------------------------------------------
+    def _on_imu(self, msg: Any) -> None:
+        stamp_us = int(msg.timestamp)
+        self.received.append(ReceivedImu(
+            stamp_us, self._now_us(),
+            {name: est.remote_to_local(stamp_us) for name, est in self.estimators.items()}))
