@@ -42,15 +42,21 @@ from flight_control.frames import (
 from flight_control.pose_history import PoseHistory, PoseSample
 from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
 from runtime import (
+    DurabilityPolicy,
     Node,
+    QoSProfile,
+    ReliabilityPolicy,
     Time,
     param,
     qos_profile_default,
-    qos_profile_px4_in,
-    qos_profile_px4_subscriber,
     qos_profile_sensor_data,
 )
 
+#: Seed 000's QoS for the bridge topics, both directions: best effort, keep last 1,
+#: transient local (a late subscriber still gets the last sample). It matches PX4's
+#: uXRCE-DDS publishers and subscribers.
+BRIDGE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MAP_FRAME = "map"
 BODY_FRAME = "base_link"
 COMPANION_COMPONENT = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
@@ -87,7 +93,7 @@ class FcuBridgeNode(Node):
         self._last_fcu_ns: int | None = None
         self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
                                       battery_remaining=math.nan)
-        px4_out, px4_in = qos_profile_px4_subscriber, qos_profile_px4_in
+        px4_out = px4_in = BRIDGE_QOS
         # companion side
         self.odometry_pub = self.create_publisher("nav_msgs/msg/Odometry", "/fcu/odometry",
                                                   qos_profile_sensor_data)
