@@ -57,6 +57,9 @@ from runtime import (
 #: uXRCE-DDS publishers and subscribers.
 BRIDGE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: Acks are events, not state: a queue deep enough that two in one instant both arrive.
+ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MAP_FRAME = "map"
 BODY_FRAME = "base_link"
 COMPANION_COMPONENT = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
@@ -90,6 +93,7 @@ class FcuBridgeNode(Node):
         self.timesync: TimesyncEstimator = make_estimator(self.params.timesync_estimator)
         self.history = PoseHistory(round(self.params.pose_history_s * 1e9))
         self._seq = 0
+        self._outstanding: dict[int, int] = {}  # seq -> ts1 [ns] of requests sent
         self._last_fcu_ns: int | None = None
         self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
                                       battery_remaining=math.nan)
@@ -126,6 +130,8 @@ class FcuBridgeNode(Node):
                                                 "/fmu/in/vehicle_visual_odometry", px4_in)
         self.timesync_out = self.create_publisher("px4_msgs/msg/Timesync", "/fmu/in/timesync",
                                                   px4_in)
+        self.create_subscription("px4_msgs/msg/VehicleCommandAck", "/fmu/out/vehicle_command_ack",
+                                 self._on_ack, ACK_QOS)
         for topic, type_name, handler in (
             ("timesync", "Timesync", self._on_timesync),
             ("vehicle_odometry", "VehicleOdometry", self._on_odometry),
@@ -135,7 +141,6 @@ class FcuBridgeNode(Node):
             ("vehicle_land_detected", "VehicleLandDetected", self._on_land_detected),
             ("failsafe_flags", "FailsafeFlags", self._on_failsafe_flags),
             ("vehicle_local_position", "VehicleLocalPosition", self._on_local_position),
-            ("vehicle_command_ack", "VehicleCommandAck", self._on_ack),
         ):
             self.create_subscription(f"px4_msgs/msg/{type_name}", f"/fmu/out/{topic}",
                                      handler, px4_out)
@@ -165,16 +170,22 @@ class FcuBridgeNode(Node):
     def _send_timesync(self) -> None:
         self._seq = (self._seq + 1) % 256
         now_ns = self.now().nanoseconds
+        self._outstanding[self._seq] = now_ns
         self.timesync_out.publish(interfaces.new(
             "px4_msgs/msg/Timesync", timestamp=self.to_fcu_us(now_ns), seq=self._seq, tc1=0,
             ts1=now_ns))
 
     def _on_timesync(self, msg: Any) -> None:
-        if int(msg.tc1) <= 0:
+        # /fmu/out/timesync is shared: only answers to our own outstanding requests count
+        if int(msg.tc1) <= 0 or self._outstanding.get(int(msg.seq)) != int(msg.ts1):
             return
+        del self._outstanding[int(msg.seq)]
+        was_synced = self.synced
         now_us = ns_to_us(self.now().nanoseconds)
         est = self.timesync.update(ns_to_us(int(msg.ts1)), ns_to_us(int(msg.tc1)), now_us)
         self._last_fcu_ns = self.now().nanoseconds
+        if est.converged and not was_synced:  # stamps move from receive to sample time
+            self.history = PoseHistory(self.history.span_ns)
         self.timesync_pub.publish(interfaces.new(
             "quadmission_interfaces/msg/TimesyncDiagnostics",
             header=interfaces.new("std_msgs/msg/Header", stamp=self.now().to_msg()),

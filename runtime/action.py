@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from dataclasses import dataclass
 from enum import Enum, IntEnum
 from typing import Any
@@ -278,19 +278,27 @@ class ActionServer:
     def start_execution(self, handle: ServerGoalHandle) -> None:
         if handle.status is GoalStatus.ACCEPTED:
             handle._to(GoalStatus.EXECUTING)
-        outcome = self._execute(handle)
+        try:
+            outcome = self._execute(handle)
+        except Exception as exc:  # as rclpy: a failing goal aborts, the executor goes on
+            self._node.get_logger().error(f"{self.action_name}: execute failed: {exc!r}")
+            self._finish_with(handle, None)
+            return
         if inspect.iscoroutine(outcome):
-            task = self._node.create_task(outcome)
+            task = self._node.create_task(self._guarded(outcome))
             task.add_done_callback(lambda t: self._finish(handle, t))
         else:
             self._finish_with(handle, outcome)
 
+    async def _guarded(self, execution: Coroutine[Any, Any, Any]) -> Any:
+        try:
+            return await execution
+        except Exception as exc:
+            self._node.get_logger().error(f"{self.action_name}: execute failed: {exc!r}")
+            return None
+
     def _finish(self, handle: ServerGoalHandle, task: Future[Any]) -> None:
-        if task.cancelled() or task.exception() is not None:
-            self._node.get_logger().error(
-                f"{self.action_name}: execute callback failed: {task.exception()!r}"
-            )
-            self._finish_with(handle, None)
+        if task.cancelled():  # the node is being destroyed: nobody is left to tell
             return
         self._finish_with(handle, task.result())
 

@@ -101,16 +101,27 @@ class Task(Future[T]):
         self._label = label
         loop.call_soon(self._step, label)
 
+    def cancel(self) -> bool:
+        """Cancel the task: its coroutine is closed and never resumed."""
+        if self.done():
+            return False
+        self._coro.close()
+        return super().cancel()
+
     def _step(self) -> None:
+        if self.done():  # cancelled while it waited
+            return
         try:
             awaited = self._coro.send(None)
         except StopIteration as stop:
             self.set_result(stop.value)
             return
-        except BaseException as exc:  # the task's error is its result
+        except BaseException as exc:  # the task's error is its result, and the executor's
             self.set_exception(exc)
             raise
         if not isinstance(awaited, Future):
-            self._coro.throw(TypeError(f"a Task can only await runtime Futures, got {awaited!r}"))
-            return
+            error = TypeError(f"a Task can only await runtime Futures, got {awaited!r}")
+            self._coro.close()
+            self.set_exception(error)
+            raise error
         awaited.add_done_callback(lambda _f: self._step())

@@ -293,9 +293,17 @@ class Service:
             return
         response = self.callback(request, interfaces.new(self.srv_type.Response))
         if isinstance(response, Future):  # answered later, when the future completes
-            response.add_done_callback(lambda f: self._reply(f.result(), request_id))
+            response.add_done_callback(lambda f: self._reply_later(f, request_id))
         else:
             self._reply(response, request_id)
+
+    def _reply_later(self, future: Future[Any], request_id: RequestId) -> None:
+        if future.cancelled() or future.exception() is not None:
+            self._node.get_logger().error(
+                f"service {self.service_name}: no answer, the handler failed: "
+                f"{'cancelled' if future.cancelled() else repr(future.exception())}")
+            return
+        self._reply(future.result(), request_id)
 
     def _reply(self, response: Any, request_id: RequestId) -> None:
         if getattr(response, "__msgtype__", None) != self._rep_name:
@@ -407,6 +415,8 @@ class Node:
         self.context = context
         self._guid_counter = 0
         self._entities: list[Any] = []
+        self._tasks: list[Task[Any]] = []
+        self._handles: list[Handle] = []
         self._logger = NodeLogger(self.get_fully_qualified_name().lstrip("/"), context.loop.clock)
         self._parameters: dict[str, Parameter] = {}
         self._descriptors: dict[str, ParameterDescriptor] = {}
@@ -494,20 +504,30 @@ class Node:
 
     def create_task(self, coro: Coroutine[Any, Any, T]) -> Task[T]:
         """Run a coroutine on the executor; it may ``await`` futures and ``self.sleep``."""
-        return self.context.create_task(
+        task = self.context.create_task(
             coro, (self._name, "task", getattr(coro, "__qualname__", "task"))
         )
+        self._tasks = [t for t in self._tasks if not t.done()]
+        self._tasks.append(task)
+        return task
 
     def sleep(self, seconds: float) -> Future[None]:
         """A future done after ``seconds`` of the node's clock (``await node.sleep(0.1)``)."""
         loop = self.context.loop
         future: Future[None] = Future(loop)
         t_ns = loop.clock.now().nanoseconds + max(0, seconds_to_ns(seconds))
-        loop.call_at(t_ns, lambda: None if future.done() else future.set_result(None),
-                     (self._name, "sleep", ""))
+        handle = loop.call_at(t_ns, lambda: None if future.done() else future.set_result(None),
+                              (self._name, "sleep", ""))
+        self._handles = [h for h in self._handles if not h.cancelled]
+        self._handles.append(handle)
         return future
 
     def destroy_node(self) -> None:
+        """Stop everything the node does: its entities, its tasks and pending sleeps."""
+        for task in self._tasks:
+            task.cancel()
+        for handle in self._handles:
+            handle.cancel()
         for entity in reversed(self._entities):
             entity.destroy()
         self._entities.clear()

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Protocol
 
-from runtime.errors import TopicTypeError
+from runtime.errors import RuntimeApiError, TopicTypeError
 from runtime.qos import DurabilityPolicy, HistoryPolicy, QoSProfile
 
 _log = logging.getLogger("quadmission.transport")
@@ -100,8 +100,11 @@ class _InProcessWriter:
             maxlen = qos.depth if qos.history is HistoryPolicy.KEEP_LAST else None
             self.history = deque(maxlen=maxlen)
         self.samples_written = 0
+        self.closed = False
 
     def write(self, data: bytes, request_id: RequestId | None = None) -> None:
+        if self.closed:
+            raise RuntimeApiError(f"write on {self.endpoint.name}: the writer was destroyed")
         self.samples_written += 1
         if self.history is not None:
             self.history.append((data, request_id))
@@ -113,6 +116,7 @@ class _InProcessWriter:
         return sum(1 for r in self._channel.readers if r.matches(self))
 
     def close(self) -> None:
+        self.closed = True
         if self in self._channel.writers:
             self._channel.writers.remove(self)
 

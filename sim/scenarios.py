@@ -169,7 +169,6 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
         [[side, 0.0, 0.0], [side, side, 0.0], [0.0, side, 0.0], [0.0, 0.0, 0.0]],
         altitude=SQUARE_ALTITUDE, context=sitl.executor.context)
     sitl.executor.add_node(harness)
-    fly_window: list[int] = []
 
     class _Progress:
         name, rate_hz = "progress", 1.0
@@ -179,8 +178,6 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
             if harness.phase is not self.last:
                 _progress(f"  t={t_ns / 1e9:6.1f} s  {harness.phase.value}")
                 self.last = harness.phase
-                if harness.phase in (HarnessPhase.FLY, HarnessPhase.LAND):
-                    fly_window.append(t_ns)
 
     class _Done:
         def done(self, t_ns: int, scene: Scene) -> bool:
@@ -189,8 +186,11 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
     sitl.extra_parts.append(_Progress())
     result = sitl.run(180.0, stop=_Done())
     traj = result.trajectory
+    started = harness.phase_started_ns
     fly_ref = [(t, p) for t, p in harness.reference
-               if len(fly_window) >= 2 and fly_window[0] <= t <= fly_window[1]]
+               if HarnessPhase.FLY in started and HarnessPhase.LAND in started
+               and started[HarnessPhase.FLY] <= t < started[HarnessPhase.LAND]]
+    path_image = None
     if fly_ref:
         t_ref = np.array([t for t, _ in fly_ref]) / 1e9
         ref_enu = ned_to_enu(np.array([p for _, p in fly_ref]))
@@ -198,7 +198,8 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
                                   for i in range(3)])
         err = actual - ref_enu
         rmse = {axis: float(np.sqrt(np.mean(err[:, i] ** 2))) for i, axis in enumerate("xyz")}
-        _path_plot(options.out / "path.png", ref_enu, traj.position, arena)
+        path_image = "path.png"
+        _path_plot(options.out / path_image, ref_enu, traj.position, arena)
     else:
         rmse = {axis: float("nan") for axis in "xyz"}
     report = {
@@ -218,7 +219,7 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
         "fcu_overruns": sitl.firmware.scheduler.report().overruns,
         "link": {d.name.lower(): {"sent": c.sent, "lost": c.lost, "spikes": c.spikes}
                  for d in LinkDirection for c in [sitl.link.counters(d)]},
-        "path_image": "path.png",
+        "path_image": path_image,
         "ok": harness.done and result.crash is None,
     }
     write_report(options.out, report)

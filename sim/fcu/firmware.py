@@ -254,6 +254,7 @@ class Firmware:
         self._hold_position: FloatArray | None = None
         self._hold_yaw = 0.0
         self._mode_of_hold: NavState | None = None
+        self._last_nav_state: NavState | None = None
         self._armed_before = False
         self._timesync_seq = 0
         self._last_timesync_status: Any = None
@@ -394,8 +395,12 @@ class Firmware:
             self._mode_of_hold = None
             return
         mode = self.nav_state
+        if mode is not self._last_nav_state:  # a new mode holds where it is entered
+            self._mode_of_hold = None
+            self._last_nav_state = mode
         if mode is NavState.OFFBOARD and self.offboard_setpoint is not None:
             self.setpoint = self.offboard_setpoint
+            self._mode_of_hold = None  # the companion's setpoint is in use
         elif mode is NavState.AUTO_TAKEOFF and self.status and self.status.takeoff_target:
             start = self._hold_here(mode)
             z = -self.status.takeoff_target.altitude_amsl_m  # altitude is -z (NED)
@@ -442,7 +447,7 @@ class Firmware:
             return
         landed = bool(self.land.landed) if self.land else True
         self.torque_setpoint = self.rate_controller.update(
-            self.gyro_frd, self.rate_setpoint, self._dt_us, landed=landed)
+            self.gyro_frd, self.rate_setpoint, self._period_us["rate_control"], landed=landed)
 
     def allocate(self) -> None:
         if not self.armed or self.position_out is None:

@@ -117,6 +117,7 @@ class OffboardHarness(Node):
     ) -> None:
         super().__init__("offboard_harness", **kwargs)
         self.phase = HarnessPhase.WAIT_ESTIMATE
+        self.phase_started_ns: dict[HarnessPhase, int] = {}  # when each phase began
         self.relative_path = np.asarray(path, dtype=np.float64).reshape(-1, 3)
         self.altitude = altitude
         self.speed = speed
@@ -215,6 +216,7 @@ class OffboardHarness(Node):
     def _enter(self, phase: HarnessPhase) -> None:
         self.phase = phase
         self._phase_start_ns = self.now().nanoseconds
+        self.phase_started_ns[phase] = self._phase_start_ns
         self.get_logger().debug(f"harness: {phase.value}")
 
     def _elapsed(self) -> float:

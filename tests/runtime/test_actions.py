@@ -161,3 +161,22 @@ def test_cancel_of_an_unknown_goal(ex: DeterministicExecutor, pair: Any) -> None
     cancel = handle.cancel_goal_async()
     ex.spin_until_future_complete(cancel, timeout_sec=1.0)
     assert cancel.result().return_code == CancelReturnCode.ERROR_UNKNOWN_GOAL_ID
+
+
+def test_an_execute_that_raises_aborts_the_goal_and_the_executor_goes_on(
+    ex: DeterministicExecutor,
+) -> None:
+    node = Node("fragile", context=ex.context)
+
+    async def execute(handle: ServerGoalHandle) -> Any:
+        await node.sleep(0.1)
+        raise RuntimeError("sensor gone")
+
+    ActionServer(node, TAKEOFF, "/fragile", execute)
+    client = ActionClient(Node("pilot", context=ex.context), TAKEOFF, "/fragile")
+    handle = _send(ex, client, 1.0)
+    result_future = handle.get_result_async()
+    assert ex.spin_until_future_complete(result_future, timeout_sec=1.0)
+    assert result_future.result().status == GoalStatus.ABORTED
+    again = _send(ex, client, 1.0)  # the server still answers
+    assert again.accepted

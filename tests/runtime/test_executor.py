@@ -7,7 +7,7 @@ from typing import Any
 import pytest
 
 import interfaces
-from runtime import ClockError, DeterministicExecutor, Node, qos_profile_default
+from runtime import ClockError, DeterministicExecutor, Future, Node, qos_profile_default
 from runtime.clock import NS_PER_S
 
 
@@ -151,3 +151,68 @@ def test_same_inputs_give_the_same_callback_trace() -> None:
     # the trace records behaviour: a different parameter changes the data, not the order
     trace_c, data_c = _run_three_nodes(gain=5)
     assert trace_c == trace_a and data_c != data_a
+
+
+def test_a_cancelled_task_never_resumes(ex: DeterministicExecutor) -> None:
+    node = Node("n", context=ex.context)
+    steps: list[str] = []
+
+    async def slow() -> None:
+        steps.append("start")
+        await node.sleep(1.0)
+        steps.append("after sleep")
+
+    task = node.create_task(slow())
+    ex.spin_for(0.5)
+    assert task.cancel() and task.cancelled()
+    ex.spin_for(2.0)
+    assert steps == ["start"]
+
+
+def test_a_destroyed_node_stops_everything_it_did(ex: DeterministicExecutor) -> None:
+    node = Node("talker", context=ex.context)
+    pub = node.create_publisher("std_msgs/msg/Int32", "/x", 10)
+    heard: list[int] = []
+    Node("listener", context=ex.context).create_subscription(
+        "std_msgs/msg/Int32", "/x", lambda m: heard.append(m.data), 10)
+
+    async def keep_talking() -> None:
+        for k in range(100):
+            pub.publish(interfaces.new("std_msgs/msg/Int32", data=k))
+            await node.sleep(0.1)
+
+    node.create_task(keep_talking())
+    ex.spin_for(0.25)
+    node.destroy_node()
+    count = len(heard)
+    ex.spin_for(2.0)
+    assert len(heard) == count == 3
+    with pytest.raises(Exception, match="destroyed"):
+        pub.publish(interfaces.new("std_msgs/msg/Int32", data=-1))
+
+
+def test_a_service_whose_deferred_answer_fails_logs_and_keeps_serving(
+    ex: DeterministicExecutor, caplog: pytest.LogCaptureFixture
+) -> None:
+    server = Node("server", context=ex.context)
+    calls: list[bool] = []
+
+    def handle(request: Any, response: Any) -> Any:
+        calls.append(bool(request.force))
+        if request.force:  # answer later, and fail doing so
+            later: Future[Any] = Future(ex.context.loop)
+            ex.call_at(ex.now().nanoseconds + 100_000_000,
+                       lambda: later.set_exception(RuntimeError("handler exploded")),
+                       ("server", "test", ""))
+            return later
+        response.success = True
+        return response
+
+    server.create_service("quadmission_interfaces/srv/Arm", "/arm", handle)
+    client = Node("c", context=ex.context).create_client("quadmission_interfaces/srv/Arm", "/arm")
+    failed = client.call_async(interfaces.new(client.srv_type.Request, force=True))
+    ex.spin_for(1.0)
+    assert not failed.done()
+    assert "handler exploded" in caplog.text
+    ok = client.call_async(interfaces.new(client.srv_type.Request, force=False))
+    assert ex.spin_until_future_complete(ok, timeout_sec=1.0) and ok.result().success

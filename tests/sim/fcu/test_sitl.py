@@ -160,3 +160,27 @@ def test_schedule_report_after_a_short_flight() -> None:
         assert p["achieved_hz"] == pytest.approx(p["freq_hz"], rel=0.01)
     assert {g["group"] for g in report["groups"]} >= {"sensors", "estimation", "control"}
     assert report["module_order"].index("ekf2") < report["module_order"].index("mc_pos_control")
+
+
+def test_a_failsafe_hold_stops_where_the_vehicle_is_not_where_it_held_before() -> None:
+    sitl = build_sitl(seed=6)
+    watcher = _Watcher(context=sitl.executor.context)
+    harness = OffboardHarness([[2.0, 0.0, 0.0]], hover_s=1.0, context=sitl.executor.context)
+    sitl.run(30.0, stop=_When(lambda: harness.phase is HarnessPhase.CLIMB
+                              and quad_height(sitl) > 1.4))
+    # a first failsafe hold over the take-off point, then offboard again
+    harness.heartbeat = False
+    sitl.run(5.0, stop=_When(lambda: watcher.status and watcher.status[-1][1]
+                             == NavState.AUTO_LOITER))
+    harness.heartbeat = True
+    sitl.run(30.0, stop=_When(lambda: harness.phase is HarnessPhase.LAND))
+    assert harness.phase is HarnessPhase.LAND  # flew the 2 m leg north after the hold
+    from sim.scene import quad_state
+
+    here = quad_state(sitl.scene.data, sitl.scene.index).position.copy()
+    harness.heartbeat = False
+    harness._land_sent = True  # keep the vehicle in the air: no land command  # noqa: SLF001
+    sitl.run(4.0)
+    held = quad_state(sitl.scene.data, sitl.scene.index).position
+    assert watcher.status[-1][1] == NavState.AUTO_LOITER
+    assert np.linalg.norm(held[:2] - here[:2]) < 0.3, (here, held)
