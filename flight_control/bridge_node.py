@@ -41,6 +41,7 @@ from flight_control.frames import (
 )
 from flight_control.pose_history import PoseHistory, PoseSample
 from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
+from flight_control.timesync_exchange import TimesyncExchange
 from runtime import (
     DurabilityPolicy,
     Node,
@@ -92,8 +93,7 @@ class FcuBridgeNode(Node):
         self.params = self.declare_params(BridgeParams)
         self.timesync: TimesyncEstimator = make_estimator(self.params.timesync_estimator)
         self.history = PoseHistory(round(self.params.pose_history_s * 1e9))
-        self._seq = 0
-        self._outstanding: dict[int, int] = {}  # seq -> ts1 [ns] of requests sent
+        self.exchange = TimesyncExchange(self.timesync)
         self._last_fcu_ns: int | None = None
         self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
                                       battery_remaining=math.nan)
@@ -168,21 +168,15 @@ class FcuBridgeNode(Node):
         return Time(self.to_companion_ns(fcu_us)).to_msg()
 
     def _send_timesync(self) -> None:
-        self._seq = (self._seq + 1) % 256
         now_ns = self.now().nanoseconds
-        self._outstanding[self._seq] = now_ns
-        self.timesync_out.publish(interfaces.new(
-            "px4_msgs/msg/Timesync", timestamp=self.to_fcu_us(now_ns), seq=self._seq, tc1=0,
-            ts1=now_ns))
+        self.timesync_out.publish(self.exchange.request(now_ns, self.to_fcu_us(now_ns)))
 
     def _on_timesync(self, msg: Any) -> None:
-        # /fmu/out/timesync is shared: only answers to our own outstanding requests count
-        if int(msg.tc1) <= 0 or self._outstanding.get(int(msg.seq)) != int(msg.ts1):
-            return
-        del self._outstanding[int(msg.seq)]
         was_synced = self.synced
-        now_us = ns_to_us(self.now().nanoseconds)
-        est = self.timesync.update(ns_to_us(int(msg.ts1)), ns_to_us(int(msg.tc1)), now_us)
+        estimates = self.exchange.reply(msg, self.now().nanoseconds)
+        if estimates is None:  # not an answer to one of our requests
+            return
+        (est,) = estimates
         self._last_fcu_ns = self.now().nanoseconds
         if est.converged and not was_synced:  # stamps move from receive to sample time
             self.history = PoseHistory(self.history.span_ns)

@@ -35,6 +35,7 @@ import interfaces
 from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
 from flight_control.latency import OffsetLog, ReceivedImu, SentVision
 from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
+from flight_control.timesync_exchange import TimesyncExchange
 from runtime import Node, qos_profile_px4_subscriber, qos_profile_sensor_data
 from runtime.qos import QoSProfile, ReliabilityPolicy
 
@@ -70,7 +71,7 @@ class LatencyTestNode(Node):
         self.offsets: list[OffsetLog] = []
         self.converged_us: dict[str, int | None] = dict.fromkeys(self.estimators)
         self._pose: tuple[np.ndarray, np.ndarray, float] | None = None
-        self._seq = 0
+        self.exchange = TimesyncExchange(*self.estimators.values())
         self.create_subscription("px4_msgs/msg/Timesync", "/fmu/out/timesync",
                                  self._on_timesync, qos_profile_px4_subscriber)
         self.create_subscription("px4_msgs/msg/SensorCombined", "/fmu/out/sensor_combined",
@@ -97,18 +98,14 @@ class LatencyTestNode(Node):
         self.create_timer(self._timesync_period_s, self._send_timesync)
 
     def _send_timesync(self) -> None:
-        self._seq = (self._seq + 1) % 256
-        now_ns = self.now().nanoseconds
-        self.timesync_pub.publish(interfaces.new(
-            "px4_msgs/msg/Timesync", timestamp=ns_to_us(now_ns), seq=self._seq, tc1=0,
-            ts1=now_ns))
+        self.timesync_pub.publish(self.exchange.request(self.now().nanoseconds))
 
     def _on_timesync(self, msg: Any) -> None:
-        if int(msg.tc1) <= 0:
+        replies = self.exchange.reply(msg, self.now().nanoseconds)
+        if replies is None:
             return
         now_us = self._now_us()
-        estimates = {name: est.update(ns_to_us(int(msg.ts1)), ns_to_us(int(msg.tc1)), now_us)
-                     for name, est in self.estimators.items()}
+        estimates = dict(zip(self.estimators, replies, strict=True))
         for name, estimate in estimates.items():
             if estimate.converged and self.converged_us[name] is None:
                 self.converged_us[name] = now_us

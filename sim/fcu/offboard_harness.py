@@ -29,6 +29,7 @@ import numpy.typing as npt
 import interfaces
 from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
 from flight_control.timesync import make_estimator, ns_to_us
+from flight_control.timesync_exchange import TimesyncExchange
 from runtime import Node, Time, qos_profile_px4_subscriber, qos_profile_sensor_data
 from runtime.qos import QoSProfile, ReliabilityPolicy
 from sim.fcu.commander import NavState, VehicleCmd
@@ -126,7 +127,9 @@ class OffboardHarness(Node):
         self.hover_s = hover_s
         self.fly = fly
         self.heartbeat = True  # set False to stop the offboard stream (failsafe tests)
+        self.auto_land = True  # set False to stay airborne after the path (failsafe tests)
         self.timesync = make_estimator("kalman")
+        self.exchange = TimesyncExchange(self.timesync)
         self.position_ned: FloatArray | None = None
         self.position_valid = False
         self.nav_state = -1
@@ -136,7 +139,6 @@ class OffboardHarness(Node):
         self.profile: PathProfile | None = None
         self._phase_start_ns = 0
         self._hold: FloatArray | None = None
-        self._seq = 0
         self._land_sent = False
         self._reached_ns: int | None = None  # when the climb first reached its target
         out = qos_profile_px4_subscriber
@@ -169,16 +171,10 @@ class OffboardHarness(Node):
         return self.timesync.local_to_remote(ns_to_us(t_ns))
 
     def _send_timesync(self) -> None:
-        self._seq = (self._seq + 1) % 256
-        now_ns = self.now().nanoseconds
-        self.timesync_pub.publish(interfaces.new(
-            "px4_msgs/msg/Timesync", timestamp=ns_to_us(now_ns), seq=self._seq, tc1=0,
-            ts1=now_ns))
+        self.timesync_pub.publish(self.exchange.request(self.now().nanoseconds))
 
     def _on_timesync(self, msg: Any) -> None:
-        if int(msg.tc1) > 0:
-            self.timesync.update(ns_to_us(int(msg.ts1)), ns_to_us(int(msg.tc1)),
-                                 ns_to_us(self.now().nanoseconds))
+        self.exchange.reply(msg, self.now().nanoseconds)
 
     def _on_vision(self, msg: Any) -> None:
         if not self.timesync.estimate.converged:
@@ -282,7 +278,7 @@ class OffboardHarness(Node):
             if self._elapsed() > self.profile.duration + self.hover_s:
                 self._enter(HarnessPhase.LAND)
         elif self.phase is HarnessPhase.LAND:
-            if not self._land_sent:
+            if not self._land_sent and self.auto_land:
                 self.command(VehicleCmd.NAV_LAND)
                 self._land_sent = True
             if not self.armed and self._elapsed() > 1.0:

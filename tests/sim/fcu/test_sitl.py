@@ -179,7 +179,7 @@ def test_a_failsafe_hold_stops_where_the_vehicle_is_not_where_it_held_before() -
 
     here = quad_state(sitl.scene.data, sitl.scene.index).position.copy()
     harness.heartbeat = False
-    harness._land_sent = True  # keep the vehicle in the air: no land command  # noqa: SLF001
+    harness.auto_land = False  # keep the vehicle in the air: only the failsafe acts
     sitl.run(4.0)
     held = quad_state(sitl.scene.data, sitl.scene.index).position
     assert watcher.status[-1][1] == NavState.AUTO_LOITER
