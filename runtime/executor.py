@@ -98,7 +98,12 @@ class DeterministicExecutor:
 
     # nodes -------------------------------------------------------------------------------
     def add_node(self, node: Node) -> None:
-        """Take a node into this executor; its YAML must not name undeclared parameters."""
+        """Take a node into this executor; its YAML must not name undeclared parameters.
+
+        Unlike rclpy, callbacks belong to the context: a node's timers, subscriptions and
+        tasks run from their creation until ``destroy_node``, whether or not it was added
+        here; adding checks its parameters and lists it, removing only unlists it.
+        """
         node.check_parameters_declared()
         if node not in self._nodes:
             self._nodes.append(node)
