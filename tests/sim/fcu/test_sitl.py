@@ -16,6 +16,7 @@ import pytest
 
 from runtime import Node, qos_profile_px4_subscriber
 from sim.fcu.commander import CommandResult, NavState, VehicleCmd
+from sim.fcu.link import LinkDirection
 from sim.fcu.offboard_harness import HarnessPhase, OffboardHarness
 from sim.fcu.sitl import Sitl, build_sitl, hover_flight, schedule_report
 from sim.scenarios import ScenarioOptions, square
@@ -184,3 +185,16 @@ def test_a_failsafe_hold_stops_where_the_vehicle_is_not_where_it_held_before() -
     held = quad_state(sitl.scene.data, sitl.scene.index).position
     assert watcher.status[-1][1] == NavState.AUTO_LOITER
     assert np.linalg.norm(held[:2] - here[:2]) < 0.3, (here, held)
+
+
+def test_the_same_seed_flies_the_same_flight() -> None:
+    def flight(seed: int) -> Any:
+        sitl, result = hover_flight(1.0, seed=seed)
+        return result.trajectory.position, sitl.link.counters(LinkDirection.TO_COMPANION)
+
+    a, counters_a = flight(7)
+    b, counters_b = flight(7)
+    c, _ = flight(8)
+    assert np.array_equal(a, b) and counters_a == counters_b
+    assert not np.array_equal(a, c)
+    assert np.ptp(a[:, 2]) > 1.0  # it really flew (took off to 1.5 m)
