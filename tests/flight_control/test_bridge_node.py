@@ -122,7 +122,7 @@ def test_setpoints_fly_the_vehicle_in_the_map_frame() -> None:
 
 
 def test_pose_history_answers_where_the_vehicle_was() -> None:
-    sitl, companion, pilot = _setup(seed=13)
+    sitl, _, pilot = _setup(seed=13)
     start = _truth(sitl).position
     pilot.target = (start[0], start[1], start[2] + 1.0)
     sitl.run(1.5)
@@ -151,7 +151,6 @@ def test_pose_history_answers_where_the_vehicle_was() -> None:
     old = client.call_async(interfaces.new(client.srv_type.Request, stamp=Time(0).to_msg()))
     sitl.run(0.05)
     assert not old.result().success and "outside the kept history" in old.result().message
-    _ = companion
 
 
 def test_cutting_the_vio_stream_invalidates_the_fcu_position() -> None:
