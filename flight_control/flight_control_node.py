@@ -69,6 +69,9 @@ LAND = interfaces.get_action("quadmission_interfaces/action/Land")
 REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
 TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
 MAP_FRAME = "map"
+#: Slowest commanded descent the FCU's land detector reads as a landing (its threshold is
+#: half of PX4's 0.3 m/s crawl speed).
+MIN_LAND_SPEED = 0.2  # m/s
 
 
 class Px4Command(IntEnum):
@@ -520,7 +523,10 @@ class FlightControlNode(Node):
     def _check_land(self, goal: Any) -> GoalResponse | Rejection:
         problem = check_vehicle(self.vehicle_state(), need_armed=True,
                                 battery_critical_warning=None)
-        return self._verdict(problem)
+        if 0.0 < goal.speed < MIN_LAND_SPEED:
+            return Rejection(f"land speed {goal.speed} m/s is below {MIN_LAND_SPEED} m/s: the "
+                             "FCU's land detector would not see a descent")
+        return self._verdict(problem, check_speed(goal.speed, self.params.max_speed))
 
     def _check_reach(self, goal: Any) -> GoalResponse | Rejection:
         p = goal.target.position
@@ -728,20 +734,28 @@ class FlightControlNode(Node):
 
     # -- land -----------------------------------------------------------------------------
     async def _land(self, handle: ServerGoalHandle) -> Any:
-        """NAV_LAND, then touchdown (and disarm). The hold setpoint keeps streaming, at
-        the vehicle's position, so a cancel can take offboard back at once. The descent
-        speed is the FCU's (PX4 MPC_LAND_SPEED): the goal's ``speed`` is not used yet."""
+        """Land where the vehicle is, then touchdown (and disarm).
+
+        ``speed`` 0: the FCU's own landing (NAV_LAND, PX4's MPC_LAND_SPEED); the hold
+        setpoint keeps streaming at the vehicle's position, so a cancel can take offboard
+        back at once. ``speed`` > 0: we descend in offboard at that speed, holding x and y,
+        until the FCU detects the touchdown."""
         goal = handle.request
         result = interfaces.new(LAND.Result)
         token = self._take_control()
         if self.setpoint is None:
             self.hold()
-        out = await self.command(Px4Command.NAV_LAND)
-        if not out.accepted:
-            handle.abort()
-            result.result = result.RESULT_FCU_REJECTED
-            result.message = out.describe()
-            return result
+        descend_at = None
+        if goal.speed > 0.0:
+            assert self.position is not None
+            descend_at = self.position.copy()
+        else:
+            out = await self.command(Px4Command.NAV_LAND)
+            if not out.accepted:
+                handle.abort()
+                result.result = result.RESULT_FCU_REJECTED
+                result.message = out.describe()
+                return result
         home_z = self.home[2] if self.home is not None else 0.0
         start_ns = self.now().nanoseconds
         feedback_every = max(1, round(self.params.setpoint_rate_hz / self.params.feedback_rate_hz))
@@ -759,7 +773,13 @@ class FlightControlNode(Node):
                 mode = await self._ensure_offboard()
                 ending = Ending.CANCELED if mode.accepted else Ending.LOST_CONTROL
                 break
-            if self.setpoint is not None:
+            touched_down = state is not None and state.landed
+            if descend_at is not None and not touched_down:
+                x, y = descend_at[:2]
+                yaw = self.setpoint.yaw if self.setpoint is not None else self.yaw
+                self.setpoint = Setpoint(np.array([x, y, math.nan]),
+                                         np.array([0.0, 0.0, -goal.speed]), yaw)
+            elif self.setpoint is not None:
                 self.hold()  # the stream follows the vehicle down
             if tick % feedback_every == 0:
                 handle.publish_feedback(interfaces.new(

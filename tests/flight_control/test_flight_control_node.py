@@ -282,3 +282,23 @@ def test_losing_the_heartbeat_makes_the_fcu_hold_then_land() -> None:
     assert 1.0 <= hold_t - lost_at <= 1.8  # COM_OF_LOSS_T = 1 s, + status period
     assert 4.5 <= land_t - hold_t <= 5.5  # held for COM_FAIL_ACT_T = 5 s, then lands
     assert any(m.failsafe and m.offboard_signal_lost for _, m in after)
+
+
+def test_land_at_a_chosen_speed_descends_at_that_speed_then_disarms() -> None:
+    _, _, pilot = _setup(seed=13)
+    _, takeoff, _ = _arm_and_take_off(pilot, 1.5)
+    assert takeoff.status == GoalStatus.SUCCEEDED
+    too_slow = pilot.send(pilot.land, interfaces.new(LAND.Goal, speed=0.1, disarm=True))
+    assert not too_slow.accepted
+    rejected = pilot.outcome(too_slow, 2.0)
+    assert "below 0.2 m/s" in rejected.result.message
+    feedback: list[Any] = []
+    handle = pilot.send(pilot.land, interfaces.new(LAND.Goal, speed=0.5, disarm=True), feedback)
+    assert handle.accepted
+    landed = pilot.outcome(handle, 30.0)
+    assert landed.status == GoalStatus.SUCCEEDED, landed.result.message
+    # the vertical speed reported while descending through the middle of the drop
+    middle = [fb.vertical_speed for fb in feedback if 0.4 < fb.altitude < 1.1]
+    assert middle and np.mean(middle) == pytest.approx(-0.5, abs=0.1)
+    assert pilot.truth()[2] < 0.2
+    assert not pilot.status[-1][1].armed
