@@ -10,7 +10,8 @@ Entities (under ``/flight_control/``):
 - actions ``takeoff``, ``land``, ``reach``, ``turn``: reach and takeoff fly the
   interpolated setpoints of :mod:`flight_control.setpoints` (reached in sequence inside
   a sphere, a carrot at cruise speed between them), with distance-left feedback; land is
-  the FCU's NAV_LAND; turn ramps the yaw setpoint. Goals are validated in
+  the FCU's NAV_LAND, or an offboard descent at the goal's speed; turn ramps the yaw
+  setpoint. Goals are validated in
   :mod:`flight_control.goal_checks` and rejected with the reason. A new motion goal
   preempts the running one (aborted, "preempted"); a cancel holds where the vehicle is;
 - ``health`` (HealthReport, 1 Hz) for preflight checks.
