@@ -25,8 +25,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 from flight_control.latency import (
     CONSUMPTION_DELAY_US,
     TABLE3,

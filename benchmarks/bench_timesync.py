@@ -19,14 +19,11 @@ import argparse
 import json
 import math
 import statistics
-import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from flight_control.timesync import ESTIMATORS, make_estimator
 from flight_control.timesync_traces import (
