@@ -25,7 +25,7 @@ from sim.quadrotor import MotorModel
 from sim.render import Image, SceneRenderer
 from sim.scene import place_quadrotor
 from sim.sensors import DOWN_IMAGE_TOPIC, SimSensorsNode, image_from_msg, sensor_parts
-from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
+from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, StopWhen, run_world
 
 TOUR_HEIGHT = 1.5  # m, camera height above each pad in the arena tour
 
@@ -179,12 +179,8 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
                 _progress(f"  t={t_ns / 1e9:6.1f} s  {harness.phase.value}")
                 self.last = harness.phase
 
-    class _Done:
-        def done(self, t_ns: int, scene: Scene) -> bool:
-            return harness.done
-
     sitl.extra_parts.append(_Progress())
-    result = sitl.run(180.0, stop=_Done())
+    result = sitl.run(180.0, stop=StopWhen(lambda: harness.done))
     traj = result.trajectory
     started = harness.phase_started_ns
     fly_ref = [(t, p) for t, p in harness.reference

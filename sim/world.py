@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Protocol
@@ -124,6 +124,16 @@ class NeverStop:
 
     def done(self, t_ns: int, scene: Scene) -> bool:
         return False
+
+
+class StopWhen:
+    """Stop as soon as ``condition()`` holds (a mission done, a test's state reached)."""
+
+    def __init__(self, condition: Callable[[], object]) -> None:
+        self.condition = condition
+
+    def done(self, t_ns: int, scene: Scene) -> bool:
+        return bool(self.condition())
 
 
 class MotorCommands(Protocol):
@@ -419,6 +429,7 @@ __all__ = [
     "RobotMotion",
     "Scene",
     "Stop",
+    "StopWhen",
     "Trajectory",
     "TrajectoryRecorder",
     "WorldResult",

@@ -46,6 +46,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flight_control.timesync_traces import SEED_COMPANION_TO_FCU, SEED_FCU_TO_COMPANION
 from sim.errors import SimError
 from sim.fcu.clock import FcuClock
 from sim.fcu.errors import FcuParameterError
@@ -94,9 +95,9 @@ class LatencyFigure(NamedTuple):
 
 TABLE3_MESSAGE_SIZE_BYTES = 115
 """Message size of the seed 000 latency experiment (section 2.9) [bytes]."""
-TABLE3_TO_FCU = LatencyFigure(mean_us=1329.0, sd_us=162.0)
+TABLE3_TO_FCU = LatencyFigure(SEED_COMPANION_TO_FCU.mean_us, SEED_COMPANION_TO_FCU.std_us)
 """Seed 000 Table 3, MicroXRCE-DDS - ROS 2, companion computer -> flight controller."""
-TABLE3_TO_COMPANION = LatencyFigure(mean_us=1752.0, sd_us=315.0)
+TABLE3_TO_COMPANION = LatencyFigure(SEED_FCU_TO_COMPANION.mean_us, SEED_FCU_TO_COMPANION.std_us)
 """Seed 000 Table 3, MicroXRCE-DDS - ROS 2, flight controller -> companion computer."""
 
 

@@ -13,15 +13,7 @@ from flight_control.companion import Companion, start_companion
 from runtime import Node, Time, qos_profile_default, qos_profile_sensor_data
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.scene import quad_state
-from sim.world import Scene
-
-
-class _Until:
-    def __init__(self, condition: Any) -> None:
-        self.condition = condition
-
-    def done(self, t_ns: int, scene: Scene) -> bool:
-        return bool(self.condition())
+from sim.world import Scene, StopWhen
 
 
 class Pilot(Node):
@@ -74,7 +66,7 @@ def _setup(seed: int) -> tuple[Sitl, Companion, Pilot]:
     sitl = build_sitl(seed=seed)
     companion = start_companion(sitl)
     pilot = Pilot(context=sitl.executor.context)
-    sitl.run(6.0, stop=_Until(lambda: pilot.status is not None
+    sitl.run(6.0, stop=StopWhen(lambda: pilot.status is not None
                               and pilot.status.position_valid and len(pilot.odometry) > 10))
     assert pilot.status.position_valid, "the FCU never got a position from the vision stream"
     return sitl, companion, pilot

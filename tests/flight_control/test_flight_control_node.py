@@ -31,18 +31,12 @@ from runtime import ActionClient, GoalStatus, Node, qos_profile_default
 from runtime.future import Future
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.scene import quad_state
-from sim.world import Scene
+from sim.world import StopWhen
 
 WAYPOINTS = [(3.5, 1.5, 1.5), (3.5, 3.5, 2.0), (1.5, 3.5, 1.5), (1.5, 1.5, 1.5)]
 RADIUS = 0.15  # m
 
 
-class _Until:
-    def __init__(self, condition: Any) -> None:
-        self.condition = condition
-
-    def done(self, t_ns: int, scene: Scene) -> bool:
-        return bool(self.condition())
 
 
 class Pilot(Node):
@@ -69,7 +63,7 @@ class Pilot(Node):
         return self.now().nanoseconds / 1e9
 
     def run_until(self, future: Future[Any], limit_s: float) -> Any:
-        self.sitl.run(limit_s, stop=_Until(future.done))
+        self.sitl.run(limit_s, stop=StopWhen(future.done))
         assert future.done(), f"no answer within {limit_s} s of simulated time"
         return future.result()
 
@@ -112,7 +106,7 @@ def _setup(seed: int) -> tuple[Sitl, FlightControlNode, Pilot]:
         state = fc.vehicle_state()
         return state is not None and state.position_valid and len(pilot.health) > 0
 
-    sitl.run(8.0, stop=_Until(ready))
+    sitl.run(8.0, stop=StopWhen(ready))
     assert ready(), "no valid position from the FCU within 8 s"
     return sitl, fc, pilot
 
@@ -156,7 +150,7 @@ def flight() -> Flight:
     rec = Flight()
     sitl, _, pilot = _setup(seed=11)
     reports = len(pilot.health)
-    sitl.run(1.5, stop=_Until(lambda: len(pilot.health) > reports))  # one with a position
+    sitl.run(1.5, stop=StopWhen(lambda: len(pilot.health) > reports))  # one with a position
     rec.preflight_health = pilot.health[-1]
     # a reach before arming is refused
     handle = pilot.send(pilot.reach, reach_goal(3.0, 1.5, 1.5))
@@ -274,7 +268,7 @@ def test_losing_the_heartbeat_makes_the_fcu_hold_then_land() -> None:
         return any(t > lost_at and m.nav_state == m.NAV_STATE_AUTO_LAND
                    for t, m in pilot.status)
 
-    result = sitl.run(10.0, stop=_Until(landing))
+    result = sitl.run(10.0, stop=StopWhen(landing))
     assert result.crash is None
     after = [(t, m) for t, m in pilot.status if t > lost_at]
     hold_t = next(t for t, m in after if m.nav_state == m.NAV_STATE_AUTO_LOITER)

@@ -20,17 +20,7 @@ from sim.fcu.link import LinkDirection
 from sim.fcu.offboard_harness import HarnessPhase, OffboardHarness
 from sim.fcu.sitl import Sitl, build_sitl, hover_flight, schedule_report
 from sim.scenarios import ScenarioOptions, square
-from sim.world import Scene, WorldStatus
-
-
-class _When:
-    """Stop the world when a condition holds."""
-
-    def __init__(self, condition: Any) -> None:
-        self.condition = condition
-
-    def done(self, t_ns: int, scene: Scene) -> bool:
-        return bool(self.condition())
+from sim.world import StopWhen, WorldStatus
 
 
 class _Watcher(Node):
@@ -52,7 +42,7 @@ class _Watcher(Node):
 
 
 def _fly(sitl: Sitl, harness: OffboardHarness, seconds: float, until: Any = None) -> Any:
-    return sitl.run(seconds, stop=_When(until) if until else None)
+    return sitl.run(seconds, stop=StopWhen(until) if until else None)
 
 
 def test_fcu_refuses_offboard_without_heartbeat_and_arming_without_position() -> None:
@@ -65,7 +55,7 @@ def test_fcu_refuses_offboard_without_heartbeat_and_arming_without_position() ->
     sitl.run(0.5)
     assert watcher.acks and watcher.acks[-1].command == VehicleCmd.COMPONENT_ARM_DISARM
     assert watcher.acks[-1].result == CommandResult.DENIED
-    sitl.run(4.0, stop=_When(lambda: harness.position_valid))
+    sitl.run(4.0, stop=StopWhen(lambda: harness.position_valid))
     assert harness.position_valid
     harness.command(VehicleCmd.DO_SET_MODE, param1=1.0, param2=6.0)
     sitl.run(0.5)
@@ -91,7 +81,7 @@ def test_take_off_hold_within_10_cm_for_10_s_then_land_and_disarm() -> None:
     error = np.linalg.norm(window - target, axis=1)
     assert error.max() < 0.1, f"hover error {error.max():.3f} m"
     # then land: NAV_LAND, touchdown, landed, auto-disarm
-    sitl.run(40.0, stop=_When(lambda: harness.done))
+    sitl.run(40.0, stop=StopWhen(lambda: harness.done))
     assert harness.phase is HarnessPhase.DONE and not harness.armed
     final = quad_height(sitl)
     assert final == pytest.approx(start[2], abs=0.05)
@@ -108,11 +98,11 @@ def test_losing_the_companion_heartbeat_makes_the_fcu_hold_then_land() -> None:
     watcher = _Watcher(context=sitl.executor.context)
     harness = OffboardHarness([[0, 0, 0]], fly=False, hover_s=60.0,
                               context=sitl.executor.context)
-    sitl.run(30.0, stop=_When(lambda: harness.phase is HarnessPhase.CLIMB
+    sitl.run(30.0, stop=StopWhen(lambda: harness.phase is HarnessPhase.CLIMB
                               and quad_height(sitl) > 1.4))
     harness.heartbeat = False
     lost_at = sitl.executor.now().nanoseconds
-    result = sitl.run(40.0, stop=_When(lambda: not harness.armed
+    result = sitl.run(40.0, stop=StopWhen(lambda: not harness.armed
                                        and sitl.executor.now().nanoseconds > lost_at + 2e9))
     assert result.crash is None
     after = [(t, nav) for t, nav, _, _ in watcher.status if t > lost_at]
@@ -167,14 +157,14 @@ def test_a_failsafe_hold_stops_where_the_vehicle_is_not_where_it_held_before() -
     sitl = build_sitl(seed=6)
     watcher = _Watcher(context=sitl.executor.context)
     harness = OffboardHarness([[2.0, 0.0, 0.0]], hover_s=1.0, context=sitl.executor.context)
-    sitl.run(30.0, stop=_When(lambda: harness.phase is HarnessPhase.CLIMB
+    sitl.run(30.0, stop=StopWhen(lambda: harness.phase is HarnessPhase.CLIMB
                               and quad_height(sitl) > 1.4))
     # a first failsafe hold over the take-off point, then offboard again
     harness.heartbeat = False
-    sitl.run(5.0, stop=_When(lambda: watcher.status and watcher.status[-1][1]
+    sitl.run(5.0, stop=StopWhen(lambda: watcher.status and watcher.status[-1][1]
                              == NavState.AUTO_LOITER))
     harness.heartbeat = True
-    sitl.run(30.0, stop=_When(lambda: harness.phase is HarnessPhase.LAND))
+    sitl.run(30.0, stop=StopWhen(lambda: harness.phase is HarnessPhase.LAND))
     assert harness.phase is HarnessPhase.LAND  # flew the 2 m leg north after the hold
     from sim.scene import quad_state
 
