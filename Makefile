@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= runs/default
 
-.PHONY: test sim lint typecheck bench clean
+.PHONY: test sim lint typecheck bench mutate mutate-clean clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "quadmission needs Python >= 3.11")'
@@ -39,5 +39,22 @@ bench: $(STAMP)
 	  MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python $$script --out benchmarks/results/$$name.json || exit 1; \
 	done
 
+## make mutate: mutation testing (mutmut) of the pure modules; prints killed/total per module
+## and fails below MUTATE_MIN_KILL %. Not part of `make test` (CPU-heavy: minutes per module).
+## MUTATE_PATHS: modules or folders to mutate; each one's tests mirror it under tests/
+## (tests/sim/fcu/test_control*.py), or name them: path.py=tests/x.py,tests/y.py
+MUTATE_PATHS    ?= flight_control/timesync.py sim/fcu/control.py sim/fcu/commander.py
+MUTATE_CHILDREN ?= 1
+MUTATE_MIN_KILL ?= 90
+
+mutate: $(STAMP)
+	@$(BIN)/python -c 'import mutmut' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[test,mutate]'
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python tools/mutate.py \
+	  --max-children $(MUTATE_CHILDREN) --min-kill-percent $(MUTATE_MIN_KILL) $(MUTATE_PATHS)
+
+## make mutate-clean: forget mutmut's results (./mutants)
+mutate-clean:
+	rm -rf mutants
+
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache mutants

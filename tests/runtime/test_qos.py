@@ -150,3 +150,61 @@ def test_reliability_and_history_enums_round_trip_in_profile() -> None:
     assert profile.depth == 4 and profile.history is HistoryPolicy.KEEP_LAST
     with pytest.raises(ValueError, match="depth"):
         QoSProfile(depth=0)
+
+
+def test_a_late_joiner_gets_nothing_from_an_incompatible_transient_local_writer(
+    ex: DeterministicExecutor,
+) -> None:
+    """A BEST_EFFORT writer's kept samples never reach a RELIABLE late joiner (no match)."""
+    node = Node("n", context=ex.context)
+    best_effort_tl = QoSProfile(
+        depth=5,
+        reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    pub = node.create_publisher(INT, "latched", best_effort_tl)
+    for v in range(3):
+        pub.publish(_int(v))
+    ex.spin_for(0.1)
+    reliable_late, sub = _collect(node, "latched", RELIABLE_TL)
+    best_effort_late, _ = _collect(node, "latched", best_effort_tl)
+    ex.spin_for(0.1)
+    assert reliable_late == []
+    assert sub.get_publisher_count() == 0
+    assert best_effort_late == [0, 1, 2]  # the compatible late joiner does get them
+
+
+@pytest.mark.parametrize("writer_first", [True, False])
+def test_an_incompatibility_is_recorded_whichever_side_comes_first(
+    ex: DeterministicExecutor, writer_first: bool
+) -> None:
+    node = Node("n", context=ex.context)
+    transport = ex.context.transport
+    if writer_first:
+        pub = node.create_publisher(INT, "t", qos_profile_sensor_data)
+        got, _ = _collect(node, "t", QoSProfile())
+    else:
+        got, _ = _collect(node, "t", QoSProfile())
+        pub = node.create_publisher(INT, "t", qos_profile_sensor_data)
+    reasons = [i for i in transport.incompatibilities if i.name == "/t"]  # type: ignore[attr-defined]
+    assert len(reasons) == 1 and "RELIABLE" in reasons[0].reason
+    pub.publish(_int(1))
+    ex.spin_for(0.1)
+    assert got == []
+
+
+def test_keep_all_transient_local_writer_replays_every_sample_to_a_late_joiner(
+    ex: DeterministicExecutor,
+) -> None:
+    """KEEP_ALL on the writer: its history is not cut at ``depth``."""
+    node = Node("n", context=ex.context)
+    keep_all_tl = QoSProfile(
+        depth=2, history=HistoryPolicy.KEEP_ALL, durability=DurabilityPolicy.TRANSIENT_LOCAL
+    )
+    pub = node.create_publisher(INT, "latched", keep_all_tl)
+    for v in range(20):
+        pub.publish(_int(v))
+    ex.spin_for(0.1)
+    late, _ = _collect(node, "latched", keep_all_tl)
+    ex.spin_for(0.1)
+    assert late == list(range(20))

@@ -302,6 +302,43 @@ def test_arming_into_offboard_needs_the_signal_still_there() -> None:
     assert ack.result_param1 == DenyReason.OFFBOARD_SIGNAL_NOT_ESTABLISHED
 
 
+def test_the_offboard_stream_must_last_strictly_more_than_offboard_min_stream_s() -> None:
+    """Exactly 1 s of a 10 Hz heartbeat is not enough; one microsecond more is."""
+    params = CommanderParams(offboard_min_stream_s=1.0, offboard_min_rate_hz=2.0)
+    commander = Commander(params)
+    start = 5 * S
+    for beat in range(11):  # heartbeats at start, start + 0.1 s, ..., start + 1 s
+        now = start + beat * 100 * MS
+        out = commander.step(CommanderInputs(now_us=now, offboard_heartbeat_us=now))
+    assert not out.status.offboard_signal_established, "1 s is not more than 1 s"
+    exactly = commander.step(
+        CommanderInputs(now_us=start + 1 * S, offboard_heartbeat_us=start + 1 * S,
+                        commands=(set_offboard(),))
+    )  # fmt: skip
+    assert exactly.acks[0].result is CommandResult.TEMPORARILY_REJECTED
+    assert exactly.acks[0].result_param1 == DenyReason.OFFBOARD_SIGNAL_NOT_ESTABLISHED
+    later = commander.step(
+        CommanderInputs(now_us=start + 1 * S + 1, offboard_heartbeat_us=start + 1 * S,
+                        commands=(set_offboard(),))
+    )  # fmt: skip
+    assert later.status.offboard_signal_established
+    assert later.acks[0].result is CommandResult.ACCEPTED
+
+
+def test_a_gap_in_the_heartbeat_restarts_the_stream() -> None:
+    """A gap of 1 / offboard_min_rate_hz (0.5 s) restarts the 1 s count from the next beat."""
+    commander = Commander(CommanderParams())
+    beats = [0, 100 * MS, 200 * MS, 700 * MS, 800 * MS, 1300 * MS, 1400 * MS, 1500 * MS]
+    for beat in beats:  # 0.5 s gaps after 200 ms and after 800 ms
+        out = commander.step(CommanderInputs(now_us=beat, offboard_heartbeat_us=beat))
+        assert not out.status.offboard_signal_established
+    for beat in range(1600 * MS, 2400 * MS, 100 * MS):
+        out = commander.step(CommanderInputs(now_us=beat, offboard_heartbeat_us=beat))
+    assert not out.status.offboard_signal_established, "only 1.0 s since the restart at 1.3 s"
+    out = commander.step(CommanderInputs(now_us=2400 * MS, offboard_heartbeat_us=2400 * MS))
+    assert out.status.offboard_signal_established
+
+
 # -- offboard loss --------------------------------------------------------------------------
 
 
@@ -343,6 +380,21 @@ def test_offboard_loss_action_hold_keeps_holding() -> None:
     outs = bench.run(5 * S)
     assert outs[-1].status.nav_state is NavState.AUTO_LOITER
     assert outs[-1].status.failsafe
+
+
+def test_offboard_loss_action_return_returns_after_the_hold() -> None:
+    bench = armed_in_offboard(
+        CommanderParams(failsafe_hold_s=1.0, offboard_loss_action=OffboardLossAction.RETURN)
+    )
+    bench.stream(None)
+    outs = bench.run(4 * S)
+    states = [o.status.nav_state for o in outs]
+    hold = states.index(NavState.AUTO_LOITER)
+    rtl = states.index(NavState.AUTO_RTL)
+    assert hold < rtl, "hold first, then return"
+    assert outs[rtl].status.timestamp_us - outs[hold].status.timestamp_us == 1 * S
+    assert set(states[rtl:]) == {NavState.AUTO_RTL}
+    assert outs[-1].status.failsafe_reason is FailsafeReason.OFFBOARD_LOSS
 
 
 def test_a_mode_command_takes_over_from_the_failsafe() -> None:
@@ -499,6 +551,36 @@ def test_battery_critical_returns_with_action_return_and_emergency_then_lands() 
     out = bench.tick()
     assert out.status.nav_state is NavState.AUTO_LAND
     assert out.status.failsafe_reason is FailsafeReason.BATTERY_EMERGENCY
+
+
+def test_the_battery_failsafe_acts_once_per_level_so_the_pilot_can_take_over() -> None:
+    bench = armed_in_offboard(CommanderParams(low_battery_action=BatteryFailsafeAction.RETURN))
+    bench.battery = BatteryWarning.CRITICAL
+    assert bench.tick().status.nav_state is NavState.AUTO_RTL
+    takeover = bench.command(set_auto(3))  # loiter: allowed below EMERGENCY
+    assert takeover.acks[0].result is CommandResult.ACCEPTED
+    outs = bench.run(2 * S)
+    assert all(o.status.nav_state is NavState.AUTO_LOITER for o in outs), "CRITICAL acted twice"
+    assert not outs[-1].status.failsafe
+    bench.battery = BatteryWarning.EMERGENCY  # a new level acts, once
+    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+
+
+def test_the_battery_failsafe_acts_again_after_a_new_arming() -> None:
+    bench = armed_in_offboard()
+    bench.battery = BatteryWarning.CRITICAL
+    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    bench.landed = True
+    bench.altitude_amsl_m = HOME_AMSL_M
+    assert bench.command(disarm()).status.arming_state is ArmingState.DISARMED
+    bench.battery = BatteryWarning.LOW  # recovered (a fresh pack), then armed again
+    assert bench.command(arm()).status.nav_state is NavState.AUTO_LOITER
+    bench.airborne()
+    bench.run(200 * MS)
+    bench.battery = BatteryWarning.CRITICAL
+    out = bench.tick()
+    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.failsafe_reason is FailsafeReason.BATTERY_CRITICAL
 
 
 def test_battery_emergency_refuses_every_mode_but_land() -> None:
