@@ -203,6 +203,57 @@ def test_desaturation_gives_up_collective_thrust_before_roll_torque() -> None:
     assert not out.saturated_positive[0]
 
 
+# Rotor thrust [N] per N m of FLU yaw and roll torque: the allocation matrix inverted, by hand
+YAW_N_PER_NM = 1.0 / (4 * abs(allocation_matrix(PARAMS)[3, 0]))
+ROLL_N_PER_NM = 1.0 / (4 * abs(allocation_matrix(PARAMS)[1, 0]))
+
+
+def _achieved_frd(motor_thrusts: np.ndarray) -> tuple[float, np.ndarray]:
+    """Collective thrust [N] and FRD torque [N m] that the rotors produce."""
+    wrench = allocation_matrix(PARAMS) @ motor_thrusts
+    return float(wrench[0]), np.array([wrench[1], -wrench[2], -wrench[3]])
+
+
+def test_airmode_off_never_raises_collective_thrust_to_make_room_for_torque() -> None:
+    """At 2 N collective a 0.5 N m roll would need a negative rotor: roll gives way."""
+    collective, per_rotor = 2.0, 0.5
+    out = mix_with_desaturation(PARAMS, collective, np.array([0.5, 0.0, 0.0]))
+    thrust, torque = _achieved_frd(out.motor_thrusts)
+    assert thrust == pytest.approx(collective, abs=1e-9), "collective thrust was raised"
+    assert out.collective_thrust == pytest.approx(collective, abs=1e-9)
+    assert out.motor_thrusts.min() == pytest.approx(0.0, abs=1e-9)
+    # roll scaled until the low rotors reach zero: 0.5 N each side of the mean
+    assert torque[0] == pytest.approx(per_rotor / ROLL_N_PER_NM, rel=1e-9)
+    assert out.saturated_positive.tolist() == [True, False, False]
+    assert not out.saturated_negative.any()
+
+
+def test_yaw_within_15_percent_headroom_is_kept_and_collective_thrust_gives_way() -> None:
+    """PX4: yaw may push a rotor 15 % over the top; then thrust comes down to fit."""
+    collective = 32.0  # 8 N per rotor, 1.2 N below the 9.2 N top
+    top = PARAMS.max_motor_thrust
+    over = 0.10 * top  # the yaw demand takes the high rotors 10 % over the top
+    yaw_frd = -(top + over - collective / 4) / YAW_N_PER_NM
+    out = mix_with_desaturation(PARAMS, collective, np.array([0.0, 0.0, yaw_frd]))
+    thrust, torque = _achieved_frd(out.motor_thrusts)
+    assert torque[2] == pytest.approx(yaw_frd, rel=1e-9), "yaw gave way within its headroom"
+    assert thrust == pytest.approx(collective - 4 * over, rel=1e-9)
+    assert out.collective_thrust == pytest.approx(collective - 4 * over, rel=1e-9)
+    assert out.motor_thrusts.max() == pytest.approx(top, rel=1e-12)
+    assert not (out.saturated_positive.any() or out.saturated_negative.any())
+
+
+def test_yaw_beyond_the_headroom_is_scaled_to_it_and_flagged() -> None:
+    collective, top = 32.0, PARAMS.max_motor_thrust
+    out = mix_with_desaturation(PARAMS, collective, np.array([0.0, 0.0, -0.3]))
+    thrust, torque = _achieved_frd(out.motor_thrusts)
+    kept = (1.15 * top - collective / 4) / YAW_N_PER_NM  # high rotors exactly 15 % over
+    assert torque[2] == pytest.approx(-kept, rel=1e-9)
+    assert thrust == pytest.approx(collective - 4 * 0.15 * top, rel=1e-9)
+    assert out.saturated_negative.tolist() == [False, False, True]
+    assert not out.saturated_positive.any()
+
+
 def test_huge_torque_demand_keeps_motors_in_range_and_flags_saturation() -> None:
     out = mix_with_desaturation(PARAMS, 15.0, np.array([40.0, -40.0, 10.0]))
     assert np.all((out.motor_thrusts >= 0.0) & (out.motor_thrusts <= PARAMS.max_motor_thrust))
