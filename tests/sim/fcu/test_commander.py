@@ -391,11 +391,11 @@ def test_offboard_loss_action_return_returns_after_the_hold() -> None:
     bench.stream(None)
     outs = bench.run(4 * S)
     states = [o.status.nav_state for o in outs]
-    hold = states.index(NavState.AUTO_LOITER)
-    rtl = states.index(NavState.AUTO_RTL)
+    hold = states.index(NavigationState.AUTO_LOITER)
+    rtl = states.index(NavigationState.AUTO_RTL)
     assert hold < rtl, "hold first, then return"
     assert outs[rtl].status.timestamp_us - outs[hold].status.timestamp_us == 1 * S
-    assert set(states[rtl:]) == {NavState.AUTO_RTL}
+    assert set(states[rtl:]) == {NavigationState.AUTO_RTL}
     assert outs[-1].status.failsafe_reason is FailsafeReason.OFFBOARD_LOSS
 
 
@@ -558,30 +558,31 @@ def test_battery_critical_returns_with_action_return_and_emergency_then_lands() 
 def test_the_battery_failsafe_acts_once_per_level_so_the_pilot_can_take_over() -> None:
     bench = armed_in_offboard(CommanderParams(low_battery_action=BatteryFailsafeAction.RETURN))
     bench.battery = BatteryWarning.CRITICAL
-    assert bench.tick().status.nav_state is NavState.AUTO_RTL
+    assert bench.tick().status.nav_state is NavigationState.AUTO_RTL
     takeover = bench.command(set_auto(3))  # loiter: allowed below EMERGENCY
     assert takeover.acks[0].result is CommandResult.ACCEPTED
     outs = bench.run(2 * S)
-    assert all(o.status.nav_state is NavState.AUTO_LOITER for o in outs), "CRITICAL acted twice"
+    loitering = [o.status.nav_state is NavigationState.AUTO_LOITER for o in outs]
+    assert all(loitering), "the CRITICAL failsafe acted twice"
     assert not outs[-1].status.failsafe
     bench.battery = BatteryWarning.EMERGENCY  # a new level acts, once
-    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LAND
 
 
 def test_the_battery_failsafe_acts_again_after_a_new_arming() -> None:
     bench = armed_in_offboard()
     bench.battery = BatteryWarning.CRITICAL
-    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LAND
     bench.landed = True
     bench.altitude_amsl_m = HOME_AMSL_M
     assert bench.command(disarm()).status.arming_state is ArmingState.DISARMED
     bench.battery = BatteryWarning.LOW  # recovered (a fresh pack), then armed again
-    assert bench.command(arm()).status.nav_state is NavState.AUTO_LOITER
+    assert bench.command(arm()).status.nav_state is NavigationState.AUTO_LOITER
     bench.airborne()
     bench.run(200 * MS)
     bench.battery = BatteryWarning.CRITICAL
     out = bench.tick()
-    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.nav_state is NavigationState.AUTO_LAND
     assert out.status.failsafe_reason is FailsafeReason.BATTERY_CRITICAL
 
 
