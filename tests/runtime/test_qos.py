@@ -145,9 +145,11 @@ def test_malformed_bytes_are_dropped_and_counted_not_fatal(ex: DeterministicExec
     assert sub.malformed == 1
 
 
-def test_reliability_and_history_enums_round_trip_in_profile() -> None:
-    profile = QoSProfile(depth=4, reliability=ReliabilityPolicy.BEST_EFFORT)
-    assert profile.depth == 4 and profile.history is HistoryPolicy.KEEP_LAST
+def test_a_profile_defaults_to_reliable_keep_last_and_rejects_a_zero_depth() -> None:
+    profile = QoSProfile(depth=4)  # rclpy's defaults for what is not given
+    assert profile.history is HistoryPolicy.KEEP_LAST
+    assert profile.reliability is ReliabilityPolicy.RELIABLE
+    assert profile.durability is DurabilityPolicy.VOLATILE
     with pytest.raises(ValueError, match="depth"):
         QoSProfile(depth=0)
 

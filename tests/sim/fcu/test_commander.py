@@ -424,13 +424,14 @@ def test_takeoff_climbs_to_the_requested_altitude_then_holds() -> None:
     assert target.height_above_home_m == pytest.approx(1.5)
     assert target.altitude_amsl_m == pytest.approx(HOME_AMSL_M + 1.5)
     bench.landed = False
+    airborne_at = bench.now_us
     for height in (0.3, 0.6, 0.9, 1.1):
         bench.altitude_amsl_m = HOME_AMSL_M + height
         assert bench.tick().status.nav_state is NavigationState.AUTO_TAKEOFF
     bench.altitude_amsl_m = HOME_AMSL_M + 1.25  # within takeoff_acceptance_m (0.3)
     out = bench.tick()
     assert out.status.nav_state is NavigationState.AUTO_LOITER
-    assert out.status.takeoff_time_us > 0
+    assert out.status.takeoff_time_us == airborne_at, "the first tick the vehicle was not landed"
 
 
 def test_takeoff_without_altitude_uses_the_default_height_and_too_high_is_denied() -> None:

@@ -290,8 +290,9 @@ def test_a_send_earlier_than_the_previous_one_is_refused() -> None:
 
 def test_default_yaml_loads_with_its_clock_and_seed() -> None:
     assert DEFAULT_LINK_CONFIG_PATH.name == "fcu_link.yaml"
-    assert DEFAULTS.clock.boot_offset_us > 0
-    assert Link(DEFAULTS).clock == DEFAULTS.clock
+    clock = Link(DEFAULTS).clock
+    assert clock == DEFAULTS.clock
+    assert clock.fcu_time_us(0) == DEFAULTS.clock.boot_offset_us  # the FCU's uptime at sim start
     assert DEFAULTS.to_fcu.baud_rate == DEFAULTS.to_companion.baud_rate == 921_600
     assert DEFAULTS.to_fcu.bits_per_byte == 10
 
