@@ -43,8 +43,9 @@ bench: $(STAMP)
 ## and fails below MUTATE_MIN_KILL %. Not part of `make test` (CPU-heavy: minutes per module).
 ## MUTATE_PATHS: modules or folders to mutate; each one's tests mirror it under tests/
 ## (tests/sim/fcu/test_control*.py), or name them: path.py=tests/x.py,tests/y.py
-MUTATE_PATHS    ?= sim/fcu/control.py sim/fcu/commander.py \
-  interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py
+MUTATE_PATHS    ?= sim/fcu/commander.py \
+  sim/fcu/control.py:mix_with_desaturation,_desaturate,_desaturation_gain,_mixer_columns,_frd_flu \
+  interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync.py,tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 

@@ -2,12 +2,15 @@
 
 Usage (from the repository root; ``make mutate`` passes the Makefile's variables)::
 
-    python tools/mutate.py [--max-children N] [--min-kill-percent P] PATH[=TESTS,...] ...
+    python tools/mutate.py [--max-children N] [--min-kill-percent P] [--survivors]
+                           PATH[:NAME,...][=TEST,...] ...
 
 Each PATH is a module (``sim/fcu/control.py``) or a package folder
-(``flight_control/behaviours/``) to mutate. Its tests mirror the layout, as everywhere in
-this repository: ``tests/sim/fcu/test_control*.py`` for a module, ``tests/<folder>/`` for a
-folder; ``PATH=tests/a.py,tests/b.py`` names them instead. Only those tests run (mutmut
+(``flight_control/behaviours/``) to mutate; ``:NAME,NAME`` keeps only those functions and
+classes of a module (``sim/fcu/control.py:mix_with_desaturation,_desaturate``). Its tests
+mirror the layout, as everywhere in this repository: ``tests/sim/fcu/test_control*.py`` for
+a module, ``tests/<folder>/`` for a folder; ``PATH=tests/a.py,tests/b.py`` names them
+instead. Only those tests run (mutmut
 then runs, per mutant, only the tests that call the mutated function), which keeps a run
 short. The static settings (what is copied into ``./mutants``, pytest options) live in
 ``[tool.mutmut]`` of pyproject.toml; this script adds the modules and their tests, runs
@@ -15,14 +18,16 @@ short. The static settings (what is copied into ``./mutants``, pytest options) l
 is below ``--min-kill-percent``. Survivors: ``.venv/bin/mutmut results`` and
 ``.venv/bin/mutmut show NAME`` (equivalent mutants are listed in tests/MUTANTS.md).
 
-Results are kept in ./mutants between runs (mutmut re-tests only what changed);
-``make mutate-clean`` removes them.
+Every run tests every selected mutant again, so the figures are those of the code and
+tests as they are. ``--survivors`` re-tests only the mutants not yet killed (quick while
+writing tests). Results are kept in ./mutants; ``make mutate-clean`` removes them.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import fnmatch
 import json
 import sys
 from pathlib import Path
@@ -37,11 +42,35 @@ class Target:
 
     path: str
     tests: tuple[str, ...]
+    names: tuple[str, ...] = ()
+    """Functions or classes of the module to mutate; empty: all of it."""
+
+    @property
+    def module(self) -> str:
+        return self.path.removesuffix(".py").replace("/", ".")
+
+    def globs(self) -> list[str]:
+        """mutmut mutant-name patterns of the target (``module.x_func__mutmut_3``,
+        ``module.xǁClassǁmethod__mutmut_1``)."""
+        if not self.names:
+            return [f"{self.module}.*"]
+        return [
+            pattern
+            for name in self.names
+            for pattern in (f"{self.module}.x_{name}__mutmut_*", f"{self.module}.xǁ{name}ǁ*")
+        ]
+
+    def selects(self, mutant_name: str) -> bool:
+        return any(fnmatch.fnmatchcase(mutant_name, g) for g in self.globs())
 
 
 def parse_target(spec: str, root: Path) -> Target:
-    """``PATH`` or ``PATH=TEST,TEST``; tests default to the mirrored ``tests/`` location."""
-    path, _, explicit = spec.partition("=")
+    """``PATH[:NAME,NAME][=TEST,TEST]``; tests default to the mirrored ``tests/`` location."""
+    path_names, _, explicit = spec.partition("=")
+    path, _, names_text = path_names.partition(":")
+    names = tuple(n for n in names_text.split(",") if n)
+    if names and not path.endswith(".py"):
+        raise SystemExit(f"mutate: {spec}: ':NAME' selects functions of a module, not a folder")
     source = root / path
     if not source.exists():
         raise SystemExit(f"mutate: {path}: no such module or folder")
@@ -61,12 +90,40 @@ def parse_target(spec: str, root: Path) -> Target:
             f"mutate: {path}: no tests found ({', '.join(missing) or 'tests/.../' + 'test_*'}); "
             "name them as PATH=TEST,TEST"
         )
-    return Target(path.rstrip("/"), tests)
+    return Target(path.rstrip("/"), tests, names)
 
 
 def only_mutate_pattern(target: Target) -> str:
     """mutmut's ``only_mutate`` glob for a target."""
     return target.path if target.path.endswith(".py") else f"{target.path}/*"
+
+
+def _exit_codes(metas: list[Path], target: Target) -> dict[str, int | None]:
+    """mutmut's recorded exit code of each of the target's mutants."""
+    codes: dict[str, int | None] = {}
+    for meta in metas:
+        if meta.exists():
+            recorded = json.loads(meta.read_text(encoding="utf-8"))["exit_code_by_key"]
+            codes.update({k: v for k, v in recorded.items() if target.selects(k)})
+    return codes
+
+
+def _metas(root: Path, target: Target) -> list[Path]:
+    if target.path.endswith(".py"):
+        return [root / "mutants" / f"{target.path}.meta"]
+    return sorted((root / "mutants" / target.path).rglob("*.py.meta"))
+
+
+def survivors(root: Path, targets: list[Target]) -> list[str]:
+    """The selected mutants not (yet) caught, from the last run."""
+    from mutmut.stats import status_by_exit_code
+
+    return [
+        name
+        for target in targets
+        for name, code in _exit_codes(_metas(root, target), target).items()
+        if status_by_exit_code[code] not in _KILLED
+    ]
 
 
 def kill_rates(root: Path, targets: list[Target]) -> list[tuple[str, int, int, int]]:
@@ -75,20 +132,13 @@ def kill_rates(root: Path, targets: list[Target]) -> list[tuple[str, int, int, i
 
     rows = []
     for target in targets:
-        metas = (
-            [root / "mutants" / f"{target.path}.meta"]
-            if target.path.endswith(".py")
-            else sorted((root / "mutants" / target.path).rglob("*.py.meta"))
-        )
-        statuses: list[str] = []
-        for meta in metas:
-            if meta.exists():
-                codes = json.loads(meta.read_text(encoding="utf-8"))["exit_code_by_key"]
-                statuses += [status_by_exit_code[code] for code in codes.values()]
+        metas = _metas(root, target)
+        statuses = [status_by_exit_code[code] for code in _exit_codes(metas, target).values()]
         counted = [s for s in statuses if s != "skipped"]
         killed = sum(1 for s in counted if s in _KILLED)
         survived = sum(1 for s in counted if s not in _KILLED and s != "not checked")
-        rows.append((target.path, killed, survived, len(counted)))
+        label = f"{target.path}:{','.join(target.names)}" if target.names else target.path
+        rows.append((label, killed, survived, len(counted)))
     return rows
 
 
@@ -97,6 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("paths", nargs="+", help="module or folder to mutate [=TEST,TEST]")
     parser.add_argument("--max-children", type=int, default=1, help="parallel mutant runs")
     parser.add_argument("--min-kill-percent", type=float, default=90.0)
+    parser.add_argument("--survivors", action="store_true", help="re-test only the survivors")
     parser.add_argument("--report-only", action="store_true", help="print the last results")
     args = parser.parse_args(argv)
     root = Path.cwd()
@@ -115,7 +166,11 @@ def main(argv: list[str] | None = None) -> int:
         )
         from mutmut.__main__ import cli
 
-        run_args = ["run", "--max-children", str(args.max_children)]
+        names = survivors(root, targets) if args.survivors else []
+        if args.survivors and not names:
+            print("mutate: no survivors to re-test")
+        selection = names or [g for t in targets for g in t.globs()]
+        run_args = ["run", "--max-children", str(args.max_children), *selection]
         try:
             cli(run_args, standalone_mode=False)
         except SystemExit as stop:
@@ -123,13 +178,13 @@ def main(argv: list[str] | None = None) -> int:
                 return int(stop.code) if isinstance(stop.code, int) else 1
 
     failed = False
-    print(f"\n{'module':<40} {'killed':>7} {'survived':>9} {'total':>6}  kill rate")
+    print(f"\n{'module':<44} {'killed':>7} {'survived':>9} {'total':>6}  kill rate")
     for path, killed, survived, total in kill_rates(root, targets):
         rate = 100.0 * killed / total if total else 0.0
         low = rate < args.min_kill_percent
         failed |= low
         flag = f"  < {args.min_kill_percent:g} %" if low else ""
-        print(f"{path:<40} {killed:>7} {survived:>9} {total:>6}  {rate:5.1f} %{flag}")
+        print(f"{path:<44} {killed:>7} {survived:>9} {total:>6}  {rate:5.1f} %{flag}")
     return 1 if failed else 0
 
 
