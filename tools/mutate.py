@@ -114,15 +114,17 @@ def _metas(root: Path, target: Target) -> list[Path]:
     return sorted((root / "mutants" / target.path).rglob("*.py.meta"))
 
 
-def survivors(root: Path, targets: list[Target]) -> list[str]:
-    """The selected mutants not (yet) caught, from the last run."""
+def survivors(root: Path, targets: list[Target], untested_only: bool = False) -> list[str]:
+    """The selected mutants not (yet) caught, from the last run; or only the untested."""
     from mutmut.stats import status_by_exit_code
 
+    left = {"not checked"} if untested_only else None
     return [
         name
         for target in targets
         for name, code in _exit_codes(_metas(root, target), target).items()
         if status_by_exit_code[code] not in _KILLED
+        and (left is None or status_by_exit_code[code] in left)
     ]
 
 
@@ -166,16 +168,21 @@ def main(argv: list[str] | None = None) -> int:
         )
         from mutmut.__main__ import cli
 
-        names = survivors(root, targets) if args.survivors else []
-        if args.survivors and not names:
-            print("mutate: no survivors to re-test")
-        selection = names or [g for t in targets for g in t.globs()]
-        run_args = ["run", "--max-children", str(args.max_children), *selection]
-        try:
-            cli(run_args, standalone_mode=False)
-        except SystemExit as stop:
-            if stop.code:
-                return int(stop.code) if isinstance(stop.code, int) else 1
+        run_args = ["run", "--max-children", str(args.max_children)]
+        if not args.survivors:
+            selections = [[g for t in targets for g in t.globs()]]
+        else:  # survivors first (this also regenerates edited functions), then the untested
+            selections = [survivors(root, targets), []]
+        for i, selection in enumerate(selections):
+            if args.survivors and i == 1:
+                selection = survivors(root, targets, untested_only=True)
+            if not selection:
+                continue
+            try:
+                cli([*run_args, *selection], standalone_mode=False)
+            except SystemExit as stop:
+                if stop.code:
+                    return int(stop.code) if isinstance(stop.code, int) else 1
 
     failed = False
     print(f"\n{'module':<44} {'killed':>7} {'survived':>9} {'total':>6}  kill rate")

@@ -854,16 +854,13 @@ def _disarm(s: CommanderState, now_us: int, reason: ArmDisarmReason) -> Commande
         latest_disarming_reason=reason,
         failsafe_phase=_FailsafePhase.NONE,
         failsafe_reason=FailsafeReason.NONE,
-        battery_handled=BatteryWarning.NONE,
-        airborne_since_arming=False,
-        landed_since_us=None,
         takeoff_target=None,
         land_target=None,
-    )
+    )  # the per-flight bookkeeping (battery, airborne, landed) starts again on arming
 
 
 def _takeoff_target(
-    params: CommanderParams, s: CommanderState, inputs: CommanderInputs, decoded: _Decoded
+    params: CommanderParams, s: CommanderState, decoded: _Decoded
 ) -> TakeoffTarget | DenyReason:
     """The takeoff target of a MODE_TAKEOFF, or why there is none.
 
@@ -871,7 +868,7 @@ def _takeoff_target(
     an altitude not above home means ``takeoff_height_m`` above home; above
     ``takeoff_max_height_m`` is refused.
     """
-    home = s.home_altitude_amsl_m if s.state.armed else inputs.altitude_amsl_m
+    home = s.home_altitude_amsl_m  # follows the vehicle while disarmed, frozen on arming
     if not math.isfinite(home):
         home = 0.0
     requested = decoded.takeoff_altitude_amsl_m - home
@@ -921,7 +918,7 @@ def _handle_command(
 
     takeoff: TakeoffTarget | None = s.takeoff_target
     if decoded.event is Event.MODE_TAKEOFF:
-        target = _takeoff_target(ctx.params, s, ctx.inputs, decoded)
+        target = _takeoff_target(ctx.params, s, decoded)
         if isinstance(target, DenyReason):
             return s, ack(CommandResult.DENIED, [target])
         takeoff = target

@@ -56,3 +56,5 @@ def test_reset_forgets_the_filter_but_keeps_the_totals() -> None:
     # the next sample starts the filter again, at the offset it observes
     _feed(est, 1, t + 20_000, offset_us=jumped)
     assert est.estimate.offset_us == jumped and est.estimate.samples == 1
+    est.reset()
+    assert est.estimate.resets == 2

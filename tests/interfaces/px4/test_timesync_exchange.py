@@ -33,7 +33,7 @@ def test_matched_replies_feed_every_estimator_and_others_are_ignored() -> None:
 
 
 def test_an_exchange_needs_an_estimator() -> None:
-    with pytest.raises(ValueError, match="at least one estimator"):
+    with pytest.raises(ValueError, match=r"^TimesyncExchange needs at least one estimator$"):
         TimesyncExchange()
 
 
@@ -76,3 +76,5 @@ def test_an_unanswered_echo_is_not_counted_but_the_smallest_remote_stamp_is() ->
     assert exchange.unmatched == 1  # tc1 = 1 ns is an answer, to someone else
     assert exchange.reply(request, now_ns=1_001_000_000) is None
     assert exchange.unmatched == 1  # tc1 = 0: our own request echoed, not an answer
+    answer = interfaces.new("px4_msgs/msg/Timesync", seq=request.seq, tc1=1, ts1=request.ts1)
+    assert exchange.reply(answer, now_ns=1_001_000_000) is not None, "FCU time 1 ns is a time"

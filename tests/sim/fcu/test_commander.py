@@ -445,6 +445,51 @@ def test_takeoff_without_altitude_uses_the_default_height_and_too_high_is_denied
     assert ack.result_param1 == DenyReason.TAKEOFF_TOO_HIGH
 
 
+@pytest.mark.parametrize(
+    ("requested_m", "expected_m"),
+    [
+        (0.0, 2.5),  # not above home: the default height
+        (-3.0, 2.5),
+        (0.5, 0.5),  # low, but above home: as asked
+        (10.0, 10.0),  # takeoff_max_height_m itself is allowed
+    ],
+)
+def test_takeoff_height_is_the_requested_one_above_home_or_the_default(
+    requested_m: float, expected_m: float
+) -> None:
+    bench = Bench()
+    bench.command(arm())
+    cmd = replace(takeoff(HOME_AMSL_M + requested_m), param4=1.0)
+    out = bench.command(cmd)
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    target = out.status.takeoff_target
+    assert target is not None
+    assert target.height_above_home_m == pytest.approx(expected_m)
+    assert target.altitude_amsl_m == pytest.approx(HOME_AMSL_M + expected_m)
+    assert target.yaw == 1.0, "NAV_TAKEOFF param4 is the heading"
+
+
+def test_takeoff_in_the_air_is_relative_to_home_not_to_where_the_vehicle_is() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.airborne(4.0)
+    bench.run(200 * MS)
+    target = bench.command(takeoff()).status.takeoff_target
+    assert target is not None
+    assert target.altitude_amsl_m == pytest.approx(HOME_AMSL_M + CommanderParams().takeoff_height_m)
+
+
+def test_takeoff_without_a_known_altitude_counts_from_zero() -> None:
+    bench = Bench(altitude_amsl_m=math.nan)
+    bench.command(arm())
+    default = bench.command(takeoff()).status.takeoff_target
+    assert default is not None
+    assert default.altitude_amsl_m == default.height_above_home_m == 2.5
+    asked = bench.command(takeoff(5.0)).status.takeoff_target
+    assert asked is not None
+    assert asked.altitude_amsl_m == asked.height_above_home_m == 5.0
+
+
 def test_takeoff_mode_via_do_set_mode_auto_takeoff() -> None:
     bench = Bench()
     bench.command(arm())
@@ -473,6 +518,38 @@ def test_land_then_landed_then_auto_disarm_after_com_disarm_land() -> None:
     assert disarmed.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_LAND
     assert disarmed.status.nav_state is not NavigationState.AUTO_LAND
     assert not disarmed.status.failsafe
+
+
+def test_disarming_ends_the_flight_takeoff_target_landing_target_and_failsafe() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.command(takeoff(HOME_AMSL_M + 1.5))
+    bench.airborne(1.5)
+    bench.run(200 * MS)
+    there = replace(land(), param5=45.0, param6=7.0)
+    assert bench.command(there).status.land_target is not None
+    bench.battery = BatteryWarning.CRITICAL
+    out = bench.tick()
+    assert out.status.failsafe_reason is FailsafeReason.BATTERY_CRITICAL
+    assert out.status.land_target is not None and out.status.land_target.latitude_deg == 45.0
+    bench.landed, bench.altitude_amsl_m = True, HOME_AMSL_M
+    disarm_at = bench.now_us
+    out = bench.command(disarm())
+    assert out.status.arming_state is ArmingState.DISARMED
+    assert out.status.nav_state_timestamp_us == disarm_at
+    assert not out.status.failsafe and out.status.failsafe_reason is FailsafeReason.NONE
+    assert out.status.takeoff_target is None
+    # next flight: a failsafe landing lands here, not at the last flight's coordinates
+    bench.battery = BatteryWarning.LOW
+    bench.command(arm())
+    bench.airborne()
+    bench.run(200 * MS)
+    bench.battery = BatteryWarning.CRITICAL
+    out = bench.tick()
+    assert out.status.nav_state is NavigationState.AUTO_LAND
+    assert out.status.land_target is not None
+    assert math.isnan(out.status.land_target.latitude_deg)
+    assert math.isnan(out.status.land_target.longitude_deg)
 
 
 def test_armed_on_the_ground_without_taking_off_disarms_after_com_disarm_prflt() -> None:
@@ -717,6 +794,13 @@ def test_the_config_file_loads() -> None:
     assert params.offboard_loss_timeout_s == 1.0
     assert params.disarm_land_s == 2.0
     assert params.offboard_loss_action is OffboardLossAction.LAND
+
+
+def test_parameter_errors_name_the_file() -> None:
+    with pytest.raises(FcuParameterError, match=r"^fcu_commander\.yaml: "):
+        commander_params_from_yaml(
+            "fcu_commander:\n  ros__parameters:\n    disarm_land_s: 99.0\n", "fcu_commander.yaml"
+        )
 
 
 def test_parameter_errors_name_the_key_and_the_range() -> None:
