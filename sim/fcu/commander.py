@@ -930,7 +930,6 @@ def _handle_command(
             s,
             armed_time_us=now,
             latest_arming_reason=reason,
-            home_altitude_amsl_m=ctx.inputs.altitude_amsl_m,
             airborne_since_arming=False,
             landed_since_us=None,
             battery_handled=BatteryWarning.NONE,

@@ -552,8 +552,68 @@ def test_disarming_ends_the_flight_takeoff_target_landing_target_and_failsafe() 
     assert math.isnan(out.status.land_target.longitude_deg)
 
 
+def test_nav_land_lands_at_its_coordinates_and_heading() -> None:
+    bench = Bench()
+    bench.command(arm())
+    bench.airborne()
+    bench.run(200 * MS)
+    out = bench.command(replace(land(), param4=0.5, param5=45.0, param6=7.0))
+    assert out.status.land_target is not None
+    target = out.status.land_target
+    assert (target.latitude_deg, target.longitude_deg, target.yaw) == (45.0, 7.0, 0.5)
+
+
+def test_acks_echo_the_command_and_name_every_failed_check() -> None:
+    bench = Bench(position_valid=False, attitude_valid=False)
+    internal = replace(arm(), from_external=False, source_system=9, source_component=3)
+    at = bench.now_us
+    ack = bench.command(internal).acks[0]
+    assert (ack.timestamp_us, ack.command, ack.from_external) == (at, 400, False)
+    assert (ack.target_system, ack.target_component) == (9, 3)
+    assert ack.result_param1 == DenyReason.ATTITUDE_INVALID
+    assert ack.reason == "; ".join(
+        r.text for r in (DenyReason.ATTITUDE_INVALID, DenyReason.POSITION_INVALID)
+    )
+    bench.position_valid = bench.attitude_valid = True
+    out = bench.command(internal)
+    assert out.acks[0].result is CommandResult.ACCEPTED
+    assert (out.acks[0].result_param1, out.acks[0].reason) == (0, "")
+    assert out.status.latest_arming_reason is ArmDisarmReason.COMMAND_INTERNAL
+    assert out.status.nav_state_timestamp_us == bench.now_us - TICK_US
+    assert out.status.armed_time_us == bench.now_us - TICK_US
+
+
+def test_the_takeoff_target_is_reported_until_disarmed() -> None:
+    bench = Bench()
+    bench.command(arm())
+    target = bench.command(takeoff(HOME_AMSL_M + 1.5)).status.takeoff_target
+    assert target is not None
+    bench.airborne(1.5)
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LOITER  # takeoff done
+    out = bench.command(set_auto(3))
+    assert out.status.takeoff_target == target
+
+
 def test_armed_on_the_ground_without_taking_off_disarms_after_com_disarm_prflt() -> None:
     bench = Bench()
+    armed_at = bench.now_us
+    bench.command(arm())
+    outs = bench.run(12 * S)
+    disarmed = next(o for o in outs if o.status.arming_state is ArmingState.DISARMED)
+    assert disarmed.status.timestamp_us - armed_at == 10 * S
+    assert disarmed.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_PREFLIGHT
+
+
+def test_each_arming_starts_a_new_flight_for_auto_disarm() -> None:
+    """After a flight and a disarm, arming again on the ground waits COM_DISARM_PRFLT."""
+    bench = Bench()
+    bench.command(arm())
+    bench.airborne()
+    bench.run(1 * S)
+    bench.landed, bench.altitude_amsl_m = True, HOME_AMSL_M
+    bench.run(500 * MS)
+    assert bench.command(disarm()).status.arming_state is ArmingState.DISARMED
+    bench.run(1 * S)
     armed_at = bench.now_us
     bench.command(arm())
     outs = bench.run(12 * S)
