@@ -42,17 +42,21 @@ bench: $(STAMP)
 ## make mutate: mutation testing (mutmut) of the pure modules; prints killed/total per module
 ## and fails below MUTATE_MIN_KILL %. Not part of `make test` (CPU-heavy: minutes per module).
 ## MUTATE_PATHS: modules or folders to mutate; each one's tests mirror it under tests/
-## (tests/sim/fcu/test_control*.py), or name them: path.py=tests/x.py,tests/y.py
+## (tests/sim/fcu/test_control*.py), or name them: path.py=tests/x.py,tests/y.py; path.py:f,g
+## keeps the functions or classes f and g. Tests marked slow are left out.
+## MUTATE_ARGS=--survivors re-tests only what the last run did not kill.
 MUTATE_PATHS    ?= sim/fcu/commander.py \
   sim/fcu/control.py:mix_with_desaturation,_desaturate,_desaturation_gain,_mixer_columns,_frd_flu \
   interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync.py,tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
+MUTATE_ARGS     ?=
 
 mutate: $(STAMP)
 	@$(BIN)/python -c 'import mutmut' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[test,mutate]'
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python tools/mutate.py \
-	  --max-children $(MUTATE_CHILDREN) --min-kill-percent $(MUTATE_MIN_KILL) $(MUTATE_PATHS)
+	  --max-children $(MUTATE_CHILDREN) --min-kill-percent $(MUTATE_MIN_KILL) $(MUTATE_ARGS) \
+	  $(MUTATE_PATHS)
 
 ## make mutate-clean: forget mutmut's results (./mutants)
 mutate-clean:

@@ -375,6 +375,7 @@ def _conv(m: ReplayMetrics) -> float:
     return math.inf if m.convergence_samples is None else m.convergence_samples
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("scenario_name", sorted(SCENARIOS))
 def test_kalman_beats_px4_on_the_same_trace(scenario_name: str, seed: int) -> None:
@@ -386,6 +387,7 @@ def test_kalman_beats_px4_on_the_same_trace(scenario_name: str, seed: int) -> No
     assert ours.skew_error_p99_ppm < px4.skew_error_p99_ppm
 
 
+@pytest.mark.slow
 def test_kalman_beats_px4_by_a_margin_without_path_asymmetry() -> None:
     # With symmetric paths neither is biased: the gain is the filter's own, not the bias.
     ours = [_metrics("kalman", "symmetric", s) for s in range(3)]

@@ -816,6 +816,7 @@ def _ticks(draw: st.DrawFn) -> list[tuple[int, CommanderInputs]]:
     return ticks
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(ticks=_ticks())
 def test_random_command_sequences_keep_the_invariants(

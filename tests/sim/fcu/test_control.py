@@ -281,6 +281,7 @@ def test_cascade_under_huge_attitude_error_saturates_within_bounds_and_integrato
 # --- closed loop ----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_hover_holds_within_10_cm_for_10_s(gains: ControlGains) -> None:
     log = flight(gains, lambda _t, _s: TrajectorySetpointData.hold_position(HOVER_NED, 0.0), 10)
     error = np.linalg.norm(log.true_position_ned - HOVER_NED, axis=1)
@@ -309,6 +310,7 @@ def square_reference(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
+@pytest.mark.slow
 def test_square_tracking_rmse_below_10_cm(gains: ControlGains) -> None:
     def setpoints(time_us: int, _state: VehicleState) -> TrajectorySetpointData:
         p, v, a = square_reference(time_us / 1e6)
@@ -323,6 +325,7 @@ def test_square_tracking_rmse_below_10_cm(gains: ControlGains) -> None:
     assert reached < 0.1, "the square was not flown"
 
 
+@pytest.mark.slow
 def test_position_step_settles_without_overshoot(gains: ControlGains) -> None:
     target = np.array([1.0, 0.0, -2.0])  # 1 m North and 0.5 m up
     log = flight(gains, lambda _t, _s: TrajectorySetpointData.hold_position(target, 0.0), 4)
@@ -335,6 +338,7 @@ def test_position_step_settles_without_overshoot(gains: ControlGains) -> None:
     assert settled[first_settled:].all() and log.time_us[first_settled] < 2_500_000
 
 
+@pytest.mark.slow
 def test_velocity_setpoint_reaches_the_commanded_velocity(gains: ControlGains) -> None:
     command = np.array([1.0, 0.5, 0.0])
     setpoint = TrajectorySetpointData(
@@ -349,6 +353,7 @@ def test_velocity_setpoint_reaches_the_commanded_velocity(gains: ControlGains) -
     assert abs(log.true_position_ned[-1, 2] + ALTITUDE) < 0.05
 
 
+@pytest.mark.slow
 def test_yaw_setpoint_is_followed(gains: ControlGains) -> None:
     setpoint = TrajectorySetpointData.hold_position(HOVER_NED, yaw=1.0)
     log = flight(gains, lambda _t, _s: setpoint, 2)
