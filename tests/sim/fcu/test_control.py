@@ -200,6 +200,7 @@ def test_desaturation_gives_up_collective_thrust_before_roll_torque() -> None:
     wrench = allocation_matrix(PARAMS) @ out.motor_thrusts
     assert wrench[1] == pytest.approx(roll_torque, rel=1e-6)  # FLU x = FRD x
     assert wrench[0] < 35.0 - 1.0  # collective reduced instead
+    assert out.collective_thrust == pytest.approx(wrench[0])  # what the rotors produce
     assert not out.saturated_positive[0]
 
 
@@ -252,6 +253,35 @@ def test_yaw_beyond_the_headroom_is_scaled_to_it_and_flagged() -> None:
     assert thrust == pytest.approx(collective - 4 * 0.15 * top, rel=1e-9)
     assert out.saturated_negative.tolist() == [False, False, True]
     assert not out.saturated_positive.any()
+
+
+@pytest.mark.parametrize("collective", [20.0, 42.0])
+@pytest.mark.parametrize(("axis", "sign"), [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)])
+def test_roll_or_pitch_beyond_authority_spans_the_motor_range_at_half_thrust(
+    collective: float, axis: int, sign: float
+) -> None:
+    """Thrust is centred in the motor range (PX4's two-pass desaturation), then the torque
+    takes all of it: two rotors at zero, two at full, whatever collective was asked."""
+    torque = np.zeros(3)
+    torque[axis] = sign * 10.0  # N m, far beyond the ~2.9 N m available
+    out = mix_with_desaturation(PARAMS, collective, torque)
+    top = PARAMS.max_motor_thrust
+    assert sorted(out.motor_thrusts.tolist()) == pytest.approx([0.0, 0.0, top, top], abs=1e-9)
+    thrust, achieved = _achieved_frd(out.motor_thrusts)
+    assert thrust == pytest.approx(2 * top) and out.collective_thrust == pytest.approx(2 * top)
+    authority = 2 * top * abs(allocation_matrix(PARAMS)[1 + axis, 0])
+    assert achieved[axis] == pytest.approx(sign * authority)
+    flags = out.saturated_positive if sign > 0 else out.saturated_negative
+    assert flags.tolist() == [axis == 0, axis == 1, False]
+
+
+def test_torque_within_authority_is_met_exactly_without_saturation_flags() -> None:
+    torque = np.array([0.1, -0.1, 0.02])
+    out = mix_with_desaturation(PARAMS, 15.0, torque)
+    thrust, achieved = _achieved_frd(out.motor_thrusts)
+    assert thrust == pytest.approx(15.0) and out.collective_thrust == pytest.approx(15.0)
+    np.testing.assert_allclose(achieved, torque, atol=1e-12)
+    assert not out.saturated_positive.any() and not out.saturated_negative.any()
 
 
 def test_huge_torque_demand_keeps_motors_in_range_and_flags_saturation() -> None:
