@@ -58,3 +58,31 @@ def test_reset_forgets_the_filter_but_keeps_the_totals() -> None:
     assert est.estimate.offset_us == jumped and est.estimate.samples == 1
     est.reset()
     assert est.estimate.resets == 2
+
+
+def test_the_smallest_remote_stamp_and_a_zero_round_trip_are_samples() -> None:
+    est = Px4Timesync()
+    assert est.update(1_000, 1, 1_002).rejected is RejectReason.NONE  # tc1 = 1 us
+    assert est.update(2_000, 1_000, 2_000).rejected is RejectReason.NONE  # rtt = 0
+    assert est.estimate.samples == 2
+
+
+def test_skew_is_reported_from_the_second_sample_per_local_time_between_samples() -> None:
+    est = Px4Timesync()
+    est.update(1_000_000, 500_000, 1_000_000)
+    assert est.estimate.skew_ppm == 0.0, "one sample has no skew"
+    est.update(1_000_000 + 1, 500_000 - 9, 1_000_000 + 1)  # the offset grew by 10 us in 1 us
+    assert est.skew_us_per_sample != 0.0
+    assert est.estimate.skew_ppm == est.skew_us_per_sample / 1 * 1e6  # 1 us per sample
+    again = Px4Timesync()
+    again.update(1_000_000, 500_000, 1_000_000)
+    again.update(1_000_000, 500_010, 1_000_000)  # same local time: no interval, no skew
+    assert again.estimate.skew_ppm == 0.0
+
+
+def test_reset_restores_the_initial_gains() -> None:
+    est = Px4Timesync()
+    _feed(est, 100, 100_000_000)
+    assert est.gains != (0.05, 0.05)
+    est.reset()
+    assert est.gains == (0.05, 0.05)
