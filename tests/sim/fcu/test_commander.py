@@ -114,6 +114,7 @@ class Bench:
         return self.last_heartbeat_us
 
     def tick(self, *commands: VehicleCommandData) -> CommanderOutput:
+        before = self.commander.state.state
         out = self.commander.step(
             CommanderInputs(
                 now_us=self.now_us,
@@ -126,6 +127,11 @@ class Bench:
                 commands=commands,
             )
         )
+        # invariants of every status: a state change is stamped with its tick, and a
+        # failsafe reason is given exactly while a failsafe is active
+        if out.status.state is not before:
+            assert out.status.nav_state_timestamp_us == self.now_us, (before, out.status.state)
+        assert (out.status.failsafe_reason is not FailsafeReason.NONE) == out.status.failsafe
         self.now_us += TICK_US
         return out
 
@@ -622,6 +628,27 @@ def test_each_arming_starts_a_new_flight_for_auto_disarm() -> None:
     assert disarmed.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_PREFLIGHT
 
 
+def test_takeoff_is_done_exactly_at_the_acceptance_distance() -> None:
+    bench = Bench(params=CommanderParams(takeoff_acceptance_m=0.5))
+    bench.command(arm())
+    bench.command(takeoff(HOME_AMSL_M + 1.5))
+    bench.landed, bench.altitude_amsl_m = False, HOME_AMSL_M + 0.75
+    assert bench.tick().status.nav_state is NavigationState.AUTO_TAKEOFF
+    bench.altitude_amsl_m = HOME_AMSL_M + 1.0  # 1.5 - 0.5
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LOITER
+
+
+def test_disarm_land_s_zero_disarms_on_touchdown() -> None:
+    bench = Bench(params=CommanderParams(disarm_land_s=0.0))
+    bench.command(arm())
+    bench.airborne()
+    bench.run(200 * MS)
+    bench.landed = True
+    out = bench.tick()
+    assert out.status.arming_state is ArmingState.DISARMED
+    assert out.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_LAND
+
+
 def test_land_and_rtl_are_refused_while_disarmed() -> None:
     bench = Bench()
     for cmd in (land(), VehicleCommandData(VehicleCmd.NAV_RETURN_TO_LAUNCH)):
@@ -855,6 +882,13 @@ def test_the_config_file_loads() -> None:
     assert params.offboard_loss_timeout_s == 1.0
     assert params.disarm_land_s == 2.0
     assert params.offboard_loss_action is OffboardLossAction.LAND
+
+
+def test_takeoff_max_height_may_equal_the_default_height_but_not_be_below() -> None:
+    CommanderParams(takeoff_height_m=5.0, takeoff_max_height_m=5.0)  # allowed: no error
+    too_low = r"takeoff_max_height_m: 4\.0 is outside.*\[takeoff_height_m = 5\.0, "
+    with pytest.raises(FcuParameterError, match=too_low):
+        CommanderParams(takeoff_height_m=5.0, takeoff_max_height_m=4.0)
 
 
 def test_parameter_errors_name_the_file() -> None:
