@@ -647,7 +647,7 @@ def _desaturate(
     total = 0.0
     for scale in (1.0, 0.5):
         gain = scale * _desaturation_gain(vector, sp, lo, hi)
-        gain = min(max(gain, min_gain - total), -total if total < 0.0 else 0.0)
+        gain = min(max(gain, min_gain - total), -total)  # total <= 0: at most undo it
         sp = sp + gain * vector
         total += gain
     return sp, total
@@ -669,7 +669,7 @@ def mix_with_desaturation(
     it with 15 % headroom above the top, and reduce thrust again. Attitude authority thus
     wins over collective thrust, and yaw gives way first.
     """
-    torque_flu = _frd_flu(np.asarray(torque_frd, dtype=np.float64))
+    torque_flu = _frd_flu(torque_frd)
     col_thrust, col_x, col_y, col_z = _mixer_columns(params)
     lo, hi = 0.0, params.max_motor_thrust
     col_roll = col_x * torque_flu[0]
