@@ -496,15 +496,18 @@ class LatencyConfig:
             raise ValueError(f"timesync_hz={self.timesync_hz}: must be > 0")
 
 
-def run_latency_experiment(config: LatencyConfig | None = None) -> LatencyReport:
-    """Run seed 000's test in the SITL (vehicle on the pad, disarmed) and analyse it."""
+def run_latency_experiment(config: LatencyConfig | None = None,
+                           link: LinkParams | None = None) -> LatencyReport:
+    """Run seed 000's test in the SITL (vehicle on the pad, disarmed) and analyse it;
+    ``link`` replaces the parameters of ``config/fcu_link.yaml``."""
     from flight_control.latency_node import LatencyTestNode
     from sim.fcu.firmware import ConsumedVision, FirmwareConfig
     from sim.fcu.sitl import build_sitl
 
     cfg = config or LatencyConfig()
-    sitl = build_sitl(seed=cfg.seed, firmware=FirmwareConfig(
-        main_freq_hz=MAIN_LOOP_HZ, rates_hz=EXPERIMENT_RATES_HZ))
+    sitl = build_sitl(seed=cfg.seed, link=link, firmware=FirmwareConfig(
+        main_freq_hz=MAIN_LOOP_HZ, rates_hz=EXPERIMENT_RATES_HZ,
+        event_driven_inputs=frozenset({"vehicle_visual_odometry"})))
     link = ChargedSizeLink(sitl.link.params, stream_charges())  # nothing sent yet: same draws
     sitl.link = link
     sitl.agent.link = link
