@@ -14,6 +14,7 @@ from collections.abc import Callable, Coroutine, Mapping, Sequence
 from typing import Any, Generic, TypeVar
 
 import interfaces
+from interfaces.qos import HistoryPolicy, QoSProfile, as_qos, qos_profile_services_default
 from runtime.clock import Clock, Time, seconds_to_ns
 from runtime.errors import ClockError, ParameterError, TopicTypeError
 from runtime.executor import Context
@@ -32,7 +33,6 @@ from runtime.parameters import (
     load_node_yaml,
     type_of_value,
 )
-from runtime.qos import HistoryPolicy, QoSProfile, as_qos, qos_profile_services_default
 from runtime.transport import Endpoint, EndpointKind, RequestId
 
 T = TypeVar("T")

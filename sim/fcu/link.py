@@ -46,7 +46,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flight_control.timesync_traces import SEED_COMPANION_TO_FCU, SEED_FCU_TO_COMPANION
+from interfaces.px4.seed000 import (
+    TABLE3_MESSAGE_SIZE_BYTES,
+    TABLE3_TO_COMPANION,
+    TABLE3_TO_FCU,
+    LatencyFigure,
+)
 from sim.errors import SimError
 from sim.fcu.clock import FcuClock
 from sim.fcu.errors import FcuParameterError
@@ -85,21 +90,6 @@ LINK_NODE_NAME = "fcu_link"
 
 _NS_PER_S = 1_000_000_000
 _NS_PER_US = 1000
-
-
-class LatencyFigure(NamedTuple):
-    """A one-way latency as a paper reports it: mean and standard deviation [us]."""
-
-    mean_us: float
-    sd_us: float
-
-
-TABLE3_MESSAGE_SIZE_BYTES = 115
-"""Message size of the seed 000 latency experiment (section 2.9) [bytes]."""
-TABLE3_TO_FCU = LatencyFigure(SEED_COMPANION_TO_FCU.mean_us, SEED_COMPANION_TO_FCU.std_us)
-"""Seed 000 Table 3, MicroXRCE-DDS - ROS 2, companion computer -> flight controller."""
-TABLE3_TO_COMPANION = LatencyFigure(SEED_FCU_TO_COMPANION.mean_us, SEED_FCU_TO_COMPANION.std_us)
-"""Seed 000 Table 3, MicroXRCE-DDS - ROS 2, flight controller -> companion computer."""
 
 
 class LinkDirection(Enum):
@@ -230,7 +220,7 @@ def calibrate_direction(
     target: LatencyFigure,
     template: LinkDirectionParams,
     size_bytes: int = TABLE3_MESSAGE_SIZE_BYTES,
-    added: AddedDelay = AddedDelay(0.0, 0.0),
+    added: AddedDelay | None = None,
 ) -> LinkDirectionParams:
     """``template`` with the gamma jitter solved so that ``size_bytes`` messages, plus the
     ``added`` delay of the rest of the path, have ``target``'s mean and standard deviation.
@@ -242,6 +232,7 @@ def calibrate_direction(
     variance for the jitter; a mean that only a faster line can fit names the baud rate
     it would need (the wire time cannot shrink otherwise).
     """
+    added = added or AddedDelay.none()
     wire_us = template.wire_time_ns(size_bytes) / _NS_PER_US
     spike_us = template.spike_probability * template.spike_mean_us
     room_us = target.mean_us - added.mean_us - template.base_latency_us - spike_us

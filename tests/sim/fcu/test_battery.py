@@ -7,13 +7,13 @@ import math
 
 import pytest
 
+from interfaces.px4 import BatteryWarning
 from sim.fcu.battery import (
     BatteryEstimator,
     BatteryEstimatorParams,
     BatteryModel,
     BatteryModelParams,
     BatteryStatusData,
-    BatteryWarning,
     battery_params_from_mapping,
     cell_ocv_v,
     load_battery_params,
