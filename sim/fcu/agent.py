@@ -14,7 +14,7 @@ see over the wire and nothing else.
   delivery time; the firmware takes those that have arrived with :meth:`FcuInbox.take`
   (polled, at its own tick). A topic registered with :meth:`FcuAgentNode.on_arrival` is
   instead handed to its consumer at the delivery time itself (event-driven, as the
-  modified firmware of seed 000 section 4: "consumed by requesting processes as soon
+  modified firmware of seed 000 section 4.3: "consumed by requesting processes as soon
   as they are available").
 - The agent also answers the FCU's own time-sync requests on the companion's clock, the
   way the XRCE agent does, so the FCU can estimate the offset it reports in

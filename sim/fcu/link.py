@@ -21,17 +21,25 @@ direction's own ``numpy.random.Generator``, whether it is lost, spiked or neithe
 the same seed and the same sends give the same deliveries, and the two directions do
 not disturb each other.
 
-Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row): a 115-byte message takes
-1329 +/- 162 us companion -> FCU and 1752 +/- 315 us FCU -> companion (mean +/- standard
-deviation, end to end). The table gives two moments, so the shape is a choice: a
-floor plus a gamma tail (as OS and serial-link latency looks) plus rare load spikes
-(the latency peaks of the seed's Figure 8). :func:`calibrate_direction` keeps the floor,
-the spikes and the line settings and solves the gamma's shape and scale so that the
-mean and the standard deviation at the reference size are the table's exactly; the
-defaults in ``config/fcu_link.yaml`` were fitted that way. At 921 600 baud, 8N1, the
-wire time of 115 bytes alone is 1247.8 us, which leaves only 81 us of mean for
-everything else companion -> FCU: that direction has no floor, no framing overhead
-and a strongly skewed gamma (shape < 1).
+Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row,
+:mod:`interfaces.px4.seed000`): a 115-byte message takes 1329 +/- 162 us companion -> FCU
+and 1752 +/- 315 us FCU -> companion (mean +/- standard deviation), measured end to end:
+where the FCU's estimator parses it, and where the companion node receives it. The table
+gives two moments, so the shape is a choice: a floor plus a gamma tail (as OS and
+serial-link latency looks) plus rare load spikes (the latency peaks of the seed's Figure 8).
+:func:`calibrate_direction` keeps the floor, the spikes and the line settings and solves
+the gamma's shape and scale so that the link's moments at the reference size, plus what
+the rest of the path adds (:class:`AddedDelay`, taken as independent: means and variances
+add), are the table's. What the path adds is a consumer's wait (:meth:`AddedDelay.poll`)
+or whatever an end-to-end measurement shows beyond the idle link
+(:meth:`AddedDelay.measured`: queueing behind other messages on the FIFO line); the
+defaults in ``config/fcu_link.yaml`` were fitted to the latency experiment that way
+(``quadmission.latency.fit_link``). The wire time is physics: at the seed's 921 600 baud,
+8N1, 115 bytes take 1247.8 us, which leaves only 81 us of mean for everything else
+companion -> FCU. That direction has no floor, no framing overhead and a skewed gamma,
+and no room for a polled consumer: a 500 Hz poll alone adds 1000 +/- 577 us, which no
+baud rate absorbs (the seed's FCU firmware consumed its inputs on arrival, section 4.3).
+:func:`calibrate_direction` names the problem (and the baud rate a mean would need).
 
 Pure module: numpy and PyYAML, no runtime, no MuJoCo.
 """
