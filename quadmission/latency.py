@@ -51,7 +51,7 @@ Choices, stated once:
   sync included, keep the 500 Hz poll they have in flight. The forward latency is still
   taken where the estimator parses the sample.
 - **End-to-end calibration.** The line is FIFO, so the streams also queue behind the
-  time-sync messages (forward about +14 us mean, reverse about +60 us and a wider
+  time-sync messages (forward about +15 us mean, reverse about +60 us and a wider
   spread). :func:`fit_link` runs the experiment, measures what the path adds to the idle
   link on the true clock (:meth:`~sim.fcu.link.AddedDelay.measured`), and solves the
   link's gamma jitter again with :func:`~sim.fcu.link.calibrate_direction` so that the
