@@ -117,7 +117,7 @@ def test_firmware_rates_override_only_what_it_names() -> None:
     schedule = firmware_schedule(MAIN_LOOP_HZ, "balanced", EXPERIMENT_RATES_HZ)
     prescaler = {p.fun: p.prescaler for p in schedule.periodics}
     assert prescaler["pub_sensor_combined"] == 5  # 200 Hz on the 1 kHz loop
-    assert prescaler["dds_receive"] == 2  # the vision consumer stays at 500 Hz
+    assert prescaler["dds_receive"] == 2  # the other inputs' poll stays at 500 Hz
     with pytest.raises(ModuleSpecError, match="no_such_function"):
         firmware_modules({"no_such_function": 10.0})
 
