@@ -185,7 +185,7 @@ class BehaviourServer:
         vehicle, period_s = self.vehicle, self.params.period_s
         obs = vehicle.observe()
         if obs is None:
-            return self._end(spec, handle, None, None, Outcome.LOST_CONTROL, "no position")
+            return self._end(spec, handle, None, 0, Outcome.LOST_CONTROL, "no position")
         if vehicle.setpoint is None:
             vehicle.setpoint = Setpoint.hold(obs.position, obs.yaw)
         behaviour = spec.start(handle.request, obs, vehicle.setpoint)
@@ -224,7 +224,7 @@ class BehaviourServer:
                 reply = CommandReply(step.command, done.accepted, done.describe())
                 continue
             await self.node.sleep(period_s)
-        return self._end(spec, handle, obs, start_ns, outcome, reason)
+        return self._end(spec, handle, obs, timeout_ns, outcome, reason)
 
     async def _cancel(self, obs: Observation) -> tuple[Outcome, str]:
         """Hold where the vehicle is; take offboard back when the FCU left it."""
@@ -236,7 +236,7 @@ class BehaviourServer:
         return Outcome.CANCELED, ""
 
     def _end(self, spec: MotionAction, handle: ServerGoalHandle, obs: Observation | None,
-             start_ns: int | None, outcome: Outcome, reason: str) -> Any:
+             timeout_ns: int, outcome: Outcome, reason: str) -> Any:
         """The goal's final state and its Result for ``outcome``."""
         result = interfaces.new(spec.action.Result)
         summary = spec.finish(handle.request, result, obs) if obs is not None else ""
@@ -252,9 +252,8 @@ class BehaviourServer:
             state = self.vehicle.vehicle_state()
             nav = "unknown" if state is None else str(state.nav_state)
             reason = f"lost offboard control (FCU nav_state {nav})"
-        elif outcome is Outcome.TIMEOUT and start_ns is not None:
-            took_s = (self.node.now().nanoseconds - start_ns) / NS_PER_S
-            reason = f"timed out after {took_s:.1f} s: {summary}"
+        elif outcome is Outcome.TIMEOUT:
+            reason = f"timed out after {timeout_ns / NS_PER_S:.1f} s: {summary}"
         result.message = reason or summary
         self.node.get_logger().info(f"{spec.name} {outcome.value}: {result.message}")
         return result

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
+import numpy.typing as npt
 
 from flight_control.behaviours import CommandReply, Observation
 from flight_control.goal_checks import VehicleState
@@ -13,8 +12,8 @@ from interfaces.px4 import NavigationState
 TICK_NS = 50_000_000  # 20 Hz, the setpoint rate
 
 
-def observe(position: Sequence[float] = (0.0, 0.0, 1.0), *,
-            velocity: Sequence[float] = (0.0, 0.0, 0.0), yaw: float = 0.0,
+def observe(position: npt.ArrayLike = (0.0, 0.0, 1.0), *,
+            velocity: npt.ArrayLike = (0.0, 0.0, 0.0), yaw: float = 0.0,
             armed: bool = True, offboard: bool = True, landed: bool = False,
             stale: bool = False, reply: CommandReply | None = None) -> Observation:
     nav = NavigationState.OFFBOARD if offboard else NavigationState.AUTO_LOITER

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -115,7 +117,7 @@ def test_the_carrot_accelerates_from_the_start_along_the_segment() -> None:
 
 
 @pytest.mark.parametrize("kwargs", [{"offboard": False}, {"armed": False}, {"stale": True}])
-def test_losing_offboard_control_ends_it(kwargs: dict[str, bool]) -> None:
+def test_losing_offboard_control_ends_it(kwargs: dict[str, Any]) -> None:
     reach = _reach()
     step = reach.step(observe(START.position, **kwargs), 0)
     assert step.outcome is Outcome.LOST_CONTROL
