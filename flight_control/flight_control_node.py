@@ -31,24 +31,18 @@ import numpy as np
 
 import interfaces
 from flight_control.behaviour_server import BehaviourServer, FcuCommands
-from flight_control.behaviours import OFFBOARD, CommandReply, CommandRequest, Observation, Setpoint
+from flight_control.behaviours import OFFBOARD, CommandReply, Observation, Setpoint, arm_disarm
 from flight_control.command_protocol import CommandProtocol
 from flight_control.flight_actions import LAND, REACH, TAKEOFF, TURN, motion_actions, point, xyz
 from flight_control.frames import quat_rotate, quat_to_yaw
 from flight_control.goal_checks import GoalError, VehicleState, battery_critical, check_vehicle
 from flight_control.params import FIELD_SOURCE, FieldParams, FlightControlParams
-from interfaces.px4 import FORCE_ARM_DISARM_MAGIC, VehicleCmd
 from runtime import Node, ParameterError, qos_profile_default, qos_profile_sensor_data
 
 ARM = interfaces.get_service("quadmission_interfaces/srv/Arm")
 DISARM = interfaces.get_service("quadmission_interfaces/srv/Disarm")
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 MAP_FRAME = "map"
-
-
-def _arm_request(arm: bool, force: bool) -> CommandRequest:
-    return CommandRequest(VehicleCmd.COMPONENT_ARM_DISARM, 1.0 if arm else 0.0,
-                          float(FORCE_ARM_DISARM_MAGIC) if force else 0.0)
 
 
 class FlightControlNode(Node):
@@ -184,7 +178,8 @@ class FlightControlNode(Node):
             await self.sleep(self.params.offboard_stream_s)
             out = await self.commands.run(OFFBOARD, request.timeout)
             if out.accepted:
-                out = await self.commands.run(_arm_request(True, request.force), request.timeout)
+                out = await self.commands.run(arm_disarm(True, force=request.force),
+                                              request.timeout)
             if out.accepted:
                 await self._wait_for(self._in_control)
         finally:
@@ -204,7 +199,7 @@ class FlightControlNode(Node):
         return self.create_task(self._disarm(request, response))
 
     async def _disarm(self, request: Any, response: Any) -> Any:
-        out = await self.commands.run(_arm_request(False, request.force), request.timeout)
+        out = await self.commands.run(arm_disarm(False, force=request.force), request.timeout)
         if out.accepted:
             self.behaviours.take_control()
             self.setpoint = None

@@ -11,6 +11,7 @@ from flight_control.behaviours.base import (
     Outcome,
     Setpoint,
     Step,
+    arm_disarm,
 )
 from flight_control.behaviours.land import Land, LandFeedback
 from flight_control.behaviours.reach import Reach, ReachFeedback, ReachTuning
@@ -37,4 +38,5 @@ __all__ = [
     "TakeoffFeedback",
     "Turn",
     "TurnFeedback",
+    "arm_disarm",
 ]

@@ -21,6 +21,7 @@ import numpy as np
 from flight_control.goal_checks import VehicleState
 from flight_control.setpoints import FloatArray
 from interfaces.px4 import (
+    FORCE_ARM_DISARM_MAGIC,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     Px4CustomMainMode,
     VehicleCmd,
@@ -68,8 +69,17 @@ OFFBOARD = CommandRequest(VehicleCmd.DO_SET_MODE, float(MAV_MODE_FLAG_CUSTOM_MOD
                           float(Px4CustomMainMode.OFFBOARD))
 #: The FCU's own landing (PX4's MPC_LAND_SPEED, then its land detector).
 NAV_LAND = CommandRequest(VehicleCmd.NAV_LAND)
+
+
+def arm_disarm(arm: bool, *, force: bool = False) -> CommandRequest:
+    """Arm (``param1`` 1) or disarm (0); ``force`` skips the FCU's checks (PX4's magic
+    ``param2``): arming without pre-arm checks, or a kill in flight."""
+    return CommandRequest(VehicleCmd.COMPONENT_ARM_DISARM, 1.0 if arm else 0.0,
+                          float(FORCE_ARM_DISARM_MAGIC) if force else 0.0)
+
+
 #: Disarm, with the FCU's checks (it refuses in flight).
-DISARM = CommandRequest(VehicleCmd.COMPONENT_ARM_DISARM, 0.0)
+DISARM = arm_disarm(False)
 
 
 @dataclass(frozen=True)
@@ -154,5 +164,6 @@ __all__ = [
     "Outcome",
     "Setpoint",
     "Step",
+    "arm_disarm",
     "elapsed_s",
 ]

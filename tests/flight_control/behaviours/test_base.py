@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from flight_control.behaviours import DISARM, NAV_LAND, OFFBOARD, Setpoint
+from flight_control.behaviours import DISARM, NAV_LAND, OFFBOARD, Setpoint, arm_disarm
 from flight_control.behaviours.base import elapsed_s
-from interfaces.px4 import MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, Px4CustomMainMode, VehicleCmd
+from interfaces.px4 import (
+    FORCE_ARM_DISARM_MAGIC,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    Px4CustomMainMode,
+    VehicleCmd,
+)
 from tests.flight_control.behaviours.observe import observe
 
 
@@ -35,6 +40,11 @@ def test_commands_carry_px4_numbers_from_the_contract() -> None:
     assert NAV_LAND.command is VehicleCmd.NAV_LAND
     assert (DISARM.command, DISARM.param1, DISARM.param2) == (
         VehicleCmd.COMPONENT_ARM_DISARM, 0.0, 0.0)
+    arm = arm_disarm(True, force=True)
+    assert (arm.command, arm.param1, arm.param2) == (
+        VehicleCmd.COMPONENT_ARM_DISARM, 1.0, FORCE_ARM_DISARM_MAGIC)
+    assert arm_disarm(False, force=True).param1 == 0.0
+    assert arm_disarm(True).param2 == 0.0
 
 
 def test_elapsed_is_zero_first_and_never_negative() -> None:
