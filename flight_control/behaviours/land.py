@@ -45,7 +45,7 @@ class Land:
         self.speed = speed
         self.disarm = disarm
         self.home_z = home_z
-        self.descend_at = np.array(position, dtype=np.float64)
+        self.descend_at = position.copy()
         self._asked_land = False
         self._asked_disarm = False
 

@@ -29,7 +29,7 @@ class Takeoff:
     def __init__(self, start: Setpoint, position: FloatArray, home: FloatArray, *,
                  altitude: float, speed: float, radius: float, tuning: ReachTuning,
                  mode_wait_s: float) -> None:
-        self.home = np.array(home, dtype=np.float64)
+        self.home = home.copy()
         self.target = self.home + np.array([0.0, 0.0, altitude])
         self.start = start
         self.climb = Reach.toward(start, position, self.target, speed=speed, radius=radius,

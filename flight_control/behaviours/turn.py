@@ -9,8 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from flight_control.behaviours.base import Observation, Outcome, Setpoint, Step, elapsed_s
 from flight_control.frames import wrap_pi
 from flight_control.setpoints import yaw_toward
@@ -29,7 +27,7 @@ class Turn:
                  tolerance: float) -> None:
         if not rate > 0.0:
             raise ValueError(f"rate: {rate} rad/s must be > 0")
-        self.position = np.array(start.position, dtype=np.float64)
+        self.position = start.position.copy()
         self.setpoint_yaw = wrap_pi(start.yaw)
         self.target = wrap_pi(target_yaw)
         self.rate = rate

@@ -30,6 +30,7 @@ def test_hold_is_still_and_copies_the_position() -> None:
     sp = Setpoint.hold(p, 0.5)
     p[0] = 9.0
     assert sp.position.tolist() == [1.0, 2.0, 3.0]
+    assert Setpoint.hold(np.array([1, 2, 3]), 0).position.dtype == np.float64
     assert sp.velocity.tolist() == [0.0, 0.0, 0.0] and sp.yaw == 0.5
 
 

@@ -34,6 +34,7 @@ def test_speed_0_asks_for_nav_land_then_follows_the_vehicle_down() -> None:
     assert land.expected_s is None
     first = land.step(observe(AT, offboard=False), 0)
     assert first.command == NAV_LAND and first.setpoint is START and first.outcome is None
+    assert first.feedback.altitude == pytest.approx(1.0)
     lower = AT - [0.0, 0.0, 0.5]
     step = land.step(observe(lower, velocity=(0, 0, -0.7), offboard=False,
                              reply=_reply(NAV_LAND, True)), TICK_NS)
@@ -49,6 +50,7 @@ def test_a_refused_nav_land_ends_it_with_the_reason() -> None:
     land.step(observe(AT), 0)
     step = land.step(observe(AT, reply=_reply(NAV_LAND, False)), TICK_NS)
     assert step.outcome is Outcome.FCU_REJECTED and step.reason == "refused: DENIED"
+    assert step.feedback.altitude == pytest.approx(1.0)
 
 
 def test_a_speed_descends_in_offboard_at_that_speed_holding_x_y() -> None:
@@ -60,6 +62,7 @@ def test_a_speed_descends_in_offboard_at_that_speed_holding_x_y() -> None:
     assert math.isnan(step.setpoint.position[2])
     assert step.setpoint.velocity.tolist() == [0.0, 0.0, -0.5]
     assert step.setpoint.yaw == 0.4
+    assert step.feedback.altitude == pytest.approx(0.8)
 
 
 def test_touchdown_asks_for_disarm_then_succeeds_once_disarmed() -> None:
@@ -67,13 +70,17 @@ def test_touchdown_asks_for_disarm_then_succeeds_once_disarmed() -> None:
     ground = AT * [1, 1, 0]
     step = land.step(observe(ground, landed=True), 0)
     assert step.command == DISARM and step.outcome is None
+    assert step.feedback.altitude == pytest.approx(-0.2)
     assert step.setpoint is not None and step.setpoint.position.tolist() == ground.tolist()
     step = land.step(observe(ground, landed=True, reply=_reply(DISARM, True)), TICK_NS)
     assert step.command is None and step.outcome is None  # until the status shows it
+    assert step.setpoint is not None and step.setpoint.position.tolist() == ground.tolist()
+    assert step.feedback.altitude == pytest.approx(-0.2)
     step = land.step(observe(ground, landed=True, armed=False, reply=_reply(DISARM, True)),
                      2 * TICK_NS)
     assert step.outcome is Outcome.SUCCEEDED
     assert step.setpoint is None  # the stream is over
+    assert step.feedback.altitude == pytest.approx(-0.2)
 
 
 def test_a_refused_disarm_with_the_vehicle_armed_ends_it() -> None:
@@ -81,6 +88,8 @@ def test_a_refused_disarm_with_the_vehicle_armed_ends_it() -> None:
     land.step(observe(AT, landed=True), 0)
     step = land.step(observe(AT, landed=True, reply=_reply(DISARM, False)), TICK_NS)
     assert step.outcome is Outcome.FCU_REJECTED and step.reason == "refused: DENIED"
+    assert step.setpoint is not None and step.setpoint.position.tolist() == AT.tolist()
+    assert step.feedback.vertical_speed == 0.0
 
 
 def test_disarmed_by_the_fcu_itself_is_a_success() -> None:
@@ -89,6 +98,7 @@ def test_disarmed_by_the_fcu_itself_is_a_success() -> None:
     step = land.step(observe(AT, landed=True, armed=False, reply=_reply(NAV_LAND, True)),
                      TICK_NS)
     assert step.outcome is Outcome.SUCCEEDED and step.command is None
+    assert step.feedback.altitude == pytest.approx(1.0)
 
 
 def test_without_disarm_touchdown_is_the_end() -> None:
@@ -96,6 +106,7 @@ def test_without_disarm_touchdown_is_the_end() -> None:
     step = land.step(observe(AT, landed=True), 0)
     assert step.outcome is Outcome.SUCCEEDED and step.command is None
     assert step.setpoint is not None and step.setpoint.velocity.tolist() == [0.0, 0.0, 0.0]
+    assert step.feedback.altitude == pytest.approx(1.0)
 
 
 def test_no_touchdown_no_outcome() -> None:

@@ -103,6 +103,21 @@ def test_passing_through_succeeds_at_arrival_without_settling_or_stopping() -> N
     reach.progress = type(reach.progress)(reach.plan.length, 1.0, len(reach.plan.points) - 1)
     step = reach.step(observe(reach.plan.target, velocity=(1.0, 0.0, 0.0)), 0)
     assert step.outcome is Outcome.SUCCEEDED
+    assert step.feedback.distance_left == 0.0
+
+
+def test_by_default_it_stops_at_the_target_and_keeps_the_heading_it_had() -> None:
+    reach = Reach.toward(Setpoint.hold(START.position, 0.3), START.position, (2.0, 0.0, 1.0),
+                         speed=1.0, radius=0.15, tuning=TUNING)
+    assert reach.plan.stop_at_target and reach.plan.target_yaw == pytest.approx(0.3)
+    turning = Reach.toward(START, START.position, (2.0, 0.0, 1.0), speed=1.0, radius=0.15,
+                           tuning=TUNING, target_yaw=1.2)
+    assert turning.plan.target_yaw == pytest.approx(1.2)
+    turning.step(observe(START.position), 0)
+    # the carrot waits at the first setpoint the vehicle has not reached, 1 m of 2 m
+    halfway = turning.step(observe((0.3, 0.0, 1.0)), 2_000_000_000)
+    assert halfway.setpoint is not None
+    assert halfway.setpoint.yaw == pytest.approx(0.6)
 
 
 def test_the_carrot_accelerates_from_the_start_along_the_segment() -> None:

@@ -62,8 +62,10 @@ def test_armed_but_not_in_offboard_it_asks_for_offboard_once_holding_still() -> 
     first = takeoff.step(observe(HOME, offboard=False), 0)
     assert first.command == OFFBOARD and first.outcome is None
     assert first.setpoint is START
+    assert first.feedback.altitude == 0.0 and first.feedback.distance_left == pytest.approx(1.5)
     second = takeoff.step(observe(HOME, offboard=False), TICK_NS)
     assert second.command is None and second.outcome is None and second.setpoint is START
+    assert second.feedback.distance_left == pytest.approx(1.5)
 
 
 def test_a_refused_mode_change_ends_it_with_the_fcu_s_reason() -> None:
@@ -73,6 +75,7 @@ def test_a_refused_mode_change_ends_it_with_the_fcu_s_reason() -> None:
     step = takeoff.step(observe(HOME, offboard=False, reply=refused), TICK_NS)
     assert step.outcome is Outcome.FCU_REJECTED
     assert step.reason == "DO_SET_MODE refused by the FCU: DENIED"
+    assert step.setpoint is START and step.feedback.altitude == 0.0
 
 
 def test_an_accepted_mode_that_never_shows_ends_it_after_mode_wait_s() -> None:
@@ -80,10 +83,13 @@ def test_an_accepted_mode_that_never_shows_ends_it_after_mode_wait_s() -> None:
     takeoff.step(observe(HOME, offboard=False), 0)
     t0 = TICK_NS
     waiting = [takeoff.step(observe(HOME, offboard=False, reply=_accepted()),
-                            t0 + k * TICK_NS).outcome for k in range(21)]
-    assert waiting == [None] * 21  # up to and including mode_wait_s
-    step = takeoff.step(observe(HOME, offboard=False, reply=_accepted()), t0 + 21 * TICK_NS)
+                            t0 + k * TICK_NS) for k in range(21)]
+    assert [s.outcome for s in waiting] == [None] * 21  # up to and including mode_wait_s
+    assert all(s.setpoint is START and s.feedback.altitude == 0.0 for s in waiting)
+    step = takeoff.step(observe(HOME, offboard=False, reply=_accepted()),
+                        t0 + round(MODE_WAIT_S * 1e9) + 1)  # 1 ns over
     assert step.outcome is Outcome.FCU_REJECTED and step.reason == "offboard not entered"
+    assert step.setpoint is START and step.feedback.distance_left == pytest.approx(1.5)
 
 
 def test_once_offboard_shows_it_climbs() -> None:

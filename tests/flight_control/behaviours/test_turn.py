@@ -13,11 +13,13 @@ from tests.flight_control.behaviours.observe import TICK_NS, observe
 AT = np.array([2.0, 3.0, 1.5])
 
 
-def _turn(start_yaw: float, target: float, tolerance: float = 0.05) -> Turn:
-    return Turn(Setpoint.hold(AT, start_yaw), target_yaw=target, rate=1.0, tolerance=tolerance)
+def _turn(start_yaw: float, target: float, tolerance: float = 0.05,
+          rate: float = 1.0) -> Turn:
+    return Turn(Setpoint.hold(AT, start_yaw), target_yaw=target, rate=rate, tolerance=tolerance)
 
 
 def test_the_setpoint_turns_at_the_rate_holding_the_position() -> None:
+    assert _turn(0.0, 1.0, rate=2.0).expected_s == pytest.approx(0.5)
     turn = _turn(0.0, 1.0)
     assert turn.expected_s == pytest.approx(1.0)
     first = turn.step(observe(AT), 0)
@@ -47,6 +49,7 @@ def test_it_succeeds_with_the_setpoint_at_the_target_and_the_vehicle_within_tole
     step = turn.step(observe(AT, yaw=0.25), 12 * TICK_NS)  # exactly the tolerance
     assert step.outcome is Outcome.SUCCEEDED
     assert step.setpoint is not None and step.setpoint.yaw == 0.5
+    assert step.feedback.yaw == 0.25 and step.feedback.angle_left == 0.25
 
 
 def test_the_vehicle_at_the_target_is_not_enough_while_the_setpoint_ramps() -> None:
@@ -57,8 +60,9 @@ def test_the_vehicle_at_the_target_is_not_enough_while_the_setpoint_ramps() -> N
 
 def test_losing_offboard_control_ends_it() -> None:
     turn = _turn(0.0, 1.0)
-    step = turn.step(observe(AT, offboard=False), 0)
+    step = turn.step(observe(AT, yaw=0.5, offboard=False), 0)
     assert step.outcome is Outcome.LOST_CONTROL and step.setpoint is None
+    assert step.feedback.yaw == 0.5 and step.feedback.angle_left == pytest.approx(0.5)
 
 
 def test_a_zero_rate_is_refused() -> None:
