@@ -21,10 +21,10 @@ direction's own ``numpy.random.Generator``, whether it is lost, spiked or neithe
 the same seed and the same sends give the same deliveries, and the two directions do
 not disturb each other.
 
-Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row,
-:mod:`interfaces.px4.seed000`): a 115-byte message takes 1329 +/- 162 us companion -> FCU
-and 1752 +/- 315 us FCU -> companion (mean +/- standard deviation), measured end to end:
-where the FCU's estimator parses it, and where the companion node receives it. The table
+Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row, in
+:mod:`interfaces.px4.seed000`): the mean and standard deviation of a 115-byte message's
+latency each way, measured end to end: where the FCU's estimator parses it (companion ->
+FCU), and where the companion node receives it (FCU -> companion). The table
 gives two moments, so the shape is a choice: a floor plus a gamma tail (as OS and
 serial-link latency looks) plus rare load spikes (the latency peaks of the seed's Figure 8).
 :func:`calibrate_direction` keeps the floor, the spikes and the line settings and solves
