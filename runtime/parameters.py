@@ -176,9 +176,9 @@ class ParameterDescriptor:
         """The range as errors show it: ``[0, 10] Hz``, ``(0, 1e+06] mAh``."""
         if self.range is None:
             return "any value"
-        lo, hi = self.range
+        lo, hi = (f"{v}" if isinstance(v, int) else f"{v:g}" for v in self.range)
         unit = f" {self.unit}" if self.unit else ""
-        return f"{'(' if self.lo_open else '['}{lo:g}, {hi:g}]{unit}"
+        return f"{'(' if self.lo_open else '['}{lo}, {hi}]{unit}"
 
     def allowed(self) -> str:
         """What is allowed, as errors say it."""
@@ -189,7 +189,7 @@ class ParameterDescriptor:
         what = _WANTED.get(scalar, "a value") if scalar is not None else "a value"
         if kind in _SCALAR_OF_ARRAY:
             what = f"a list of {what.removeprefix('an ').removeprefix('a ')}s"
-        return f"{what} in {self.describe_range()}" if self.range is not None else what
+        return f"{what} in the allowed range {self.describe_range()}" if self.range else what
 
 
 @dataclass(frozen=True)
@@ -259,13 +259,15 @@ def check_value(key: str, descriptor: ParameterDescriptor, value: Any) -> None:
     """Range and choices; the ParameterError names the key, the value and what is allowed."""
     if descriptor.range is not None:
         lo, hi = descriptor.range
-        for v in value if isinstance(value, tuple) else (value,):
+        items = ((f"{key}[{i}]", v) for i, v in enumerate(value)) if isinstance(
+            value, tuple) else ((key, value),)
+        for where, v in items:
             if not isinstance(v, int | float):
                 continue
             above = v > lo if descriptor.lo_open else v >= lo
             if not (above and v <= hi):  # also rejects NaN
                 raise ParameterError(
-                    f"{v!r} is outside the allowed range {descriptor.describe_range()}", key=key
+                    f"{v!r} is outside the allowed range {descriptor.describe_range()}", key=where
                 )
     if descriptor.choices is not None and value not in descriptor.choices:
         raise ParameterError(f"{value!r} is not {descriptor.allowed()}", key=key)
@@ -387,16 +389,24 @@ def parameter_fields(cls: type) -> tuple[ParameterField, ...]:
 
 
 def validate_parameters(obj: object) -> None:
-    """Check every typed field of the parameter dataclass ``obj`` (type, range, choices).
+    """Check every typed field of the parameter dataclass ``obj`` (type, range, choices),
+    nested sections included.
 
     Raises ParameterError naming the field and what is allowed; stores the ``int`` given
     to a ``float`` field as a float and a list as a tuple. Call it first in
     ``__post_init__``, then check anything across fields.
     """
     for f in parameter_fields(type(obj)):
-        if f.section is not None:
-            continue  # a section checks itself when it is built
         value = getattr(obj, f.name)
+        if f.section is not None:
+            if not isinstance(value, f.section):
+                raise ParameterError(f"expected a {f.section.__name__}, got {value!r}",
+                                     key=f.name)
+            try:
+                validate_parameters(value)  # a section built in code without its own check
+            except ParameterError as exc:
+                raise exc.prefixed(f.name) from None
+            continue
         converted = f.convert(f.name, value)
         if converted is not value:
             object.__setattr__(obj, f.name, converted)
@@ -445,9 +455,11 @@ def build_parameters(cls: type[P], value: object, key: str) -> P:
     the wrong type, out of range or not among the choices raise ParameterError.
     """
     fields = parameter_fields(cls)
-    if value is _ABSENT or value is None:
+    if value is _ABSENT:
         if _needs_keys(cls):
             raise ParameterError("missing", key=key)
+        value = {}
+    elif value is None:  # written but empty (``inner:``)
         value = {}
     section = _mapping(value, key)
     names = [f.name for f in fields]
