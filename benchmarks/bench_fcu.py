@@ -22,9 +22,10 @@ from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from quadmission.offboard_harness import hover_flight
 from runtime import DeterministicExecutor
 from sim.arena import default_arena
-from sim.fcu.sitl import hover_flight, schedule_report
+from sim.fcu.sitl import schedule_report
 from sim.quadrotor import MotorModel
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
 

@@ -2,7 +2,7 @@
 
     python benchmarks/bench_latency.py --out benchmarks/results/latency.json
 
-Runs ``quadmission latency`` (:func:`flight_control.latency.run_latency_experiment`) for
+Runs ``quadmission latency`` (:func:`quadmission.latency.run_latency_experiment`) for
 ``--duration`` simulated seconds (default 60) and writes its JSON report plus:
 
 - ``vs_table3``: per path (forward = companion -> FCU, reverse = FCU -> companion), Table 3's
@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from flight_control.latency import (
+from quadmission.latency import (
     CONSUMPTION_DELAY_US,
     TABLE3,
     LatencyConfig,

@@ -40,8 +40,9 @@ from flight_control.frames import (
     yaw_enu_to_ned,
 )
 from flight_control.pose_history import PoseHistory, PoseSample
-from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
-from flight_control.timesync_exchange import TimesyncExchange
+from flight_control.timesync import make_estimator
+from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
+from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
 from runtime import (
     DurabilityPolicy,
     Node,
@@ -97,7 +98,7 @@ class FcuBridgeNode(Node):
         self._last_fcu_ns: int | None = None
         self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
                                       battery_remaining=math.nan)
-        px4_out = px4_in = BRIDGE_QOS
+        px4_out = BRIDGE_QOS
         # companion side
         self.odometry_pub = self.create_publisher("nav_msgs/msg/Odometry", "/fcu/odometry",
                                                   qos_profile_sensor_data)
@@ -120,32 +121,31 @@ class FcuBridgeNode(Node):
                                  self._on_vision, qos_profile_sensor_data)
         self.create_service("quadmission_interfaces/srv/PoseAt", "/fcu/pose_at", self._pose_at)
         # FCU side
-        self.mode_out = self.create_publisher("px4_msgs/msg/OffboardControlMode",
-                                              "/fmu/in/offboard_control_mode", px4_in)
-        self.setpoint_out = self.create_publisher("px4_msgs/msg/TrajectorySetpoint",
-                                                  "/fmu/in/trajectory_setpoint", px4_in)
-        self.command_out = self.create_publisher("px4_msgs/msg/VehicleCommand",
-                                                 "/fmu/in/vehicle_command", px4_in)
-        self.vision_out = self.create_publisher("px4_msgs/msg/VehicleOdometry",
-                                                "/fmu/in/vehicle_visual_odometry", px4_in)
-        self.timesync_out = self.create_publisher("px4_msgs/msg/Timesync", "/fmu/in/timesync",
-                                                  px4_in)
-        self.create_subscription("px4_msgs/msg/VehicleCommandAck", "/fmu/out/vehicle_command_ack",
-                                 self._on_ack, ACK_QOS)
-        for topic, type_name, handler in (
-            ("timesync", "Timesync", self._on_timesync),
-            ("vehicle_odometry", "VehicleOdometry", self._on_odometry),
-            ("sensor_combined", "SensorCombined", self._on_imu),
-            ("battery_status", "BatteryStatus", self._on_battery),
-            ("vehicle_status", "VehicleStatus", self._on_vehicle_status),
-            ("vehicle_land_detected", "VehicleLandDetected", self._on_land_detected),
-            ("failsafe_flags", "FailsafeFlags", self._on_failsafe_flags),
-            ("vehicle_local_position", "VehicleLocalPosition", self._on_local_position),
+        self.mode_out = self._fmu_publisher("offboard_control_mode")
+        self.setpoint_out = self._fmu_publisher("trajectory_setpoint")
+        self.command_out = self._fmu_publisher("vehicle_command")
+        self.vision_out = self._fmu_publisher("vehicle_visual_odometry")
+        self.timesync_out = self._fmu_publisher("timesync")
+        ack = FMU_OUT["vehicle_command_ack"]
+        self.create_subscription(ack.type, ack.name, self._on_ack, ACK_QOS)
+        for short, handler in (
+            ("timesync", self._on_timesync),
+            ("vehicle_odometry", self._on_odometry),
+            ("sensor_combined", self._on_imu),
+            ("battery_status", self._on_battery),
+            ("vehicle_status", self._on_vehicle_status),
+            ("vehicle_land_detected", self._on_land_detected),
+            ("failsafe_flags", self._on_failsafe_flags),
+            ("vehicle_local_position", self._on_local_position),
         ):
-            self.create_subscription(f"px4_msgs/msg/{type_name}", f"/fmu/out/{topic}",
-                                     handler, px4_out)
+            topic = FMU_OUT[short]
+            self.create_subscription(topic.type, topic.name, handler, px4_out)
         self.create_timer(1.0 / self.params.timesync_rate_hz, self._send_timesync)
         self.create_timer(1.0 / self.params.status_rate_hz, self._publish_status)
+
+    def _fmu_publisher(self, short: str) -> Any:
+        topic = FMU_IN[short]
+        return self.create_publisher(topic.type, topic.name, BRIDGE_QOS)
 
     # -- clocks ---------------------------------------------------------------------------
     @property
@@ -253,7 +253,7 @@ class FcuBridgeNode(Node):
     def _on_vehicle_status(self, msg: Any) -> None:
         s = self._status
         s.header = interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp)))
-        s.armed = int(msg.arming_state) == 2
+        s.armed = int(msg.arming_state) == ArmingState.ARMED
         s.nav_state = int(msg.nav_state)
         s.offboard = s.nav_state == s.NAV_STATE_OFFBOARD
         s.failsafe = bool(msg.failsafe)

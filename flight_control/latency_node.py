@@ -26,24 +26,51 @@ seed 000 section 3.1: best effort, keep last, (transient local on the FCU's side
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 import interfaces
 from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
-from flight_control.latency import OffsetLog, ReceivedImu, SentVision
-from flight_control.timesync import TimesyncEstimator, make_estimator, ns_to_us
-from flight_control.timesync_exchange import TimesyncExchange
+from flight_control.timesync import make_estimator
+from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
+from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, qos_profile_px4_subscriber, qos_profile_sensor_data
-from runtime.qos import QoSProfile, ReliabilityPolicy
 
 __all__ = ["LatencyTestNode"]
 
 _VISION_POSE_TOPIC = "/sim/vision/pose"  # PoseWithCovarianceStamped, map (ENU), DESIGN.md
 
 _PX4_IN = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)  # keep last 1
+
+
+
+# -- the logs ---------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class SentVision:
+    """One forward sample as the companion created it."""
+
+    created_us: int  # companion clock at creation (the message's ``timestamp``)
+    fcu_stamp_us: Mapping[str, int]  # the creation time on the FCU clock, per estimator
+
+
+@dataclass(frozen=True, slots=True)
+class ReceivedImu:
+    """One reverse sample as the companion received it."""
+
+    stamp_us: int  # the message's ``timestamp`` (FCU clock)
+    received_us: int  # companion clock at reception
+    local_stamp_us: Mapping[str, int]  # the stamp on the companion clock, per estimator
+
+
+@dataclass(frozen=True, slots=True)
+class OffsetLog:
+    """Each estimator's offset (companion - FCU) after one exchange, at local time ``t_us``."""
+
+    t_us: int
+    offset_us: Mapping[str, int]
 
 
 class LatencyTestNode(Node):

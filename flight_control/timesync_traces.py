@@ -32,7 +32,8 @@ import numpy as np
 import numpy.typing as npt
 
 from flight_control.errors import TimesyncParameterError
-from flight_control.timesync import TimesyncEstimate, TimesyncEstimator
+from interfaces.px4.seed000 import TABLE3_TO_COMPANION, TABLE3_TO_FCU
+from interfaces.px4.timesync import TimesyncEstimate, TimesyncEstimator
 
 __all__ = [
     "CONVERGENCE_TOLERANCE_US",
@@ -89,8 +90,9 @@ class LatencyModel:
 
 
 # Seed 000, Table 3, MicroXRCE-DDS-ROS 2 row (mean +/- std, us).
-SEED_COMPANION_TO_FCU = LatencyModel(mean_us=1329.0, std_us=162.0)
-SEED_FCU_TO_COMPANION = LatencyModel(mean_us=1752.0, std_us=315.0)
+SEED_COMPANION_TO_FCU = LatencyModel(mean_us=TABLE3_TO_FCU.mean_us, std_us=TABLE3_TO_FCU.sd_us)
+SEED_FCU_TO_COMPANION = LatencyModel(mean_us=TABLE3_TO_COMPANION.mean_us,
+                                     std_us=TABLE3_TO_COMPANION.sd_us)
 
 
 @dataclass(frozen=True, slots=True)

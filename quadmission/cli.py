@@ -73,7 +73,7 @@ def _launch_run(args: argparse.Namespace) -> int:
 
 # -- sim -------------------------------------------------------------------------------------
 def _sim_args(p: argparse.ArgumentParser) -> None:
-    from sim.scenarios import DEFAULT_SCENARIO, SCENARIOS
+    from quadmission.scenarios import DEFAULT_SCENARIO, SCENARIOS
 
     p.add_argument("--scenario", default=DEFAULT_SCENARIO, choices=sorted(SCENARIOS),
                    help=f"what to run (default: {DEFAULT_SCENARIO})")
@@ -87,7 +87,7 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
 
 
 def _sim_run(args: argparse.Namespace) -> int:
-    from sim.scenarios import SCENARIOS, ScenarioOptions
+    from quadmission.scenarios import SCENARIOS, ScenarioOptions
 
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               random_arena=args.random_arena)
@@ -110,7 +110,8 @@ def _fcu_schedule_args(p: argparse.ArgumentParser) -> None:
 
 
 def _fcu_schedule_run(args: argparse.Namespace) -> int:
-    from sim.fcu.sitl import hover_flight, schedule_report
+    from quadmission.offboard_harness import hover_flight
+    from sim.fcu.sitl import schedule_report
 
     if args.flight_s <= 0:
         raise ValueError(f"--flight-s must be positive, got {args.flight_s}")
@@ -149,7 +150,7 @@ def _latency_args(p: argparse.ArgumentParser) -> None:
 
 
 def _latency_run(args: argparse.Namespace) -> int:
-    from flight_control.latency import LatencyConfig, format_report, run_latency_experiment
+    from quadmission.latency import LatencyConfig, format_report, run_latency_experiment
 
     config = LatencyConfig(duration_s=args.duration, seed=args.seed, primary=args.estimator)
     print(f"running the latency test for {args.duration:g} s simulated...", file=sys.stderr)

@@ -1,5 +1,19 @@
 """Node runtime in rclpy's shape over a deterministic in-process executor."""
 
+from interfaces.qos import (
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_action_status_default,
+    qos_profile_default,
+    qos_profile_latched,
+    qos_profile_px4_in,
+    qos_profile_px4_out,
+    qos_profile_px4_subscriber,
+    qos_profile_sensor_data,
+    qos_profile_services_default,
+)
 from runtime.action import (
     ActionClient,
     ActionServer,
@@ -25,20 +39,6 @@ from runtime.future import Future, Task
 from runtime.launch import LaunchDescription, NodeSpec, launch
 from runtime.node import Client, Node, Publisher, Service, Subscription, Timer
 from runtime.parameters import Parameter, ParameterDescriptor, ParameterType, param
-from runtime.qos import (
-    DurabilityPolicy,
-    HistoryPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
-    qos_profile_action_status_default,
-    qos_profile_default,
-    qos_profile_latched,
-    qos_profile_px4_in,
-    qos_profile_px4_out,
-    qos_profile_px4_subscriber,
-    qos_profile_sensor_data,
-    qos_profile_services_default,
-)
 from runtime.transport import Endpoint, EndpointKind, InProcessTransport, RequestId, Transport
 
 __all__ = [

@@ -23,11 +23,11 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from interfaces.qos import qos_profile_action_status_default, qos_profile_default
 from runtime.clock import Time, seconds_to_ns
 from runtime.errors import RuntimeApiError
 from runtime.future import Future
 from runtime.node import Node
-from runtime.qos import qos_profile_action_status_default, qos_profile_default
 
 
 class GoalStatus(IntEnum):

@@ -16,6 +16,7 @@ from enum import Enum
 from typing import Any, Generic, TypeVar
 
 import interfaces
+from interfaces.qos import HistoryPolicy, QoSProfile, as_qos, qos_profile_services_default
 from runtime.clock import Clock, Time, seconds_to_ns
 from runtime.errors import ClockError, ParameterError, TopicTypeError
 from runtime.executor import Context
@@ -34,7 +35,6 @@ from runtime.parameters import (
     parameter_fields,
     type_of_value,
 )
-from runtime.qos import HistoryPolicy, QoSProfile, as_qos, qos_profile_services_default
 from runtime.transport import Endpoint, EndpointKind, RequestId
 
 T = TypeVar("T")

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Protocol
 
+from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile
 from runtime.errors import RuntimeApiError, TopicTypeError
-from runtime.qos import DurabilityPolicy, HistoryPolicy, QoSProfile
 
 _log = logging.getLogger("quadmission.transport")
 

@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, Time, qos_profile_sensor_data
-from runtime.qos import QoSProfile, ReliabilityPolicy
 from sim.render import CameraIntrinsics, DepthPointCloud, Image, Points, SceneRenderer
 from sim.world import Scene
 

@@ -24,33 +24,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import interfaces
-from runtime import Node, qos_profile_px4_in, qos_profile_px4_out
+from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_TIMESYNC_BYTES
+from runtime import Node
 from sim.fcu.link import Link, LinkDirection
-
-#: /fmu/out topics: name -> px4_msgs type (rates are the firmware's, see firmware.py)
-OUT_TOPICS: dict[str, str] = {
-    "vehicle_odometry": "px4_msgs/msg/VehicleOdometry",
-    "vehicle_local_position": "px4_msgs/msg/VehicleLocalPosition",
-    "vehicle_attitude": "px4_msgs/msg/VehicleAttitude",
-    "vehicle_status": "px4_msgs/msg/VehicleStatus",
-    "battery_status": "px4_msgs/msg/BatteryStatus",
-    "timesync_status": "px4_msgs/msg/TimesyncStatus",
-    "vehicle_command_ack": "px4_msgs/msg/VehicleCommandAck",
-    "vehicle_land_detected": "px4_msgs/msg/VehicleLandDetected",
-    "failsafe_flags": "px4_msgs/msg/FailsafeFlags",
-    "sensor_combined": "px4_msgs/msg/SensorCombined",
-    "timesync": "px4_msgs/msg/Timesync",
-}
-#: /fmu/in topics: name -> px4_msgs type
-IN_TOPICS: dict[str, str] = {
-    "offboard_control_mode": "px4_msgs/msg/OffboardControlMode",
-    "trajectory_setpoint": "px4_msgs/msg/TrajectorySetpoint",
-    "vehicle_command": "px4_msgs/msg/VehicleCommand",
-    "vehicle_visual_odometry": "px4_msgs/msg/VehicleOdometry",
-    "timesync": "px4_msgs/msg/Timesync",
-}
-#: CDR size of the XRCE time-sync request/reply the agent answers (header + 3 stamps)
-XRCE_TIMESYNC_BYTES = 32
 
 
 @dataclass(frozen=True)
@@ -108,16 +84,15 @@ class FcuAgentNode(Node):
         self.link = link
         self.inbox = FcuInbox()
         self._publishers = {
-            topic: self.create_publisher(type_name, f"/fmu/out/{topic}", qos_profile_px4_out)
-            for topic, type_name in OUT_TOPICS.items()
+            short: self.create_publisher(topic.type, topic.name, topic.qos)
+            for short, topic in FMU_OUT.items()
         }
-        for topic, type_name in IN_TOPICS.items():
-            self.create_subscription(type_name, f"/fmu/in/{topic}",
-                                     self._receiver(topic, type_name), qos_profile_px4_in,
-                                     raw=True)
+        for short, topic in FMU_IN.items():
+            self.create_subscription(topic.type, topic.name,
+                                     self._receiver(short, topic.type), topic.qos, raw=True)
         self.malformed = 0
-        self.sent = dict.fromkeys(OUT_TOPICS, 0)
-        self.lost = dict.fromkeys(OUT_TOPICS, 0)
+        self.sent = dict.fromkeys(FMU_OUT, 0)
+        self.lost = dict.fromkeys(FMU_OUT, 0)
 
     def _receiver(self, topic: str, type_name: str) -> Any:
         def receive(data: bytes) -> None:

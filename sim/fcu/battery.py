@@ -39,10 +39,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import IntEnum
 
 import numpy as np
 
+from interfaces.px4 import BatteryWarning
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
 
@@ -56,7 +56,6 @@ __all__ = [
     "BatteryModelParams",
     "BatteryParams",
     "BatteryStatusData",
-    "BatteryWarning",
     "cell_ocv_v",
     "warning_for_remaining",
 ]
@@ -95,21 +94,6 @@ LIPO_OCV_TABLE: tuple[tuple[float, float], ...] = (
 
 _OCV_SOC = np.array([soc for soc, _ in LIPO_OCV_TABLE])
 _OCV_V = np.array([v for _, v in LIPO_OCV_TABLE])
-
-
-class BatteryWarning(IntEnum):
-    """``BatteryStatus.warning``: values are PX4's constants."""
-
-    NONE = 0
-    """``WARNING_NONE``."""
-    LOW = 1
-    """``BATTERY_WARNING_LOW``: warn the operator."""
-    CRITICAL = 2
-    """``BATTERY_WARNING_CRITICAL``: return or land now."""
-    EMERGENCY = 3
-    """``BATTERY_WARNING_EMERGENCY``: land immediately."""
-    FAILED = 4
-    """``BATTERY_WARNING_FAILED``: the battery has failed."""
 
 
 # -- parameters ----------------------------------------------------------------------------

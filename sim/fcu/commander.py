@@ -155,20 +155,27 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from enum import Enum, IntEnum
 
+from interfaces.px4 import (
+    FORCE_ARM_DISARM_MAGIC,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    ArmDisarmReason,
+    ArmingState,
+    BatteryWarning,
+    CommandResult,
+    NavigationState,
+    Px4CustomMainMode,
+    Px4CustomSubModeAuto,
+    VehicleCmd,
+)
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
-from sim.fcu.battery import BatteryWarning
 
 __all__ = [
     "COMMANDER_NODE_NAME",
-    "FORCE_ARM_DISARM_MAGIC",
     "TRANSITIONS",
     "Action",
-    "ArmDisarmReason",
-    "ArmingState",
     "BatteryFailsafeAction",
     "Check",
-    "CommandResult",
     "Commander",
     "CommanderInputs",
     "CommanderOutput",
@@ -180,13 +187,9 @@ __all__ = [
     "FailsafeReason",
     "FlightState",
     "LandTarget",
-    "NavState",
     "OffboardLossAction",
-    "Px4CustomMainMode",
-    "Px4CustomSubModeAuto",
     "Reaction",
     "TakeoffTarget",
-    "VehicleCmd",
     "VehicleCommandAckData",
     "VehicleCommandData",
     "commander_step",
@@ -196,89 +199,8 @@ __all__ = [
 COMMANDER_NODE_NAME = "fcu_commander"
 """The top-level key of the commander's section in a ROS 2 parameter file."""
 
-FORCE_ARM_DISARM_MAGIC = 21196
-"""``param2`` of COMPONENT_ARM_DISARM that forces arming/disarming (skips the checks)."""
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
-"""Bit of DO_SET_MODE ``param1`` (MAVLink base mode) saying param2/param3 are PX4 modes."""
 
 _US_PER_S = 1_000_000
-
-
-# -- PX4 numbers ---------------------------------------------------------------------------
-
-
-class ArmingState(IntEnum):
-    """``VehicleStatus.ARMING_STATE_*``."""
-
-    DISARMED = 1
-    ARMED = 2
-
-
-class NavState(IntEnum):
-    """``VehicleStatus.NAVIGATION_STATE_*`` that this commander uses."""
-
-    AUTO_LOITER = 4
-    AUTO_RTL = 5
-    OFFBOARD = 14
-    AUTO_TAKEOFF = 17
-    AUTO_LAND = 18
-
-
-class CommandResult(IntEnum):
-    """``VehicleCommandAck.VEHICLE_CMD_RESULT_*``."""
-
-    ACCEPTED = 0
-    TEMPORARILY_REJECTED = 1
-    DENIED = 2
-    UNSUPPORTED = 3
-    FAILED = 4
-    IN_PROGRESS = 5
-    CANCELLED = 6
-
-
-class ArmDisarmReason(IntEnum):
-    """``VehicleStatus.ARM_DISARM_REASON_*`` that this commander reports."""
-
-    TRANSITION_TO_STANDBY = 0
-    COMMAND_INTERNAL = 3
-    COMMAND_EXTERNAL = 4
-    AUTO_DISARM_LAND = 7
-    AUTO_DISARM_PREFLIGHT = 8
-
-
-class VehicleCmd(IntEnum):
-    """``VehicleCommand.VEHICLE_CMD_*`` that this commander handles."""
-
-    NAV_RETURN_TO_LAUNCH = 20
-    NAV_LAND = 21
-    NAV_TAKEOFF = 22
-    DO_SET_MODE = 176
-    COMPONENT_ARM_DISARM = 400
-
-
-class Px4CustomMainMode(IntEnum):
-    """PX4's ``PX4_CUSTOM_MAIN_MODE_*`` (DO_SET_MODE ``param2``)."""
-
-    MANUAL = 1
-    ALTCTL = 2
-    POSCTL = 3
-    AUTO = 4
-    ACRO = 5
-    OFFBOARD = 6
-    STABILIZED = 7
-
-
-class Px4CustomSubModeAuto(IntEnum):
-    """PX4's ``PX4_CUSTOM_SUB_MODE_AUTO_*`` (DO_SET_MODE ``param3`` with main mode AUTO)."""
-
-    READY = 1
-    TAKEOFF = 2
-    LOITER = 3
-    MISSION = 4
-    RTL = 5
-    LAND = 6
-    FOLLOW_TARGET = 8
-    PRECLAND = 9
 
 
 # -- the state machine as data -------------------------------------------------------------
@@ -295,7 +217,7 @@ class FlightState(Enum):
     AUTO_RTL = "AUTO_RTL"
 
     @property
-    def nav_state(self) -> NavState:
+    def nav_state(self) -> NavigationState:
         """The PX4 navigation state reported (AUTO_LOITER while disarmed)."""
         return _NAV_STATE[self]
 
@@ -305,12 +227,12 @@ class FlightState(Enum):
 
 
 _NAV_STATE = {
-    FlightState.DISARMED: NavState.AUTO_LOITER,
-    FlightState.AUTO_TAKEOFF: NavState.AUTO_TAKEOFF,
-    FlightState.AUTO_LOITER: NavState.AUTO_LOITER,
-    FlightState.OFFBOARD: NavState.OFFBOARD,
-    FlightState.AUTO_LAND: NavState.AUTO_LAND,
-    FlightState.AUTO_RTL: NavState.AUTO_RTL,
+    FlightState.DISARMED: NavigationState.AUTO_LOITER,
+    FlightState.AUTO_TAKEOFF: NavigationState.AUTO_TAKEOFF,
+    FlightState.AUTO_LOITER: NavigationState.AUTO_LOITER,
+    FlightState.OFFBOARD: NavigationState.OFFBOARD,
+    FlightState.AUTO_LAND: NavigationState.AUTO_LAND,
+    FlightState.AUTO_RTL: NavigationState.AUTO_RTL,
 }
 
 
@@ -732,8 +654,8 @@ class CommanderStatus:
     timestamp_us: int
     state: FlightState
     arming_state: ArmingState
-    nav_state: NavState
-    nav_state_user_intention: NavState
+    nav_state: NavigationState
+    nav_state_user_intention: NavigationState
     nav_state_timestamp_us: int
     armed_time_us: int
     takeoff_time_us: int

@@ -24,7 +24,8 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
-from flight_control.timesync import Px4Timesync, ns_to_us
+from interfaces.px4 import ArmingState, BatteryWarning, NavigationState
+from interfaces.px4.timesync import Px4Timesync, ns_to_us
 from runtime.parameters import load_parameters, param, validate_parameters
 from sim.fcu.agent import FcuAgentNode
 from sim.fcu.battery import (
@@ -37,12 +38,10 @@ from sim.fcu.battery import (
 from sim.fcu.clock import FcuClock
 from sim.fcu.commander import (
     COMMANDER_NODE_NAME,
-    ArmingState,
     Commander,
     CommanderInputs,
     CommanderParams,
     CommanderStatus,
-    NavState,
     VehicleCommandAckData,
     VehicleCommandData,
 )
@@ -286,8 +285,8 @@ class Firmware:
         self.motor_commands = np.zeros(NUM_ROTORS)
         self._hold_position: FloatArray | None = None
         self._hold_yaw = 0.0
-        self._mode_of_hold: NavState | None = None
-        self._last_nav_state: NavState | None = None
+        self._mode_of_hold: NavigationState | None = None
+        self._last_nav_state: NavigationState | None = None
         self._armed_before = False
         self._timesync_seq = 0
         self._last_timesync_status: Any = None
@@ -338,8 +337,8 @@ class Firmware:
         return self.status is not None and self.status.arming_state is ArmingState.ARMED
 
     @property
-    def nav_state(self) -> NavState:
-        return self.status.nav_state if self.status else NavState.AUTO_LOITER
+    def nav_state(self) -> NavigationState:
+        return self.status.nav_state if self.status else NavigationState.AUTO_LOITER
 
     # -- sensors ------------------------------------------------------------------------
     def imu_update(self) -> None:
@@ -409,11 +408,10 @@ class Firmware:
         self._armed_before = self.armed
 
     def battery_warning(self) -> Any:
-        from sim.fcu.battery import BatteryWarning
 
         return BatteryWarning(self.battery.warning) if self.battery else BatteryWarning.NONE
 
-    def _hold_here(self, mode: NavState) -> FloatArray:
+    def _hold_here(self, mode: NavigationState) -> FloatArray:
         """The position captured on entering ``mode`` (hold, land, takeoff)."""
         if self._mode_of_hold is not mode or self._hold_position is None:
             assert self.estimate is not None
@@ -431,15 +429,15 @@ class Firmware:
         if mode is not self._last_nav_state:  # a new mode holds where it is entered
             self._mode_of_hold = None
             self._last_nav_state = mode
-        if mode is NavState.OFFBOARD and self.offboard_setpoint is not None:
+        if mode is NavigationState.OFFBOARD and self.offboard_setpoint is not None:
             self.setpoint = self.offboard_setpoint
             self._mode_of_hold = None  # the companion's setpoint is in use
-        elif mode is NavState.AUTO_TAKEOFF and self.status and self.status.takeoff_target:
+        elif mode is NavigationState.AUTO_TAKEOFF and self.status and self.status.takeoff_target:
             start = self._hold_here(mode)
             z = -self.status.takeoff_target.altitude_amsl_m  # altitude is -z (NED)
             self.setpoint = TrajectorySetpointData(position=np.array([start[0], start[1], z]),
                                                    yaw=self._hold_yaw)
-        elif mode in (NavState.AUTO_LAND, NavState.AUTO_RTL):
+        elif mode in (NavigationState.AUTO_LAND, NavigationState.AUTO_RTL):
             here = self._hold_here(mode)
             height = -float(self.estimate.state.position_ned[2])
             p = self.params
@@ -448,7 +446,7 @@ class Firmware:
                 position=np.array([here[0], here[1], math.nan]),
                 velocity=np.array([math.nan, math.nan, speed]), yaw=self._hold_yaw)
         else:  # hold (AUTO_LOITER) and anything else: stay where we are
-            here = self._hold_here(NavState.AUTO_LOITER)
+            here = self._hold_here(NavigationState.AUTO_LOITER)
             self.setpoint = TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw)
 
     # -- control ------------------------------------------------------------------------
@@ -464,7 +462,7 @@ class Firmware:
             self.position_out = self.position_controller.update(self._state(), self.setpoint,
                                                                 dt_us)
         except ValueError:  # an invalid offboard setpoint: hold instead, as PX4 does
-            here = self._hold_here(NavState.AUTO_LOITER)
+            here = self._hold_here(NavigationState.AUTO_LOITER)
             self.position_out = self.position_controller.update(
                 self._state(), TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw),
                 dt_us)

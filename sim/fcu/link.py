@@ -41,11 +41,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import NamedTuple
 
 import numpy as np
 
-from flight_control.timesync_traces import SEED_COMPANION_TO_FCU, SEED_FCU_TO_COMPANION
+from interfaces.px4.seed000 import (
+    TABLE3_MESSAGE_SIZE_BYTES,
+    TABLE3_TO_COMPANION,
+    TABLE3_TO_FCU,
+    LatencyFigure,
+)
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
 from sim.errors import SimError
@@ -71,21 +75,6 @@ LINK_NODE_NAME = "fcu_link"
 
 _NS_PER_S = 1_000_000_000
 _NS_PER_US = 1000
-
-
-class LatencyFigure(NamedTuple):
-    """A one-way latency as a paper reports it: mean and standard deviation [us]."""
-
-    mean_us: float
-    sd_us: float
-
-
-TABLE3_MESSAGE_SIZE_BYTES = 115
-"""Message size of the seed 000 latency experiment (section 2.9) [bytes]."""
-TABLE3_TO_FCU = LatencyFigure(SEED_COMPANION_TO_FCU.mean_us, SEED_COMPANION_TO_FCU.std_us)
-"""Seed 000 Table 3, MicroXRCE-DDS - ROS 2, companion computer -> flight controller."""
-TABLE3_TO_COMPANION = LatencyFigure(SEED_FCU_TO_COMPANION.mean_us, SEED_FCU_TO_COMPANION.std_us)
-"""Seed 000 Table 3, MicroXRCE-DDS - ROS 2, flight controller -> companion computer."""
 
 
 class LinkDirection(Enum):

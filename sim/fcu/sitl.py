@@ -85,18 +85,6 @@ def build_sitl(
     return Sitl(scene, ex, the_link, agent, fw, imu, vision, actuation)
 
 
-def hover_flight(duration_s: float = 10.0, *, seed: int = 0, offsets: str = "balanced",
-                 altitude: float = 1.5) -> tuple[Sitl, WorldResult]:
-    """Take off with the offboard harness and hover for ``duration_s`` (for reports)."""
-    from sim.fcu.offboard_harness import OffboardHarness
-
-    sitl = build_sitl(seed=seed, firmware=FirmwareConfig(offsets=offsets))
-    harness = OffboardHarness([[0.0, 0.0, 0.0]], altitude=altitude, hover_s=duration_s,
-                              fly=False, context=sitl.executor.context)
-    sitl.executor.add_node(harness)
-    return sitl, sitl.run(duration_s + 10.0)
-
-
 def schedule_report(sitl: Sitl) -> dict[str, Any]:
     """The resolved firmware and what it achieved: module order, per function frequency,
     prescaler, offset and achieved rate; per task group duty (host us) and rate."""

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import interfaces
-from flight_control.companion import Companion, start_companion
+from quadmission.assembly import Companion, start_companion
 from runtime import Node, Time, qos_profile_default, qos_profile_sensor_data
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.scene import quad_state
@@ -64,7 +64,7 @@ class Pilot(Node):
 
 def _setup(seed: int) -> tuple[Sitl, Companion, Pilot]:
     sitl = build_sitl(seed=seed)
-    companion = start_companion(sitl)
+    companion = start_companion(sitl, flight_control=False)
     pilot = Pilot(context=sitl.executor.context)
     sitl.run(6.0, stop=StopWhen(lambda: pilot.status is not None
                               and pilot.status.position_valid and len(pilot.odometry) > 10))

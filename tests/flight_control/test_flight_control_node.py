@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 import interfaces
-from flight_control.companion import start_companion
 from flight_control.flight_control_node import (
     ARM,
     LAND,
@@ -27,6 +26,7 @@ from flight_control.flight_control_node import (
     FlightControlNode,
 )
 from flight_control.frames import quat_to_yaw
+from quadmission.assembly import start_companion
 from runtime import ActionClient, GoalStatus, Node, qos_profile_default
 from runtime.future import Future
 from sim.fcu.sitl import Sitl, build_sitl
@@ -97,9 +97,8 @@ def reach_goal(x: float, y: float, z: float, radius: float = RADIUS) -> Any:
 
 def _setup(seed: int) -> tuple[Sitl, FlightControlNode, Pilot]:
     sitl = build_sitl(seed=seed)
-    start_companion(sitl)
-    fc = FlightControlNode(context=sitl.executor.context)
-    sitl.executor.add_node(fc)
+    fc = start_companion(sitl).flight_control
+    assert fc is not None
     pilot = Pilot(sitl, context=sitl.executor.context)
 
     def ready() -> bool:

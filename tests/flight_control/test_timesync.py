@@ -13,24 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flight_control.errors import TimesyncParameterError, UnknownEstimatorError
-from flight_control.timesync import (
-    ALPHA_GAIN_FINAL,
-    ALPHA_GAIN_INITIAL,
-    BETA_GAIN_FINAL,
-    BETA_GAIN_INITIAL,
-    CONVERGENCE_WINDOW_SAMPLES,
-    ESTIMATORS,
-    MAX_RTT_SAMPLE_US,
-    KalmanParams,
-    KalmanTimesync,
-    Px4Timesync,
-    RejectReason,
-    TimesyncEstimator,
-    TimesyncSample,
-    make_estimator,
-    ns_to_us,
-    px4_gains,
-)
+from flight_control.timesync import ESTIMATORS, KalmanParams, KalmanTimesync, make_estimator
 from flight_control.timesync_traces import (
     SCENARIOS,
     SEED_COMPANION_TO_FCU,
@@ -43,6 +26,20 @@ from flight_control.timesync_traces import (
     replay,
     replay_metrics,
     settling_sample,
+)
+from interfaces.px4.timesync import (
+    ALPHA_GAIN_FINAL,
+    ALPHA_GAIN_INITIAL,
+    BETA_GAIN_FINAL,
+    BETA_GAIN_INITIAL,
+    CONVERGENCE_WINDOW_SAMPLES,
+    MAX_RTT_SAMPLE_US,
+    Px4Timesync,
+    RejectReason,
+    TimesyncEstimator,
+    TimesyncSample,
+    ns_to_us,
+    px4_gains,
 )
 
 # Path asymmetry bias of a mean-tracking filter on Table 3 latencies: (1752 - 1329) / 2 us.

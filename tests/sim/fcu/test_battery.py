@@ -7,6 +7,7 @@ import math
 
 import pytest
 
+from interfaces.px4 import BatteryWarning
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters, parameters_from_mapping
 from sim.fcu.battery import (
@@ -17,7 +18,6 @@ from sim.fcu.battery import (
     BatteryModelParams,
     BatteryParams,
     BatteryStatusData,
-    BatteryWarning,
     cell_ocv_v,
     warning_for_remaining,
 )

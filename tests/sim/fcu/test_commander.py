@@ -10,28 +10,30 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sim.fcu.commander as commander_module
-from runtime.errors import ParameterError
-from runtime.parameters import load_parameters, parameters_from_mapping, parameters_from_yaml
-from sim.fcu.battery import BatteryWarning
-from sim.fcu.commander import (
-    COMMANDER_NODE_NAME,
+from interfaces.px4 import (
     FORCE_ARM_DISARM_MAGIC,
-    TRANSITIONS,
     ArmDisarmReason,
     ArmingState,
+    BatteryWarning,
+    CommandResult,
+    NavigationState,
+    VehicleCmd,
+)
+from runtime.errors import ParameterError
+from runtime.parameters import load_parameters, parameters_from_mapping, parameters_from_yaml
+from sim.fcu.commander import (
+    COMMANDER_NODE_NAME,
+    TRANSITIONS,
     BatteryFailsafeAction,
     Commander,
     CommanderInputs,
     CommanderOutput,
     CommanderParams,
-    CommandResult,
     DenyReason,
     Event,
     FailsafeReason,
     FlightState,
-    NavState,
     OffboardLossAction,
-    VehicleCmd,
     VehicleCommandData,
     render_transition_table,
 )
@@ -209,7 +211,7 @@ def test_arming_enters_hold_and_arming_again_is_accepted_without_change() -> Non
     out = bench.command(arm())
     assert out.acks[0].result is CommandResult.ACCEPTED
     assert out.status.arming_state is ArmingState.ARMED
-    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert out.status.nav_state is NavigationState.AUTO_LOITER
     assert out.status.latest_arming_reason is ArmDisarmReason.COMMAND_EXTERNAL
     again = bench.command(arm())
     assert again.acks[0].result is CommandResult.ACCEPTED
@@ -246,7 +248,7 @@ def test_offboard_is_refused_without_a_heartbeat() -> None:
     out = bench.command(set_offboard())
     assert out.acks[0].result is CommandResult.TEMPORARILY_REJECTED
     assert out.acks[0].result_param1 == DenyReason.OFFBOARD_SIGNAL_NOT_ESTABLISHED
-    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert out.status.nav_state is NavigationState.AUTO_LOITER
 
 
 def test_offboard_is_accepted_only_after_more_than_1_s_of_10_hz_heartbeat() -> None:
@@ -259,7 +261,7 @@ def test_offboard_is_accepted_only_after_more_than_1_s_of_10_hz_heartbeat() -> N
     bench.run(200 * MS)
     out = bench.command(set_offboard())
     assert out.acks[0].result is CommandResult.ACCEPTED
-    assert out.status.nav_state is NavState.OFFBOARD
+    assert out.status.nav_state is NavigationState.OFFBOARD
     assert out.status.offboard_signal_established
 
 
@@ -282,11 +284,11 @@ def test_offboard_chosen_while_disarmed_is_entered_on_arming_never_reported_disa
     out = bench.command(set_offboard())
     assert out.acks[0].result is CommandResult.ACCEPTED
     assert out.status.arming_state is ArmingState.DISARMED
-    assert out.status.nav_state is not NavState.OFFBOARD
-    assert out.status.nav_state_user_intention is NavState.OFFBOARD
+    assert out.status.nav_state is not NavigationState.OFFBOARD
+    assert out.status.nav_state_user_intention is NavigationState.OFFBOARD
     armed = bench.command(arm())
     assert armed.acks[0].result is CommandResult.ACCEPTED
-    assert armed.status.nav_state is NavState.OFFBOARD
+    assert armed.status.nav_state is NavigationState.OFFBOARD
 
 
 def test_arming_into_offboard_needs_the_signal_still_there() -> None:
@@ -311,27 +313,27 @@ def test_offboard_loss_holds_then_lands_after_the_configured_time() -> None:
     lost_at = bench.last_heartbeat_us
     assert lost_at is not None
     outs = bench.run(6 * S)
-    hold = next(o for o in outs if o.status.nav_state is not NavState.OFFBOARD)
-    assert hold.status.nav_state is NavState.AUTO_LOITER
+    hold = next(o for o in outs if o.status.nav_state is not NavigationState.OFFBOARD)
+    assert hold.status.nav_state is NavigationState.AUTO_LOITER
     assert hold.status.failsafe
     assert hold.status.failsafe_reason is FailsafeReason.OFFBOARD_LOSS
     assert 1 * S < hold.status.timestamp_us - lost_at <= 1 * S + TICK_US
-    landing = next(o for o in outs if o.status.nav_state is NavState.AUTO_LAND)
+    landing = next(o for o in outs if o.status.nav_state is NavigationState.AUTO_LAND)
     assert landing.status.failsafe
     assert 3 * S <= landing.status.timestamp_us - hold.status.timestamp_us <= 3 * S + TICK_US
-    assert outs[-1].status.nav_state is NavState.AUTO_LAND
+    assert outs[-1].status.nav_state is NavigationState.AUTO_LAND
 
 
 def test_offboard_back_during_the_hold_resumes_offboard() -> None:
     bench = armed_in_offboard(CommanderParams(failsafe_hold_s=5.0))
     bench.stream(None)
     bench.run(1500 * MS)
-    assert bench.tick().status.nav_state is NavState.AUTO_LOITER
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LOITER
     bench.stream(100 * MS)
     outs = bench.run(1500 * MS)
-    assert outs[-1].status.nav_state is NavState.OFFBOARD
+    assert outs[-1].status.nav_state is NavigationState.OFFBOARD
     assert not outs[-1].status.failsafe
-    assert all(o.status.nav_state is not NavState.AUTO_LAND for o in outs)
+    assert all(o.status.nav_state is not NavigationState.AUTO_LAND for o in outs)
 
 
 def test_offboard_loss_action_hold_keeps_holding() -> None:
@@ -340,7 +342,7 @@ def test_offboard_loss_action_hold_keeps_holding() -> None:
     )
     bench.stream(None)
     outs = bench.run(5 * S)
-    assert outs[-1].status.nav_state is NavState.AUTO_LOITER
+    assert outs[-1].status.nav_state is NavigationState.AUTO_LOITER
     assert outs[-1].status.failsafe
 
 
@@ -348,10 +350,10 @@ def test_a_mode_command_takes_over_from_the_failsafe() -> None:
     bench = armed_in_offboard(CommanderParams(failsafe_hold_s=1.0))
     bench.stream(None)
     bench.run(3 * S)
-    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LAND
     out = bench.command(set_auto(3))
     assert out.acks[0].result is CommandResult.ACCEPTED
-    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert out.status.nav_state is NavigationState.AUTO_LOITER
     assert not out.status.failsafe
 
 
@@ -363,7 +365,7 @@ def test_takeoff_climbs_to_the_requested_altitude_then_holds() -> None:
     bench.command(arm())
     out = bench.command(takeoff(HOME_AMSL_M + 1.5))
     assert out.acks[0].result is CommandResult.ACCEPTED
-    assert out.status.nav_state is NavState.AUTO_TAKEOFF
+    assert out.status.nav_state is NavigationState.AUTO_TAKEOFF
     target = out.status.takeoff_target
     assert target is not None
     assert target.height_above_home_m == pytest.approx(1.5)
@@ -371,10 +373,10 @@ def test_takeoff_climbs_to_the_requested_altitude_then_holds() -> None:
     bench.landed = False
     for height in (0.3, 0.6, 0.9, 1.1):
         bench.altitude_amsl_m = HOME_AMSL_M + height
-        assert bench.tick().status.nav_state is NavState.AUTO_TAKEOFF
+        assert bench.tick().status.nav_state is NavigationState.AUTO_TAKEOFF
     bench.altitude_amsl_m = HOME_AMSL_M + 1.25  # within takeoff_acceptance_m (0.3)
     out = bench.tick()
-    assert out.status.nav_state is NavState.AUTO_LOITER
+    assert out.status.nav_state is NavigationState.AUTO_LOITER
     assert out.status.takeoff_time_us > 0
 
 
@@ -394,7 +396,7 @@ def test_takeoff_mode_via_do_set_mode_auto_takeoff() -> None:
     bench.command(arm())
     out = bench.command(set_auto(2))
     assert out.acks[0].result is CommandResult.ACCEPTED
-    assert out.status.nav_state is NavState.AUTO_TAKEOFF
+    assert out.status.nav_state is NavigationState.AUTO_TAKEOFF
 
 
 def test_land_then_landed_then_auto_disarm_after_com_disarm_land() -> None:
@@ -405,7 +407,7 @@ def test_land_then_landed_then_auto_disarm_after_com_disarm_land() -> None:
     bench.run(500 * MS)
     out = bench.command(land())
     assert out.acks[0].result is CommandResult.ACCEPTED
-    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.nav_state is NavigationState.AUTO_LAND
     assert out.status.land_target is not None
     bench.run(1 * S)
     bench.landed = True
@@ -415,7 +417,7 @@ def test_land_then_landed_then_auto_disarm_after_com_disarm_land() -> None:
     disarmed = next(o for o in outs if o.status.arming_state is ArmingState.DISARMED)
     assert disarmed.status.timestamp_us - landed_at == 2 * S
     assert disarmed.status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_LAND
-    assert disarmed.status.nav_state is not NavState.AUTO_LAND
+    assert disarmed.status.nav_state is not NavigationState.AUTO_LAND
     assert not disarmed.status.failsafe
 
 
@@ -476,7 +478,7 @@ def test_battery_low_in_flight_only_warns() -> None:
     bench = armed_in_offboard()
     bench.battery = BatteryWarning.LOW
     out = bench.run(1 * S)[-1]
-    assert out.status.nav_state is NavState.OFFBOARD
+    assert out.status.nav_state is NavigationState.OFFBOARD
     assert not out.status.failsafe
     assert out.status.battery_warning is BatteryWarning.LOW
 
@@ -485,7 +487,7 @@ def test_battery_critical_in_flight_lands() -> None:
     bench = armed_in_offboard()
     bench.battery = BatteryWarning.CRITICAL
     out = bench.tick()
-    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.nav_state is NavigationState.AUTO_LAND
     assert out.status.failsafe
     assert out.status.failsafe_reason is FailsafeReason.BATTERY_CRITICAL
 
@@ -493,17 +495,17 @@ def test_battery_critical_in_flight_lands() -> None:
 def test_battery_critical_returns_with_action_return_and_emergency_then_lands() -> None:
     bench = armed_in_offboard(CommanderParams(low_battery_action=BatteryFailsafeAction.RETURN))
     bench.battery = BatteryWarning.CRITICAL
-    assert bench.tick().status.nav_state is NavState.AUTO_RTL
+    assert bench.tick().status.nav_state is NavigationState.AUTO_RTL
     bench.battery = BatteryWarning.EMERGENCY
     out = bench.tick()
-    assert out.status.nav_state is NavState.AUTO_LAND
+    assert out.status.nav_state is NavigationState.AUTO_LAND
     assert out.status.failsafe_reason is FailsafeReason.BATTERY_EMERGENCY
 
 
 def test_battery_emergency_refuses_every_mode_but_land() -> None:
     bench = armed_in_offboard()
     bench.battery = BatteryWarning.EMERGENCY
-    assert bench.tick().status.nav_state is NavState.AUTO_LAND
+    assert bench.tick().status.nav_state is NavigationState.AUTO_LAND
     for cmd in (set_offboard(), set_auto(3), takeoff()):
         ack = bench.command(cmd).acks[0]
         assert ack.result is CommandResult.TEMPORARILY_REJECTED
@@ -514,7 +516,7 @@ def test_battery_emergency_refuses_every_mode_but_land() -> None:
 def test_battery_action_warning_never_changes_mode() -> None:
     bench = armed_in_offboard(CommanderParams(low_battery_action=BatteryFailsafeAction.WARNING))
     bench.battery = BatteryWarning.EMERGENCY
-    assert bench.run(1 * S)[-1].status.nav_state is NavState.OFFBOARD
+    assert bench.run(1 * S)[-1].status.nav_state is NavigationState.OFFBOARD
 
 
 # -- the table ------------------------------------------------------------------------------
@@ -608,7 +610,7 @@ def test_random_command_sequences_keep_the_invariants(
         armed = status.arming_state is ArmingState.ARMED
         assert armed == status.state.armed
         if not armed:
-            assert status.nav_state is not NavState.OFFBOARD, "disarmed implies not OFFBOARD"
+            assert status.nav_state is not NavigationState.OFFBOARD, "disarmed implies not OFFBOARD"
             assert not status.failsafe
         assert status.nav_state is status.state.nav_state
         if status.state is FlightState.OFFBOARD and previous is not FlightState.OFFBOARD:

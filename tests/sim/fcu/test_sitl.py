@@ -14,12 +14,12 @@ from typing import Any
 import numpy as np
 import pytest
 
+from interfaces.px4 import CommandResult, NavigationState, VehicleCmd
+from quadmission.offboard_harness import HarnessPhase, OffboardHarness, hover_flight
+from quadmission.scenarios import ScenarioOptions, square
 from runtime import Node, qos_profile_px4_subscriber
-from sim.fcu.commander import CommandResult, NavState, VehicleCmd
 from sim.fcu.link import LinkDirection
-from sim.fcu.offboard_harness import HarnessPhase, OffboardHarness
-from sim.fcu.sitl import Sitl, build_sitl, hover_flight, schedule_report
-from sim.scenarios import ScenarioOptions, square
+from sim.fcu.sitl import Sitl, build_sitl, schedule_report
 from sim.world import StopWhen, WorldStatus
 
 
@@ -62,7 +62,7 @@ def test_fcu_refuses_offboard_without_heartbeat_and_arming_without_position() ->
     ack = watcher.acks[-1]
     assert ack.command == VehicleCmd.DO_SET_MODE
     assert ack.result == CommandResult.TEMPORARILY_REJECTED
-    assert all(nav != NavState.OFFBOARD for _, nav, _, _ in watcher.status)
+    assert all(nav != NavigationState.OFFBOARD for _, nav, _, _ in watcher.status)
 
 
 def test_take_off_hold_within_10_cm_for_10_s_then_land_and_disarm() -> None:
@@ -107,9 +107,9 @@ def test_losing_the_companion_heartbeat_makes_the_fcu_hold_then_land() -> None:
     assert result.crash is None
     after = [(t, nav) for t, nav, _, _ in watcher.status if t > lost_at]
     navs = [nav for _, nav in after]
-    assert NavState.AUTO_LOITER in navs and NavState.AUTO_LAND in navs
-    hold_t = next(t for t, nav in after if nav == NavState.AUTO_LOITER)
-    land_t = next(t for t, nav in after if nav == NavState.AUTO_LAND)
+    assert NavigationState.AUTO_LOITER in navs and NavigationState.AUTO_LAND in navs
+    hold_t = next(t for t, nav in after if nav == NavigationState.AUTO_LOITER)
+    land_t = next(t for t, nav in after if nav == NavigationState.AUTO_LAND)
     assert 1.0 <= (hold_t - lost_at) / 1e9 <= 1.8  # COM_OF_LOSS_T = 1 s (+ status period)
     assert 4.5 <= (land_t - hold_t) / 1e9 <= 5.5  # hold for COM_FAIL_ACT_T = 5 s
     assert not harness.armed and quad_height(sitl) < 0.3
@@ -162,7 +162,7 @@ def test_a_failsafe_hold_stops_where_the_vehicle_is_not_where_it_held_before() -
     # a first failsafe hold over the take-off point, then offboard again
     harness.heartbeat = False
     sitl.run(5.0, stop=StopWhen(lambda: watcher.status and watcher.status[-1][1]
-                             == NavState.AUTO_LOITER))
+                             == NavigationState.AUTO_LOITER))
     harness.heartbeat = True
     sitl.run(30.0, stop=StopWhen(lambda: harness.phase is HarnessPhase.LAND))
     assert harness.phase is HarnessPhase.LAND  # flew the 2 m leg north after the hold
@@ -173,7 +173,7 @@ def test_a_failsafe_hold_stops_where_the_vehicle_is_not_where_it_held_before() -
     harness.auto_land = False  # keep the vehicle in the air: only the failsafe acts
     sitl.run(4.0)
     held = quad_state(sitl.scene.data, sitl.scene.index).position
-    assert watcher.status[-1][1] == NavState.AUTO_LOITER
+    assert watcher.status[-1][1] == NavigationState.AUTO_LOITER
     assert np.linalg.norm(held[:2] - here[:2]) < 0.3, (here, held)
 
 

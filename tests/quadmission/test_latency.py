@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from flight_control.latency import (
+from quadmission.cli import main
+from quadmission.latency import (
     CONSUMPTION_DELAY_US,
     EXPERIMENT_RATES_HZ,
     MAIN_LOOP_HZ,
@@ -28,7 +29,6 @@ from flight_control.latency import (
     run_latency_experiment,
     stream_charges,
 )
-from quadmission.cli import main
 from runtime.parameters import load_parameters
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.firmware import FIRMWARE_MODULES, firmware_modules, firmware_schedule
@@ -236,7 +236,7 @@ def test_cli_prints_json_and_table(report: LatencyReport, capsys: pytest.Capture
         seen.append(config)
         return report
 
-    monkeypatch.setattr("flight_control.latency.run_latency_experiment", fake_run)
+    monkeypatch.setattr("quadmission.latency.run_latency_experiment", fake_run)
     assert main(["latency", "--duration", "7", "--seed", "3", "--json"]) == 0
     assert seen == [LatencyConfig(duration_s=7.0, seed=3, primary="kalman")]
     assert json.loads(capsys.readouterr().out)["forward"]["corrected"]["n"] > 0

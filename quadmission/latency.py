@@ -68,6 +68,7 @@ from typing import Any
 
 import numpy as np
 
+from flight_control.latency_node import LatencyTestNode, OffsetLog, ReceivedImu, SentVision
 from sim.fcu.link import (
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
@@ -137,32 +138,6 @@ class LatencyPath(Enum):
 TABLE3: Mapping[LatencyPath, LatencyFigure] = MappingProxyType(
     {LatencyPath.FORWARD: TABLE3_TO_FCU, LatencyPath.REVERSE: TABLE3_TO_COMPANION})
 """Seed 000 Table 3, MicroXRCE-DDS - ROS 2 (mean +/- sd) [us]."""
-
-
-# -- the logs ---------------------------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
-class SentVision:
-    """One forward sample as the companion created it."""
-
-    created_us: int  # companion clock at creation (the message's ``timestamp``)
-    fcu_stamp_us: Mapping[str, int]  # the creation time on the FCU clock, per estimator
-
-
-@dataclass(frozen=True, slots=True)
-class ReceivedImu:
-    """One reverse sample as the companion received it."""
-
-    stamp_us: int  # the message's ``timestamp`` (FCU clock)
-    received_us: int  # companion clock at reception
-    local_stamp_us: Mapping[str, int]  # the stamp on the companion clock, per estimator
-
-
-@dataclass(frozen=True, slots=True)
-class OffsetLog:
-    """Each estimator's offset (companion - FCU) after one exchange, at local time ``t_us``."""
-
-    t_us: int
-    offset_us: Mapping[str, int]
 
 
 # -- figures ----------------------------------------------------------------------------------
@@ -460,17 +435,17 @@ def stream_charges() -> dict[tuple[LinkDirection, int], int]:
     """``(direction, CDR size) -> 115`` for the two streams' message types, after checking
     that no other message crossing that direction has the same CDR size."""
     import interfaces
-    from sim.fcu.agent import IN_TOPICS, OUT_TOPICS, XRCE_TIMESYNC_BYTES
+    from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_TIMESYNC_BYTES
 
     def size(type_name: str) -> int:
         return len(interfaces.serialize(interfaces.new(type_name), type_name))
 
-    streams = {LinkDirection.TO_FCU: ("vehicle_visual_odometry", IN_TOPICS),
-               LinkDirection.TO_COMPANION: ("sensor_combined", OUT_TOPICS)}
+    streams = {LinkDirection.TO_FCU: ("vehicle_visual_odometry", FMU_IN),
+               LinkDirection.TO_COMPANION: ("sensor_combined", FMU_OUT)}
     charges = {}
     for direction, (topic, topics) in streams.items():
-        own = size(topics[topic])
-        others = {size(t) for name, t in topics.items() if name != topic}
+        own = size(topics[topic].type)
+        others = {size(t.type) for name, t in topics.items() if name != topic}
         if own in others | {XRCE_TIMESYNC_BYTES}:
             raise ValueError(f"{direction.value}: {topic} ({own} B) is not the only message "
                              f"of its CDR size; the link cannot charge it alone")
@@ -498,7 +473,6 @@ class LatencyConfig:
 
 def run_latency_experiment(config: LatencyConfig | None = None) -> LatencyReport:
     """Run seed 000's test in the SITL (vehicle on the pad, disarmed) and analyse it."""
-    from flight_control.latency_node import LatencyTestNode
     from sim.fcu.firmware import ConsumedVision, FirmwareConfig
     from sim.fcu.sitl import build_sitl
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import interfaces
 from flight_control.timesync import make_estimator
-from flight_control.timesync_exchange import TimesyncExchange
+from interfaces.px4.timesync import TimesyncExchange
 
 
 def _answer(request: object, fcu_ns: int) -> object:

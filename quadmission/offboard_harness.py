@@ -28,12 +28,21 @@ import numpy.typing as npt
 
 import interfaces
 from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
-from flight_control.timesync import make_estimator, ns_to_us
-from flight_control.timesync_exchange import TimesyncExchange
+from flight_control.timesync import make_estimator
+from interfaces.px4 import (
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    ArmingState,
+    NavigationState,
+    Px4CustomMainMode,
+    VehicleCmd,
+)
+from interfaces.px4.timesync import TimesyncExchange, ns_to_us
+from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, Time, qos_profile_px4_subscriber, qos_profile_sensor_data
-from runtime.qos import QoSProfile, ReliabilityPolicy
-from sim.fcu.commander import NavState, VehicleCmd
+from sim.fcu.firmware import FirmwareConfig
+from sim.fcu.sitl import Sitl, build_sitl
 from sim.vision import VISION_POSE_TOPIC
+from sim.world import WorldResult
 
 FloatArray = npt.NDArray[np.float64]
 _PX4_IN = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -200,9 +209,13 @@ class OffboardHarness(Node):
 
     def _on_status(self, msg: Any) -> None:
         self.nav_state = int(msg.nav_state)
-        self.armed = int(msg.arming_state) == 2
+        self.armed = int(msg.arming_state) == ArmingState.ARMED
 
     # -- the flight ---------------------------------------------------------------------
+    def _request_offboard(self) -> None:
+        self.command(VehicleCmd.DO_SET_MODE, param1=float(MAV_MODE_FLAG_CUSTOM_MODE_ENABLED),
+                     param2=float(Px4CustomMainMode.OFFBOARD))
+
     def command(self, command: int, **params: float) -> None:
         self.command_pub.publish(interfaces.new(
             "px4_msgs/msg/VehicleCommand", timestamp=self.fcu_time_us(self.now().nanoseconds),
@@ -248,15 +261,15 @@ class OffboardHarness(Node):
         if self.phase is HarnessPhase.STREAM:
             self._send_setpoint(climb_to)
             if self._elapsed() >= self.stream_s:
-                self.command(VehicleCmd.DO_SET_MODE, param1=1.0, param2=6.0)
+                self._request_offboard()
                 self.command(VehicleCmd.COMPONENT_ARM_DISARM, param1=1.0)
                 self._enter(HarnessPhase.ARMING)
         elif self.phase is HarnessPhase.ARMING:
             self._send_setpoint(climb_to)
-            if self.armed and self.nav_state == NavState.OFFBOARD:
+            if self.armed and self.nav_state == NavigationState.OFFBOARD:
                 self._enter(HarnessPhase.CLIMB)
             elif self._elapsed() > 2.0:  # ask again, as a flight-control layer would
-                self.command(VehicleCmd.DO_SET_MODE, param1=1.0, param2=6.0)
+                self._request_offboard()
                 self.command(VehicleCmd.COMPONENT_ARM_DISARM, param1=1.0)
                 self._phase_start_ns = self.now().nanoseconds
         elif self.phase is HarnessPhase.CLIMB:
@@ -287,3 +300,13 @@ class OffboardHarness(Node):
     @property
     def done(self) -> bool:
         return self.phase is HarnessPhase.DONE
+
+
+def hover_flight(duration_s: float = 10.0, *, seed: int = 0, offsets: str = "balanced",
+                 altitude: float = 1.5) -> tuple[Sitl, WorldResult]:
+    """Take off with the offboard harness and hover for ``duration_s`` (for reports)."""
+    sitl = build_sitl(seed=seed, firmware=FirmwareConfig(offsets=offsets))
+    harness = OffboardHarness([[0.0, 0.0, 0.0]], altitude=altitude, hover_s=duration_s,
+                              fly=False, context=sitl.executor.context)
+    sitl.executor.add_node(harness)
+    return sitl, sitl.run(duration_s + 10.0)

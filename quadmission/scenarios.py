@@ -157,8 +157,8 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
     """Arm, enter offboard through a test harness streaming px4 setpoints, fly a 4 m
     square at 1.5 m, land and disarm. Writes report.json and path.png."""
     from flight_control.frames import ned_to_enu
+    from quadmission.offboard_harness import HarnessPhase, OffboardHarness
     from sim.fcu.link import LinkDirection
-    from sim.fcu.offboard_harness import HarnessPhase, OffboardHarness
     from sim.fcu.sitl import build_sitl
 
     options.out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,53 @@
+"""The companion computer's flight stack on top of a software-in-the-loop FCU.
+
+:func:`start_companion` adds the FCU bridge, the visual-odometry forwarder and (unless
+asked not to) the flight-control node to a :class:`~sim.fcu.sitl.Sitl`'s executor. Facts
+the companion cannot know by itself come from the app, here: the flyable volume is the
+arena's field, passed to the flight-control node as its ``field_min``/``field_max``.
+Tests and scenarios use it; over DDS the same nodes run as processes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from flight_control.bridge_node import FcuBridgeNode
+from flight_control.flight_control_node import FlightControlNode
+from flight_control.vio_node import VioNode
+
+if TYPE_CHECKING:
+    from sim.arena import ArenaSpec
+    from sim.fcu.sitl import Sitl
+
+
+@dataclass
+class Companion:
+    bridge: FcuBridgeNode
+    vio: VioNode
+    flight_control: FlightControlNode | None
+
+
+def field_bounds(arena: ArenaSpec) -> dict[str, list[float]]:
+    """The flight-control node's ``field_min``/``field_max`` [m, map frame] for ``arena``:
+    the floor rectangle up to the ceiling."""
+    x, y, z = arena.field.size
+    return {"field_min": [0.0, 0.0, 0.0], "field_max": [float(x), float(y), float(z)]}
+
+
+def start_companion(sitl: Sitl, *, flight_control: bool = True,
+                    flight_control_overrides: dict[str, Any] | None = None,
+                    **bridge_overrides: Any) -> Companion:
+    """Bridge, VIO forwarder and flight-control node in ``sitl``'s executor, with config/
+    parameters, the arena's field bounds and the overrides given."""
+    context = sitl.executor.context
+    bridge = FcuBridgeNode(context=context, parameter_overrides=bridge_overrides)
+    vio = VioNode(context=context)
+    fc = None
+    if flight_control:
+        overrides = field_bounds(sitl.scene.arena) | (flight_control_overrides or {})
+        fc = FlightControlNode(context=context, parameter_overrides=overrides)
+    for node in (bridge, vio, fc):
+        if node is not None:
+            sitl.executor.add_node(node)
+    return Companion(bridge, vio, fc)
