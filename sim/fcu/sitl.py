@@ -78,7 +78,7 @@ def build_sitl(
     imu = Imu.seeded(seed + 1, rate_hz=firmware.firmware.imu_rate_hz)
     fw = Firmware(agent, imu, the_link.clock, firmware)
     vision_node = VisionNode(context=ex.context)
-    vision = VisionPose(vision_node, vision_noise or VisionNoise(), seed=seed + 2)
+    vision = VisionPose.from_node(vision_node, seed=seed + 2, noise=vision_noise)
     actuation = Actuation(fw, MotorModel(scene.quad), rate_hz=fw.rate_hz)
     for node in (agent, vision_node):
         ex.add_node(node)
