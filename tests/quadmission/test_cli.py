@@ -15,7 +15,7 @@ import pytest
 from interfaces.errors import UnknownTypeError
 from quadmission.cli import COMMANDS, EXIT_CODES, Command, build_parser, main, project_errors
 from quadmission.errors import ExperimentError
-from runtime import DeterministicExecutor, LaunchDescription, launch
+from runtime import LaunchDescription
 from runtime.errors import LaunchError, ParameterError
 from runtime.parameters import config_path
 from sim.errors import ArenaError
@@ -204,16 +204,6 @@ def test_a_yaml_syntax_error_in_an_arena_file_is_one_line_naming_it(
 
 
 # -- the example launch file ------------------------------------------------------------------
-
-
-def test_the_example_launch_file_runs_the_talker_and_the_listener() -> None:
-    description = LaunchDescription.from_yaml(EXAMPLE_LAUNCH)
-    rate_hz = description.nodes[0].parameters["rate_hz"]
-    ex = DeterministicExecutor()
-    talker, listener = launch(description, ex)
-    ex.spin_for(2.0)
-    assert talker.params.rate_hz == rate_hz  # the launch file's override won
-    assert listener.heard == [f"hello {n}" for n in range(1, round(2.0 * rate_hz) + 1)]
 
 
 def test_quadmission_launch_runs_the_example() -> None:
