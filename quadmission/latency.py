@@ -85,7 +85,10 @@ from typing import Any
 import numpy as np
 
 from flight_control.latency_node import LatencyTestNode, OffsetLog, ReceivedImu, SentVision
+from quadmission.errors import ExperimentError
+from runtime.parameters import load_parameters
 from sim.fcu.link import (
+    LINK_NODE_NAME,
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
     TABLE3_TO_FCU,
@@ -96,7 +99,6 @@ from sim.fcu.link import (
     LinkDirectionParams,
     LinkParams,
     calibrate_direction,
-    load_link_params,
 )
 
 __all__ = [
@@ -329,14 +331,15 @@ def analyse(
     ``true_offset_us(t_us)`` is the true ``companion - FCU`` offset at local time ``t_us``,
     ``true_fcu_us(t_us)`` the FCU clock at local time ``t_us`` and ``true_local_us(fcu_us)``
     the local time at which the FCU clock read ``fcu_us``.
-    Raises ValueError when an estimator never converged (run longer).
+    Raises ExperimentError when an estimator never converged (run longer).
     """
     names = list(converged_us)
     if primary not in names:
         raise ValueError(f"primary estimator {primary!r} is not one of {names}")
     missing = [name for name, t in converged_us.items() if t is None]
     if missing:
-        raise ValueError(f"estimator(s) {missing} never converged in {duration_s:g} s: run longer")
+        raise ExperimentError(
+            f"estimator(s) {missing} never converged in {duration_s:g} s: run longer")
     start_us = max(t for t in converged_us.values() if t is not None)
 
     window = [s for s in sent.values() if s.created_us >= start_us]
@@ -547,7 +550,7 @@ def _pooled(stats: Sequence[LatencyStats]) -> LatencyFigure:
     """Mean and standard deviation of the union of the samples behind ``stats``."""
     n = sum(s.n for s in stats)
     if n == 0:
-        raise ValueError("no samples to pool: run longer")
+        raise ExperimentError("no samples to pool: run longer")
     mean = sum(s.n * s.mean_us for s in stats) / n
     var = sum(s.n * (s.sd_us**2 + (s.mean_us - mean) ** 2) for s in stats) / n
     return LatencyFigure(mean, math.sqrt(var))
@@ -580,10 +583,10 @@ def fit_link(
     :func:`calibrate_direction`).
     """
     if iterations < 1:
-        raise ValueError(f"iterations={iterations}: must be >= 1")
+        raise ExperimentError(f"iterations={iterations}: must be >= 1")
     if not seeds:
-        raise ValueError("seeds: give at least one")
-    params = link or load_link_params()
+        raise ExperimentError("seeds: give at least one")
+    params = link or load_parameters(LinkParams, LINK_NODE_NAME)
 
     def measure(p: LinkParams) -> dict[LatencyPath, LatencyFigure]:
         reports = [run_latency_experiment(LatencyConfig(duration_s=duration_s, seed=seed), p)

@@ -31,7 +31,7 @@ from typing import Any
 import interfaces
 from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_TIMESYNC_BYTES
 from runtime import Node
-from sim.fcu.errors import FcuParameterError
+from runtime.errors import ParameterError
 from sim.fcu.link import Link, LinkDirection
 
 
@@ -126,9 +126,8 @@ class FcuAgentNode(Node):
         """Hand every ``/fmu/in/<topic>`` message to ``consumer`` at its delivery time
         instead of queueing it in :attr:`inbox` (an event-driven consumer on the FCU)."""
         if topic not in FMU_IN:
-            raise FcuParameterError("event_driven_inputs",
-                                    f"{topic!r} is not an /fmu/in topic; choose from "
-                                    f"{sorted(FMU_IN)}")
+            raise ParameterError(f"{topic!r} is not an /fmu/in topic; choose from "
+                                 f"{sorted(FMU_IN)}", key="event_driven_inputs")
         self._consumers[topic] = consumer
 
     def send(self, topic: str, msg: Any, t_ns: int) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from quadmission.cli import main
+from quadmission.errors import ExperimentError
 from quadmission.latency import (
     EXPERIMENT_RATES_HZ,
     MAIN_LOOP_HZ,
@@ -29,9 +30,10 @@ from quadmission.latency import (
     run_latency_experiment,
     stream_charges,
 )
+from runtime.parameters import load_parameters
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.firmware import FIRMWARE_MODULES, firmware_modules, firmware_schedule
-from sim.fcu.link import Link, LinkDirection, load_link_params
+from sim.fcu.link import LINK_NODE_NAME, Link, LinkDirection, LinkParams
 
 STATS_KEYS = {"mean_us", "sd_us", "p50_us", "p99_us", "max_us", "n"}
 
@@ -125,7 +127,7 @@ def test_firmware_rates_override_only_what_it_names() -> None:
 def test_the_link_charges_115_bytes_for_the_two_streams_only() -> None:
     charges = stream_charges()
     assert charges == {(LinkDirection.TO_FCU, 118): 115, (LinkDirection.TO_COMPANION, 52): 115}
-    params = load_link_params()
+    params = load_parameters(LinkParams, LINK_NODE_NAME)
     charged, plain = ChargedSizeLink(params, charges), Link(params)
     for k in range(50):  # same draws: the charged sizes give the 115-byte deliveries
         t = k * 5_000_000
@@ -167,7 +169,7 @@ def test_forward_latency_is_not_held_to_the_fcu_tick(report: LatencyReport) -> N
     """The estimator takes each vision sample on arrival (seed 000's event-driven bridge):
     a 500 Hz poll would make every forward latency a whole 2 or 3 ms."""
     true = report.forward.true
-    wire_us = load_link_params().to_fcu.wire_time_ns(115) / 1000
+    wire_us = load_parameters(LinkParams, LINK_NODE_NAME).to_fcu.wire_time_ns(115) / 1000
     assert wire_us < true.p50_us < 1.5 * wire_us, true
     assert true.p50_us % 1000 != 0, true
 
@@ -176,7 +178,7 @@ def test_forward_latency_is_not_held_to_the_fcu_tick(report: LatencyReport) -> N
 def test_uncorrected_latency_carries_the_clock_offset(report: LatencyReport,
                                                       path: LatencyPath) -> None:
     figures = report.path(path)
-    boot_offset_us = load_link_params().clock.boot_offset_us
+    boot_offset_us = load_parameters(LinkParams, LINK_NODE_NAME).clock.boot_offset_us
     assert abs(figures.uncorrected.mean_us) > 1e6
     sign = 1 if path is LatencyPath.FORWARD else -1
     # raw stamps differ from the true ones by the FCU's boot offset plus its 20 ppm drift
@@ -261,12 +263,14 @@ def test_cli_runs_the_experiment_and_the_same_seed_gives_the_same_figures(
 
 
 def test_cli_refuses_a_zero_duration(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["latency", "--duration", "0"]) == 2
-    assert "duration_s=0.0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:
+        main(["latency", "--duration", "0"])
+    assert exit_info.value.code == 2
+    assert "0 must be a positive number of seconds" in capsys.readouterr().err
 
 
 def test_fit_link_refuses_nothing_to_fit() -> None:
-    with pytest.raises(ValueError, match="iterations=0"):
+    with pytest.raises(ExperimentError, match="iterations=0"):
         fit_link(iterations=0)
-    with pytest.raises(ValueError, match="seeds"):
+    with pytest.raises(ExperimentError, match="seeds"):
         fit_link(seeds=())

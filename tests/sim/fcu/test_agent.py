@@ -10,7 +10,7 @@ import pytest
 import interfaces
 from interfaces.px4.topics import COMPANION_PUBLISHER_QOS, FMU_IN
 from runtime import Node
-from sim.fcu.errors import FcuParameterError
+from runtime.errors import ParameterError
 from sim.fcu.firmware import ConsumedVision, FirmwareConfig
 from sim.fcu.link import LinkParams
 from sim.fcu.sitl import build_sitl
@@ -66,6 +66,6 @@ def test_an_event_driven_input_is_consumed_when_it_arrives() -> None:
 
 
 def test_an_unknown_event_driven_input_is_refused_by_name() -> None:
-    with pytest.raises(FcuParameterError, match="'vehicle_visual_odom' is not an /fmu/in topic"):
+    with pytest.raises(ParameterError, match="'vehicle_visual_odom' is not an /fmu/in topic"):
         build_sitl(seed=0, firmware=FirmwareConfig(
             event_driven_inputs=frozenset({"vehicle_visual_odom"})))
