@@ -21,17 +21,25 @@ direction's own ``numpy.random.Generator``, whether it is lost, spiked or neithe
 the same seed and the same sends give the same deliveries, and the two directions do
 not disturb each other.
 
-Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row): a 115-byte message takes
-1329 +/- 162 us companion -> FCU and 1752 +/- 315 us FCU -> companion (mean +/- standard
-deviation, end to end). The table gives two moments, so the shape is a choice: a
-floor plus a gamma tail (as OS and serial-link latency looks) plus rare load spikes
-(the latency peaks of the seed's Figure 8). :func:`calibrate_direction` keeps the floor,
-the spikes and the line settings and solves the gamma's shape and scale so that the
-mean and the standard deviation at the reference size are the table's exactly; the
-defaults in ``config/fcu_link.yaml`` were fitted that way. At 921 600 baud, 8N1, the
-wire time of 115 bytes alone is 1247.8 us, which leaves only 81 us of mean for
-everything else companion -> FCU: that direction has no floor, no framing overhead
-and a strongly skewed gamma (shape < 1).
+Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row, in
+:mod:`interfaces.px4.seed000`): the mean and standard deviation of a 115-byte message's
+latency each way, measured end to end: where the FCU's estimator parses it (companion ->
+FCU), and where the companion node receives it (FCU -> companion). The table
+gives two moments, so the shape is a choice: a floor plus a gamma tail (as OS and
+serial-link latency looks) plus rare load spikes (the latency peaks of the seed's Figure 8).
+:func:`calibrate_direction` keeps the floor, the spikes and the line settings and solves
+the gamma's shape and scale so that the link's moments at the reference size, plus what
+the rest of the path adds (:class:`AddedDelay`, taken as independent: means and variances
+add), are the table's. What the path adds is a consumer's wait (:meth:`AddedDelay.poll`)
+or whatever an end-to-end measurement shows beyond the idle link
+(:meth:`AddedDelay.measured`: queueing behind other messages on the FIFO line); the
+defaults in ``config/fcu_link.yaml`` were fitted to the latency experiment that way
+(``quadmission.latency.fit_link``). The wire time is physics: at the seed's 921 600 baud,
+8N1, 115 bytes take 1247.8 us, which leaves only 81 us of mean for everything else
+companion -> FCU. That direction has no floor, no framing overhead and a skewed gamma,
+and no room for a polled consumer: a 500 Hz poll alone adds 1000 +/- 577 us, which no
+baud rate absorbs (the seed's FCU firmware consumed its inputs on arrival, section 4.3).
+:func:`calibrate_direction` names the problem (and the baud rate a mean would need).
 
 Pure module: numpy and PyYAML, no runtime, no MuJoCo.
 """
@@ -41,7 +49,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -51,23 +59,17 @@ from interfaces.px4.seed000 import (
     TABLE3_TO_FCU,
     LatencyFigure,
 )
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 from sim.errors import SimError
 from sim.fcu.clock import FcuClock
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.params import (
-    load_parameters,
-    param,
-    parameters_from_mapping,
-    parameters_from_yaml,
-    validate_parameters,
-)
 
 __all__ = [
-    "DEFAULT_LINK_CONFIG_PATH",
     "LINK_NODE_NAME",
     "TABLE3_MESSAGE_SIZE_BYTES",
     "TABLE3_TO_COMPANION",
     "TABLE3_TO_FCU",
+    "AddedDelay",
     "LatencyFigure",
     "Link",
     "LinkCounters",
@@ -76,15 +78,10 @@ __all__ = [
     "LinkOrderError",
     "LinkParams",
     "calibrate_direction",
-    "link_params_from_mapping",
-    "link_params_from_yaml",
-    "load_link_params",
 ]
 
-DEFAULT_LINK_CONFIG_PATH = Path(__file__).resolve().parents[2] / "config" / "fcu_link.yaml"
-"""The link's parameter file (ROS 2 parameter-file shape)."""
 LINK_NODE_NAME = "fcu_link"
-"""The top-level key of the link's section in a ROS 2 parameter file."""
+"""The link's section in its ROS 2 parameter file, ``config/fcu_link.yaml``."""
 
 _NS_PER_S = 1_000_000_000
 _NS_PER_US = 1000
@@ -108,34 +105,34 @@ class LinkOrderError(SimError, ValueError):
 class LinkDirectionParams:
     """Latency, spikes, loss and line settings of one direction (see the module docstring)."""
 
-    base_latency_us: float = param(0.0, 1e6, "us")
+    base_latency_us: float = param(unit="us", range=(0.0, 1e6))
     """Fixed latency floor on top of the wire time [us]."""
-    jitter_shape: float = param(1e-3, 1e3)
+    jitter_shape: float = param(range=(1e-3, 1e3))
     """Shape k of the gamma jitter (skewness 2/sqrt(k); large k looks Gaussian)."""
-    jitter_scale_us: float = param(0.0, 1e6, "us")
+    jitter_scale_us: float = param(unit="us", range=(0.0, 1e6))
     """Scale theta of the gamma jitter [us]: mean k*theta, variance k*theta^2."""
-    spike_probability: float = param(0.0, 1.0)
+    spike_probability: float = param(range=(0.0, 1.0))
     """Chance that a message gets a load spike on top of its latency."""
-    spike_min_us: float = param(0.0, 1e7, "us")
+    spike_min_us: float = param(unit="us", range=(0.0, 1e7))
     """Smallest extra latency of a spike [us]."""
-    spike_max_us: float = param(0.0, 1e7, "us")
+    spike_max_us: float = param(unit="us", range=(0.0, 1e7))
     """Largest extra latency of a spike [us], >= spike_min_us; uniform in between."""
-    loss_probability: float = param(0.0, 1.0)
+    loss_probability: float = param(range=(0.0, 1.0))
     """Chance that a message is lost (never delivered)."""
-    baud_rate: int = param(300, 100_000_000, "bit/s")
+    baud_rate: int = param(unit="bit/s", range=(300, 100_000_000))
     """Line rate [bit/s] (symbols per second of the UART)."""
-    bits_per_byte: int = param(0, 12, "bit")
+    bits_per_byte: int = param(unit="bit", range=(0, 12))
     """Bits on the line per byte: 10 for 8N1 (start + 8 data + stop); 0 is an ideal line."""
-    framing_overhead_bytes: int = param(0, 65_535, "bytes")
+    framing_overhead_bytes: int = param(unit="bytes", range=(0, 65_535))
     """Bytes added to each message's CDR size by the transport's framing and headers."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
         if self.spike_max_us < self.spike_min_us:
-            raise FcuParameterError(
-                "spike_max_us",
+            raise ParameterError(
                 f"{self.spike_max_us!r} is outside the allowed range "
                 f"[spike_min_us = {self.spike_min_us!r}, 1e+07] us",
+                key="spike_max_us",
             )
 
     def wire_time_ns(self, size_bytes: int) -> int:
@@ -185,40 +182,76 @@ def _spike_variance_us2(params: LinkDirectionParams) -> float:
     return p * second_moment - (p * params.spike_mean_us) ** 2
 
 
+class AddedDelay(NamedTuple):
+    """What the path adds on top of the link's own latency, as two moments: mean [us]
+    and variance [us^2]. Taken as independent of the link's latency (moments add)."""
+
+    mean_us: float
+    variance_us2: float
+
+    @classmethod
+    def none(cls) -> AddedDelay:
+        """Nothing added: the figure is the link's own."""
+        return cls(0.0, 0.0)
+
+    @classmethod
+    def poll(cls, period_us: float) -> AddedDelay:
+        """The wait for a consumer that polls every ``period_us`` at a phase unrelated to the
+        arrivals: uniform on ``[0, period_us)``, mean ``P/2``, variance ``P^2/12``."""
+        if not period_us > 0.0:
+            raise ParameterError(f"poll period {period_us!r} us: must be > 0 us", key="added")
+        return cls(period_us / 2.0, period_us**2 / 12.0)
+
+    @classmethod
+    def measured(cls, end_to_end: LatencyFigure, link: LinkDirectionParams,
+                 size_bytes: int = TABLE3_MESSAGE_SIZE_BYTES) -> AddedDelay:
+        """What a measured ``end_to_end`` figure holds beyond ``link``'s own idle-line
+        moments (queueing behind other messages on the FIFO line, a consumer's wait...)."""
+        return cls(end_to_end.mean_us - link.mean_latency_us(size_bytes),
+                   end_to_end.sd_us**2 - link.latency_sd_us() ** 2)
+
+
 def calibrate_direction(
     target: LatencyFigure,
     template: LinkDirectionParams,
     size_bytes: int = TABLE3_MESSAGE_SIZE_BYTES,
+    added: AddedDelay | None = None,
 ) -> LinkDirectionParams:
-    """``template`` with the gamma jitter solved so that ``size_bytes`` messages have
-    ``target``'s mean and standard deviation (on an idle line).
+    """``template`` with the gamma jitter solved so that ``size_bytes`` messages, plus the
+    ``added`` delay of the rest of the path, have ``target``'s mean and standard deviation.
 
     The floor, spikes, loss and line settings of ``template`` are kept; with
-    ``m = mean - floor - wire time - p * spike mean`` and ``v = sd^2 - spike variance``
-    the gamma has shape ``m^2 / v`` and scale ``v / m``. Raises FcuParameterError when
-    the template leaves no positive mean or variance for the jitter.
+    ``m = mean - added mean - floor - wire time - p * spike mean`` and
+    ``v = sd^2 - added variance - spike variance`` the gamma has shape ``m^2 / v`` and
+    scale ``v / m``. Raises ParameterError when the template leaves no positive mean or
+    variance for the jitter; a mean that only a faster line can fit names the baud rate
+    it would need (the wire time cannot shrink otherwise).
     """
+    added = added or AddedDelay.none()
     wire_us = template.wire_time_ns(size_bytes) / _NS_PER_US
-    jitter_mean_us = (
-        target.mean_us
-        - template.base_latency_us
-        - wire_us
-        - template.spike_probability * template.spike_mean_us
-    )
-    jitter_var_us2 = target.sd_us**2 - _spike_variance_us2(template)
+    spike_us = template.spike_probability * template.spike_mean_us
+    room_us = target.mean_us - added.mean_us - template.base_latency_us - spike_us
+    jitter_mean_us = room_us - wire_us
+    jitter_var_us2 = target.sd_us**2 - added.variance_us2 - _spike_variance_us2(template)
     if jitter_mean_us <= 0.0:
-        raise FcuParameterError(
-            "base_latency_us",
-            f"floor {template.base_latency_us:g} us + wire time {wire_us:.1f} us + mean spike "
-            f"{template.spike_probability * template.spike_mean_us:.1f} us leave no room "
-            f"under the target mean {target.mean_us:g} us",
+        bits = (size_bytes + template.framing_overhead_bytes) * template.bits_per_byte
+        need = (f"the line would need more than {bits / (room_us * 1e-6):,.0f} baud"
+                if room_us > 0.0 else "no baud rate can fit it")
+        raise ParameterError(
+            f"floor {template.base_latency_us:g} us + wire time {wire_us:.1f} us at "
+            f"{template.baud_rate} baud + mean spike {spike_us:.1f} us + added delay "
+            f"{added.mean_us:.1f} us leave no room under the target mean "
+            f"{target.mean_us:g} us: {need}",
+            key="baud_rate" if room_us > 0.0 else "base_latency_us",
         )
     if jitter_var_us2 <= 0.0:
-        raise FcuParameterError(
-            "spike_probability",
-            f"the spikes alone have a standard deviation of "
-            f"{math.sqrt(_spike_variance_us2(template)):.1f} us, not below the target "
+        spike_sd_us = math.sqrt(_spike_variance_us2(template))
+        added_sd_us = math.sqrt(max(added.variance_us2, 0.0))
+        raise ParameterError(
+            f"the spikes (standard deviation {spike_sd_us:.1f} us) and the added delay "
+            f"({added_sd_us:.1f} us) leave no variance for the jitter under the target "
             f"{target.sd_us:g} us",
+            key="spike_probability" if spike_sd_us >= target.sd_us else "added",
         )
     return replace(
         template,
@@ -235,7 +268,7 @@ class LinkParams:
     """Companion computer -> flight controller (``/fmu/in/*``)."""
     to_companion: LinkDirectionParams
     """Flight controller -> companion computer (``/fmu/out/*``)."""
-    seed: int = param(0, 2**63 - 1)
+    seed: int = param(range=(0, 2**63 - 1))
     """Seed of the per-direction random generators."""
     clock: FcuClock = field(default_factory=FcuClock.ideal)
     """The FCU's clock against simulated time."""
@@ -252,29 +285,6 @@ class LinkParams:
         """An ideal link (delivery at the send time, nothing lost) and an ideal clock."""
         ideal = LinkDirectionParams.null()
         return cls(to_fcu=ideal, to_companion=ideal, seed=seed, clock=FcuClock.ideal())
-
-
-# -- loading from YAML -----------------------------------------------------------------------
-
-
-def link_params_from_mapping(doc: object) -> LinkParams:
-    """Link parameters from a parsed ROS 2 parameter file (``fcu_link: ros__parameters: ...``).
-
-    Every key must be present; unknown keys, wrong types and values out of range raise
-    FcuParameterError naming the key path and the allowed range. Other nodes' sections
-    in the same file are ignored.
-    """
-    return parameters_from_mapping(LinkParams, LINK_NODE_NAME, doc)
-
-
-def link_params_from_yaml(text: str, source: str | None = None) -> LinkParams:
-    """Link parameters from the text of a ROS 2 parameter file; ``source`` names it in errors."""
-    return parameters_from_yaml(LinkParams, LINK_NODE_NAME, text, source)
-
-
-def load_link_params(path: Path = DEFAULT_LINK_CONFIG_PATH) -> LinkParams:
-    """Link parameters from a ROS 2 parameter file (default: ``config/fcu_link.yaml``)."""
-    return load_parameters(LinkParams, LINK_NODE_NAME, path)
 
 
 # -- the link ------------------------------------------------------------------------------
