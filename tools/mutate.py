@@ -144,6 +144,27 @@ def kill_rates(root: Path, targets: list[Target]) -> list[tuple[str, int, int, i
     return rows
 
 
+def refresh_copies(root: Path, source_paths: list[Path], targets: list[Target]) -> None:
+    """Drop stale copies in ./mutants of the files that are not mutated.
+
+    mutmut copies a source file into ./mutants only when no copy is there yet, so a module
+    edited (or deleted) since the last run would otherwise be imported in its old form.
+    The mutated modules themselves mutmut regenerates when they change.
+    """
+    mutated = {t.path for t in targets if t.path.endswith(".py")}
+    folders = [t.path + "/" for t in targets if not t.path.endswith(".py")]
+    for source_path in source_paths:
+        for copy in (root / "mutants" / source_path).rglob("*"):
+            rel = copy.relative_to(root / "mutants").as_posix()
+            if not copy.is_file() or rel.endswith(".meta") or "__pycache__" in rel:
+                continue
+            if rel in mutated or any(rel.startswith(f) for f in folders):
+                continue
+            source = root / rel
+            if not source.is_file() or source.read_bytes() != copy.read_bytes():
+                copy.unlink()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("paths", nargs="+", help="module or folder to mutate [=TEST,TEST]")
@@ -161,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         import mutmut.configuration as mutmut_configuration
 
         base = mutmut_configuration.config()  # [tool.mutmut] of pyproject.toml
+        refresh_copies(root, base.source_paths, targets)
         mutmut_configuration._config = dataclasses.replace(
             base,
             only_mutate=[only_mutate_pattern(t) for t in targets],
