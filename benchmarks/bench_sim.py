@@ -70,14 +70,15 @@ def bench_camera(width: int, height: int, frames: int) -> dict[str, Any]:
     )
     scene = Scene.build(default_arena(), quad)
     scene.place_at_takeoff(height=1.5)
-    ex = DeterministicExecutor(config_dir=None)
+    ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
     node = SimSensorsNode(context=ex.context)
     received: list[int] = []
     Node("viewer", context=ex.context).create_subscription(
         "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, lambda m: received.append(m.width),
         qos_profile_sensor_data)
     with SceneRenderer(scene.model) as renderer:
-        camera = DownCamera(node, renderer, CameraIntrinsics.from_camera(quad.down_camera))
+        camera = DownCamera(node, renderer, CameraIntrinsics.from_camera(quad.down_camera),
+                            rate_hz=node.params.down_camera.rate_hz)
         camera.update(0, scene)  # warm up the GL context
         ex.spin_until(0)
         ours = []

@@ -85,7 +85,7 @@ def test_a_rate_that_does_not_divide_physics_is_refused(contest: ArenaSpec) -> N
 def _recorded_run(contest: ArenaSpec, seed: int) -> tuple[Any, list[bytes], Any]:
     scene = Scene.build(contest)
     scene.place_at_takeoff(height=1.0)
-    ex = DeterministicExecutor(config_dir=None)
+    ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
     node = SimSensorsNode(context=ex.context)
     listener = Node("listener", context=ex.context)
     clouds: list[bytes] = []
@@ -116,7 +116,7 @@ def test_the_same_seed_gives_the_same_run(contest: ArenaSpec) -> None:
 def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec) -> None:
     scene = Scene.build(contest)
     scene.place_at_takeoff(height=1.0)
-    ex = DeterministicExecutor(config_dir=None)
+    ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
     node = SimSensorsNode(context=ex.context)
     with SceneRenderer(scene.model) as renderer:
         parts = sensor_parts(node, renderer, scene)
@@ -146,7 +146,7 @@ def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None
         scene = Scene.build(contest)
         scene.place_at_takeoff()
         samples: list[Any] = []
-        imu = Imu.seeded(seed)
+        imu = Imu.seeded(seed, rate_hz=1000.0)
 
         class Tap:
             name, rate_hz = "tap", 1000.0
