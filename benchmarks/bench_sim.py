@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ import mujoco
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from sim.arena import default_arena
 from sim.mjcf import DOWN_CAMERA, QUAD_GEOM_GROUP
-from sim.quadrotor import CameraParams, MotorModel, QuadrotorParams
+from sim.quadrotor import MotorModel, QuadrotorParams
 from sim.render import CameraIntrinsics, SceneRenderer
 from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
@@ -64,10 +64,8 @@ def bench_physics(sim_seconds: float) -> dict[str, Any]:
 
 
 def bench_camera(width: int, height: int, frames: int) -> dict[str, Any]:
-    quad = QuadrotorParams(
-        down_camera=CameraParams(width=width, height=height, fovy=math.radians(60.0),
-                                 position=(0.0, 0.0, -0.06))
-    )
+    default = QuadrotorParams()
+    quad = replace(default, down_camera=replace(default.down_camera, width=width, height=height))
     scene = Scene.build(default_arena(), quad)
     scene.place_at_takeoff(height=1.5)
     ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
