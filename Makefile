@@ -63,7 +63,9 @@ bench: $(STAMP)
 ## MUTATE_ARGS=--survivors re-tests only what the last run did not kill.
 MUTATE_PATHS    ?= sim/fcu/commander.py \
   sim/fcu/control.py:mix_with_desaturation,_desaturate,_desaturation_gain,_mixer_columns,_frd_flu \
-  interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync.py,tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py
+  interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync.py,tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py \
+  flight_control/behaviours/ \
+  flight_control/command_protocol.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 MUTATE_ARGS     ?=
