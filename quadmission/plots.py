@@ -32,6 +32,7 @@ class FlightPicture:
     """What :func:`save_path_figure` draws."""
 
     title: str
+    went_wrong: bool  # a crash or a failure: the title turns red
     arena: ArenaSpec
     altitude: float  # m, the flight altitude (tall and low obstacles are told apart by it)
     plan: Sequence[tuple[float, float]]  # the planned outline, closed
@@ -49,8 +50,13 @@ def _view(picture: FlightPicture) -> tuple[tuple[float, float], tuple[float, flo
     xy = np.vstack(points)
     t = picture.arena.field.wall_thickness
     sx, sy = picture.arena.field.size[0], picture.arena.field.size[1]
-    lo = np.maximum(xy.min(axis=0) - VIEW_MARGIN, [-t - 0.1, -t - 0.1])
-    hi = np.minimum(xy.max(axis=0) + VIEW_MARGIN, [sx + t + 0.1, sy + t + 0.1])
+    edge_lo = np.array([-t - 0.1, -t - 0.1])
+    edge_hi = np.array([sx + t + 0.1, sy + t + 0.1])
+    lo = xy.min(axis=0) - VIEW_MARGIN
+    hi = xy.max(axis=0) + VIEW_MARGIN
+    # near a wall: show the wall whole
+    lo = np.where(lo < VIEW_MARGIN / 2, edge_lo, lo)
+    hi = np.where(hi > edge_hi - t - VIEW_MARGIN / 2, edge_hi, hi)
     return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
 
 
@@ -100,7 +106,7 @@ def save_path_figure(path: Path, picture: FlightPicture) -> None:
     alt = fig.add_subplot(grid[0, 1])
     err = fig.add_subplot(grid[1, 1], sharex=alt)
     fig.suptitle(picture.title, fontsize=12,
-                 color="tab:red" if picture.title.startswith(("CRASH", "FAILED")) else "black")
+                 color="tab:red" if picture.went_wrong else "black")
 
     _draw_arena(top, picture)
     plan = np.asarray(picture.plan, dtype=np.float64).reshape(-1, 2)

@@ -147,7 +147,8 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
 
     title = f"square, arena {arena.name}, seed {options.seed}: {verdict}\n{_rmse_line(rmse)}"
     save_path_figure(options.out / PATH_IMAGE, FlightPicture(
-        title=title, arena=arena, altitude=plan.altitude, plan=plan.outline(),
+        title=title, went_wrong=verdict_kind is not Outcome.LANDED, arena=arena,
+        altitude=plan.altitude, plan=plan.outline(),
         setpoint_t=stamps, setpoint=setpoints, truth=truth, tracking=track, crash=crash))
 
     landed = verdict_kind is Outcome.LANDED
