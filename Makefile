@@ -5,9 +5,25 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= runs/default
 
-.PHONY: test sim lint typecheck bench clean
+.PHONY: test sim lint typecheck bench clean system-deps
 
-$(STAMP): pyproject.toml
+# System libraries the Python wheels need: Mesa EGL for headless MuJoCo rendering, libusb for
+# open3d's import. Installed with apt-get when missing and we are root; otherwise named.
+SYSTEM_LIBS := libusb-1.0.so.0 libEGL.so.1
+SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri
+
+system-deps:
+	@missing=""; for lib in $(SYSTEM_LIBS); do ldconfig -p | grep -q "$$lib" || missing="$$missing $$lib"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing system libraries:$$missing" >&2; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYSTEM_PKGS) >/dev/null; \
+	  else \
+	    echo "error: missing$$missing; run: sudo apt-get install $(SYSTEM_PKGS)" >&2; exit 1; \
+	  fi; \
+	fi
+
+$(STAMP): pyproject.toml | system-deps
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "quadmission needs Python >= 3.11")'
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV) || { \
 	  echo "error: could not create $(VENV); on Debian/Ubuntu run: apt-get install python3-venv" >&2; exit 1; }

@@ -29,17 +29,11 @@ import interfaces
 from flight_control.frames import (
     enu_to_ned,
     frd_to_flu,
-    ned_to_enu,
-    quat_conjugate,
-    quat_enu_flu_to_ned_frd,
-    quat_from_xyzw,
-    quat_ned_frd_to_enu_flu,
-    quat_rotate,
     quat_to_xyzw,
-    variance_ned_to_enu,
     yaw_enu_to_ned,
 )
 from flight_control.pose_history import PoseHistory, PoseSample
+from flight_control.px4_messages import odometry_enu, vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
@@ -191,20 +185,11 @@ class FcuBridgeNode(Node):
     # -- FCU -> companion -----------------------------------------------------------------
     def _on_odometry(self, msg: Any) -> None:
         stamp_ns = self.to_companion_ns(int(msg.timestamp_sample))
-        position = ned_to_enu(np.asarray(msg.position, dtype=np.float64))
-        q = np.asarray(quat_ned_frd_to_enu_flu(np.asarray(msg.q, dtype=np.float64)))
-        velocity = ned_to_enu(np.asarray(msg.velocity, dtype=np.float64))
-        body_velocity = quat_rotate(quat_conjugate(q), velocity)
-        rate = frd_to_flu(np.asarray(msg.angular_velocity, dtype=np.float64))
-        if np.all(np.isfinite(position)) and np.all(np.isfinite(q)):
-            self.history.add(PoseSample(stamp_ns, position, q,
-                                        np.nan_to_num(velocity)))
-        pose_cov = np.zeros(36)
-        pose_cov[[0, 7, 14]] = variance_ned_to_enu(np.asarray(msg.position_variance))
-        pose_cov[[21, 28, 35]] = np.asarray(msg.orientation_variance)
-        twist_cov = np.zeros(36)
-        twist_cov[[0, 7, 14]] = variance_ned_to_enu(np.asarray(msg.velocity_variance))
-        x, y, z, w = quat_to_xyzw(q)
+        odo = odometry_enu(msg)
+        if np.all(np.isfinite(odo.position)) and np.all(np.isfinite(odo.q)):
+            self.history.add(PoseSample(stamp_ns, odo.position, odo.q,
+                                        np.nan_to_num(odo.velocity)))
+        x, y, z, w = quat_to_xyzw(odo.q)
         self.odometry_pub.publish(interfaces.new(
             "nav_msgs/msg/Odometry",
             header=interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
@@ -214,17 +199,17 @@ class FcuBridgeNode(Node):
                 "geometry_msgs/msg/PoseWithCovariance",
                 pose=interfaces.new(
                     "geometry_msgs/msg/Pose",
-                    position=_vec3("geometry_msgs/msg/Point", position),
+                    position=_vec3("geometry_msgs/msg/Point", odo.position),
                     orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(x),
                                                y=float(y), z=float(z), w=float(w))),
-                covariance=np.nan_to_num(pose_cov)),
+                covariance=np.nan_to_num(odo.pose_covariance)),
             twist=interfaces.new(
                 "geometry_msgs/msg/TwistWithCovariance",
                 twist=interfaces.new(
                     "geometry_msgs/msg/Twist",
-                    linear=_vec3("geometry_msgs/msg/Vector3", body_velocity),
-                    angular=_vec3("geometry_msgs/msg/Vector3", rate)),
-                covariance=np.nan_to_num(twist_cov)),
+                    linear=_vec3("geometry_msgs/msg/Vector3", odo.body_velocity),
+                    angular=_vec3("geometry_msgs/msg/Vector3", odo.angular_velocity)),
+                covariance=np.nan_to_num(odo.twist_covariance)),
         ))
 
     def _on_imu(self, msg: Any) -> None:
@@ -312,20 +297,12 @@ class FcuBridgeNode(Node):
     def _on_vision(self, msg: Any) -> None:
         if not self.synced:  # a sample time on the wrong clock would be fused at the
             return  # wrong time: wait for the time sync, as PX4's EKF2 would gate it
-        p = msg.pose.pose.position
-        o = msg.pose.pose.orientation
-        q_ned = quat_enu_flu_to_ned_frd(quat_from_xyzw([o.x, o.y, o.z, o.w]))
-        cov = np.asarray(msg.pose.covariance, dtype=np.float64)
-        position_var = np.array([cov[7], cov[0], cov[14]], dtype=np.float32)  # ENU -> NED
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
         now_ns = self.now().nanoseconds
-        self.vision_out.publish(interfaces.new(
-            "px4_msgs/msg/VehicleOdometry", timestamp=self.to_fcu_us(now_ns),
-            timestamp_sample=self.to_fcu_us(Time.from_msg(msg.header.stamp).nanoseconds),
-            pose_frame=1, position=enu_to_ned([p.x, p.y, p.z]).astype(np.float32),
-            q=np.asarray(q_ned, dtype=np.float32), velocity_frame=1, velocity=_NAN3,
-            angular_velocity=_NAN3, position_variance=position_var,
-            orientation_variance=np.array([cov[21], cov[28], cov[35]], dtype=np.float32),
-            velocity_variance=_NAN3, quality=100))
+        self.vision_out.publish(vision_odometry(
+            [p.x, p.y, p.z], [o.w, o.x, o.y, o.z], msg.pose.covariance,
+            timestamp_us=self.to_fcu_us(now_ns),
+            timestamp_sample_us=self.to_fcu_us(Time.from_msg(msg.header.stamp).nanoseconds)))
 
     def _pose_at(self, request: Any, response: Any) -> Any:
         t_ns = Time.from_msg(request.stamp).nanoseconds

@@ -25,15 +25,11 @@ seed 000 section 3.1: best effort, keep last, (transient local on the FCU's side
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
-import interfaces
-from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
+from flight_control.px4_messages import vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
 from interfaces.qos import QoSProfile, ReliabilityPolicy
@@ -97,7 +93,7 @@ class LatencyTestNode(Node):
         self.received: list[ReceivedImu] = []
         self.offsets: list[OffsetLog] = []
         self.converged_us: dict[str, int | None] = dict.fromkeys(self.estimators)
-        self._pose: tuple[np.ndarray, np.ndarray, float] | None = None
+        self._pose: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None = None
         self.exchange = TimesyncExchange(*self.estimators.values())
         self.create_subscription("px4_msgs/msg/Timesync", "/fmu/out/timesync",
                                  self._on_timesync, qos_profile_px4_subscriber)
@@ -141,9 +137,7 @@ class LatencyTestNode(Node):
     # -- forward stream: vision to the FCU ----------------------------------------------
     def _on_pose(self, msg: Any) -> None:
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
-        self._pose = (enu_to_ned([p.x, p.y, p.z]),
-                      np.asarray(quat_enu_flu_to_ned_frd(quat_from_xyzw([o.x, o.y, o.z, o.w]))),
-                      float(msg.pose.covariance[0]))
+        self._pose = ((p.x, p.y, p.z), (o.w, o.x, o.y, o.z), tuple(msg.pose.covariance))
 
     def _send_vision(self) -> None:
         if self._pose is None:  # nothing to send until the first pose
@@ -151,16 +145,9 @@ class LatencyTestNode(Node):
         created_us = self._now_us()
         stamps = {name: est.local_to_remote(created_us) for name, est in self.estimators.items()}
         self.sent[created_us] = SentVision(created_us, stamps)
-        position, q, var = self._pose
-        nan3 = np.full(3, math.nan, dtype=np.float32)
-        self.vision_pub.publish(interfaces.new(
-            "px4_msgs/msg/VehicleOdometry", timestamp=created_us,
-            timestamp_sample=stamps[self.primary], pose_frame=1,
-            position=position.astype(np.float32), q=q.astype(np.float32), velocity_frame=1,
-            velocity=nan3, angular_velocity=nan3,
-            position_variance=np.full(3, var, dtype=np.float32),
-            orientation_variance=np.full(3, 1e-4, dtype=np.float32), velocity_variance=nan3,
-            quality=100))
+        position, q, covariance = self._pose
+        self.vision_pub.publish(vision_odometry(position, q, covariance, timestamp_us=created_us,
+                                                timestamp_sample_us=stamps[self.primary]))
 
     # -- reverse stream: IMU from the FCU -----------------------------------------------
     def _on_imu(self, msg: Any) -> None:

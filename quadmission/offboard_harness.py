@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
-from flight_control.frames import enu_to_ned, quat_enu_flu_to_ned_frd, quat_from_xyzw
+from flight_control.px4_messages import vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces.px4 import (
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
@@ -188,19 +188,11 @@ class OffboardHarness(Node):
     def _on_vision(self, msg: Any) -> None:
         if not self.timesync.estimate.converged:
             return
-        p = msg.pose.pose.position
-        o = msg.pose.pose.orientation
-        q_ned = quat_enu_flu_to_ned_frd(quat_from_xyzw([o.x, o.y, o.z, o.w]))
-        sample_ns = Time.from_msg(msg.header.stamp).nanoseconds
-        var = float(msg.pose.covariance[0])
-        self.vision_pub.publish(interfaces.new(
-            "px4_msgs/msg/VehicleOdometry", timestamp=self.fcu_time_us(self.now().nanoseconds),
-            timestamp_sample=self.fcu_time_us(sample_ns), pose_frame=1,
-            position=enu_to_ned([p.x, p.y, p.z]).astype(np.float32),
-            q=np.asarray(q_ned, dtype=np.float32), velocity_frame=1, velocity=_nan3(),
-            angular_velocity=_nan3(), position_variance=np.full(3, var, dtype=np.float32),
-            orientation_variance=np.full(3, 1e-4, dtype=np.float32),
-            velocity_variance=_nan3(), quality=100))
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        self.vision_pub.publish(vision_odometry(
+            [p.x, p.y, p.z], [o.w, o.x, o.y, o.z], msg.pose.covariance,
+            timestamp_us=self.fcu_time_us(self.now().nanoseconds),
+            timestamp_sample_us=self.fcu_time_us(Time.from_msg(msg.header.stamp).nanoseconds)))
 
     # -- FCU state ----------------------------------------------------------------------
     def _on_position(self, msg: Any) -> None:

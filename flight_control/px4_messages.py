@@ -1,0 +1,96 @@
+"""ENU/FLU <-> NED/FRD message builders for the PX4 contract: one definition of each.
+
+- :func:`vision_odometry` builds the ``/fmu/in/vehicle_visual_odometry`` message
+  (px4_msgs/VehicleOdometry, NED world, FRD body) from a pose in the ENU ``map`` frame with
+  an FLU body and its ROS covariance (6x6 row-major: x, y, z, roll, pitch, yaw).
+- :func:`odometry_enu` reads a px4_msgs/VehicleOdometry back into the ENU/FLU quantities
+  the companion publishes on ``/fcu/odometry``.
+
+Variances follow the axes: ENU x is NED y, so the x and y position variances swap. The
+attitude variances are about the body axes; FLU and FRD share the roll axis and flip the
+pitch and yaw axes' signs, which leaves variances unchanged. Pure: numpy and the typed
+message API only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import interfaces
+from flight_control.frames import (
+    FloatArray,
+    enu_to_ned,
+    frd_to_flu,
+    ned_to_enu,
+    quat_conjugate,
+    quat_enu_flu_to_ned_frd,
+    quat_ned_frd_to_enu_flu,
+    quat_rotate,
+    variance_enu_to_ned,
+    variance_ned_to_enu,
+)
+from interfaces.px4 import PoseFrame, VelocityFrame
+
+__all__ = ["OdometryEnu", "odometry_enu", "vision_odometry"]
+
+_POSITION_DIAG = (0, 7, 14)  # x, y, z in a 6x6 row-major ROS covariance
+_ATTITUDE_DIAG = (21, 28, 35)  # roll, pitch, yaw
+_NAN3 = np.full(3, math.nan, dtype=np.float32)
+VISION_QUALITY = 100  # VehicleOdometry.quality: 0 invalid .. 100 best
+
+
+def vision_odometry(position_enu: Any, q_enu_flu: Any, covariance: Any, *, timestamp_us: int,
+                    timestamp_sample_us: int) -> Any:
+    """px4_msgs/VehicleOdometry for an external-vision pose.
+
+    ``q_enu_flu`` is (w, x, y, z); ``covariance`` is a ROS 6x6 pose covariance in the ENU
+    map frame (36 values, row-major). Velocities are unknown (NaN), as for a pose-only
+    vision system."""
+    cov = np.asarray(covariance, dtype=np.float64).reshape(36)
+    return interfaces.new(
+        "px4_msgs/msg/VehicleOdometry", timestamp=int(timestamp_us),
+        timestamp_sample=int(timestamp_sample_us), pose_frame=int(PoseFrame.NED),
+        position=enu_to_ned(position_enu).astype(np.float32),
+        q=np.asarray(quat_enu_flu_to_ned_frd(q_enu_flu), dtype=np.float32),
+        velocity_frame=int(VelocityFrame.NED), velocity=_NAN3.copy(),
+        angular_velocity=_NAN3.copy(),
+        position_variance=variance_enu_to_ned(cov[list(_POSITION_DIAG)]).astype(np.float32),
+        orientation_variance=cov[list(_ATTITUDE_DIAG)].astype(np.float32),
+        velocity_variance=_NAN3.copy(), quality=VISION_QUALITY)
+
+
+@dataclass(frozen=True)
+class OdometryEnu:
+    """A px4_msgs/VehicleOdometry in companion frames.
+
+    ``position`` [m] and ``velocity`` [m/s] in the ENU map frame, ``q`` (w, x, y, z) the
+    FLU body's attitude, ``body_velocity`` [m/s] and ``angular_velocity`` [rad/s] in FLU,
+    and the ROS 6x6 covariances (36 values, NaN where PX4 gave none)."""
+
+    position: FloatArray
+    q: FloatArray
+    velocity: FloatArray
+    body_velocity: FloatArray
+    angular_velocity: FloatArray
+    pose_covariance: FloatArray
+    twist_covariance: FloatArray
+
+
+def odometry_enu(msg: Any) -> OdometryEnu:
+    """Read a px4_msgs/VehicleOdometry (NED/FRD, velocity in NED) into ENU/FLU."""
+    q = np.asarray(quat_ned_frd_to_enu_flu(np.asarray(msg.q, dtype=np.float64)))
+    velocity = ned_to_enu(np.asarray(msg.velocity, dtype=np.float64))
+    pose_cov = np.zeros(36)
+    pose_cov[list(_POSITION_DIAG)] = variance_ned_to_enu(np.asarray(msg.position_variance))
+    pose_cov[list(_ATTITUDE_DIAG)] = np.asarray(msg.orientation_variance)
+    twist_cov = np.zeros(36)
+    twist_cov[list(_POSITION_DIAG)] = variance_ned_to_enu(np.asarray(msg.velocity_variance))
+    return OdometryEnu(
+        position=ned_to_enu(np.asarray(msg.position, dtype=np.float64)), q=q,
+        velocity=velocity, body_velocity=quat_rotate(quat_conjugate(q), velocity),
+        angular_velocity=frd_to_flu(np.asarray(msg.angular_velocity, dtype=np.float64)),
+        pose_covariance=pose_cov, twist_covariance=twist_cov)
