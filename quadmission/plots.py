@@ -132,7 +132,8 @@ def save_path_figure(path: Path, picture: FlightPicture) -> None:
     top.set_ylabel("y north [m]")
     top.set_title(f"top view, arena {picture.arena.name}")
     top.grid(True, alpha=0.3)
-    top.legend(loc="best", fontsize=8, framealpha=0.85)
+    top.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3, fontsize=8,
+               frameon=False)
 
     window = picture.tracking.window
     for ax in (alt, err):
