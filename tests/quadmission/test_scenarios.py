@@ -24,7 +24,7 @@ import pytest
 from quadmission.cli import main
 from quadmission.errors import OptionsError, SquareDoesNotFit
 from quadmission.scenarios import ScenarioOptions
-from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square
+from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square, square_blockers
 from quadmission.square_flight import fly_square
 from sim.arena import ArenaSpec, arena_from_yaml, default_arena
 from sim.arena_generator import generate_arena
@@ -203,6 +203,16 @@ def test_the_fit_shrinks_the_square_for_a_tall_obstacle_but_not_for_a_low_one() 
     # so side <= 3.2, and the sides tried go down by 0.25 m; the other ways hit the walls
     assert fitted.side == 3.0 and fitted.direction == (1, 1)
     assert _clear_of_tall_obstacles_and_walls(tall, fitted) >= CLEARANCE - 1e-9
+
+
+def test_robots_block_the_square_only_when_it_flies_as_low_as_they_are_tall() -> None:
+    # robot 14 drives (1.5, 3.5) -> (3.5, 3.5) -> (3.5, 5.0), across the default square
+    arena = default_arena()
+    square_4m = SquarePlan((1.5, 1.5), 4.0, 1.5)
+    assert square_blockers(arena, square_4m) == []
+    low = square_blockers(arena, SquarePlan((1.5, 1.5), 4.0, 0.5))
+    assert "robot_14" in [b.name for b in low]
+    assert fit_square(arena, altitude=0.5).side < 4.0
 
 
 def test_the_fit_refuses_a_boxed_in_start_pad() -> None:
