@@ -123,8 +123,9 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     end_s = crash.t_s if crash is not None else result.sim_time_s
 
     started = {phase: ns / 1e9 for phase, ns in pilot.phase_started_ns.items()}
-    window = (started.get(PilotPhase.SQUARE, math.inf),
-              started.get(PilotPhase.LAND, end_s))
+    square_end_s = min(started.get(PilotPhase.LAND, math.inf),
+                       started.get(PilotPhase.FAILED, math.inf), end_s)
+    window = (started.get(PilotPhase.SQUARE, math.inf), square_end_s)
     stamps, setpoints = recorder.samples()
     track = tracking(stamps, setpoints, truth, window)
     rmse = track.rmse()

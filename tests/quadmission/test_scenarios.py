@@ -133,6 +133,19 @@ def test_a_crash_still_writes_the_report_and_the_picture(tmp_path: Path) -> None
     assert cv2.imread(str(tmp_path / "path.png")) is not None
 
 
+def test_a_goal_the_flight_control_layer_rejects_ends_the_flight_as_failed(
+    tmp_path: Path,
+) -> None:
+    forced = SquarePlan((1.5, 1.5), 25.0, 1.5)  # the first corner is 6.5 m past the east wall
+    report = fly_square(ScenarioOptions(out=tmp_path), default_arena(), forced)
+    assert report["outcome"] == "failed" and not report["landed"] and report["crash"] is None
+    assert report["verdict"].startswith("FAILED: reach corner 1/4: rejected: ")
+    assert report["pilot"]["phase"] == "failed"
+    assert report["tracking"]["rmse_m"]["xy"] is None  # no square flown: unknown, not NaN
+    assert _strict_json(tmp_path / "report.json") == report
+    assert cv2.imread(str(tmp_path / "path.png")) is not None
+
+
 def test_a_square_that_fits_nowhere_is_refused_with_the_reason(tmp_path: Path) -> None:
     arena_file = tmp_path / "boxed.yaml"
     arena_file.write_text(BOXED_IN)
