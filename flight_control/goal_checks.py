@@ -32,6 +32,7 @@ class GoalError(Enum):
     BATTERY_CRITICAL = "battery_critical"
     NOT_IN_CONTROL = "not_in_control"
     TOO_FAST = "too_fast"
+    TOO_SLOW = "too_slow"
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,12 @@ class VehicleState:
     nav_state: int = 0  # PX4 NAVIGATION_STATE_*, for messages
 
 
+def battery_critical(warning: int, critical_warning: int) -> bool:
+    """Whether the FCU's battery ``warning`` (px4 ``BatteryWarning``) is at or above the
+    level ``critical_warning`` that rejects goals and makes health an error."""
+    return warning >= critical_warning
+
+
 def check_vehicle(state: VehicleState | None, *, battery_critical_warning: int | None,
                   need_armed: bool = False, need_disarmed: bool = False,
                   need_flying: bool = False, need_landed: bool = False,
@@ -129,7 +136,8 @@ def check_vehicle(state: VehicleState | None, *, battery_critical_warning: int |
         return GoalProblem(GoalError.FCU_DISCONNECTED, "FCU not connected")
     if not state.position_valid:
         return GoalProblem(GoalError.NO_POSITION, "no valid position estimate")
-    if battery_critical_warning is not None and state.battery_warning >= battery_critical_warning:
+    if battery_critical_warning is not None and battery_critical(state.battery_warning,
+                                                                 battery_critical_warning):
         return GoalProblem(GoalError.BATTERY_CRITICAL,
                            f"battery critical (warning level {state.battery_warning})")
     if need_armed and not state.armed:
@@ -179,6 +187,7 @@ __all__ = [
     "GoalError",
     "GoalProblem",
     "VehicleState",
+    "battery_critical",
     "check_speed",
     "check_takeoff_altitude",
     "check_target",

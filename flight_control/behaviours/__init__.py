@@ -1,0 +1,42 @@
+"""Flight behaviours (takeoff, reach, turn, land) as pure step functions."""
+
+from flight_control.behaviours.base import (
+    DISARM,
+    NAV_LAND,
+    OFFBOARD,
+    Behaviour,
+    CommandReply,
+    CommandRequest,
+    Observation,
+    Outcome,
+    Setpoint,
+    Step,
+    arm_disarm,
+)
+from flight_control.behaviours.land import Land, LandFeedback
+from flight_control.behaviours.reach import Reach, ReachFeedback, ReachTuning
+from flight_control.behaviours.takeoff import Takeoff, TakeoffFeedback
+from flight_control.behaviours.turn import Turn, TurnFeedback
+
+__all__ = [
+    "DISARM",
+    "NAV_LAND",
+    "OFFBOARD",
+    "Behaviour",
+    "CommandReply",
+    "CommandRequest",
+    "Land",
+    "LandFeedback",
+    "Observation",
+    "Outcome",
+    "Reach",
+    "ReachFeedback",
+    "ReachTuning",
+    "Setpoint",
+    "Step",
+    "Takeoff",
+    "TakeoffFeedback",
+    "Turn",
+    "TurnFeedback",
+    "arm_disarm",
+]
