@@ -128,7 +128,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     window = (started.get(PilotPhase.SQUARE, math.inf), square_end_s)
     stamps, setpoints = recorder.samples()
     track = tracking(stamps, setpoints, truth, window)
-    rmse = track.rmse()
+    rmse = {axis: rounded(v) for axis, v in track.rmse().items()}  # as reported
 
     outcome = pilot.outcome
     if crash is not None:
@@ -137,7 +137,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     elif outcome is not None and outcome.success:
         verdict_kind = Outcome.LANDED
         xy = rmse["xy"]
-        verdict = "landed, RMSE " + ("n/a" if xy is None else f"{xy:.3f} m")  # xy
+        verdict = "landed, RMSE " + ("n/a" if xy is None else f"{xy:.3f} m")
     else:
         verdict_kind = Outcome.FAILED
         why = outcome.message if outcome is not None else (
@@ -163,7 +163,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
             "reference": "/fcu/setpoint during the square (first reach to land)",
             "window_s": [rounded(window[0]), rounded(window[1])],
             "samples": len(track.t),
-            "rmse_m": {axis: rounded(v) for axis, v in rmse.items()},
+            "rmse_m": rmse,
             "max_error_m": rounded(track.max_error()),
         },
         "crash": None if crash is None else {
