@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from runtime.parameters import config_path, load_parameters
 from sim.fcu.link import (
-    DEFAULT_LINK_CONFIG_PATH,
+    LINK_NODE_NAME,
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
     TABLE3_TO_FCU,
@@ -30,7 +31,6 @@ from sim.fcu.link import (
     Link,
     LinkDirection,
     LinkParams,
-    load_link_params,
 )
 
 PAPER: dict[LinkDirection, LatencyFigure] = {
@@ -122,7 +122,7 @@ def format_table(report: dict[str, object]) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/link.json"))
-    parser.add_argument("--config", type=Path, default=DEFAULT_LINK_CONFIG_PATH)
+    parser.add_argument("--config", type=Path, default=config_path(f"{LINK_NODE_NAME}.yaml"))
     parser.add_argument("--samples", type=int, default=20_000)
     parser.add_argument("--size-bytes", type=int, default=TABLE3_MESSAGE_SIZE_BYTES)
     parser.add_argument("--period-us", type=int, default=5_000)
@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--samples must be >= 2")
     if args.size_bytes < 0 or args.period_us < 1:
         parser.error("--size-bytes must be >= 0 and --period-us >= 1")
-    params = load_link_params(args.config)
+    params = load_parameters(LinkParams, LINK_NODE_NAME, args.config)
     if args.seed is not None:
         params = replace(params, seed=args.seed)
     report = run(params, args.samples, args.size_bytes, args.period_us * 1000)

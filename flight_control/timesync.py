@@ -14,7 +14,7 @@ import bisect
 import math
 from collections import deque
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 
 from flight_control.errors import TimesyncParameterError, UnknownEstimatorError
@@ -29,6 +29,8 @@ from interfaces.px4.timesync import (
     TimesyncEstimator,
     TimesyncSample,
 )
+from runtime.errors import ParameterError
+from runtime.parameters import build_parameters, param, validate_parameters
 
 __all__ = ["ESTIMATORS", "KalmanParams", "KalmanTimesync", "make_estimator"]
 
@@ -36,50 +38,38 @@ __all__ = ["ESTIMATORS", "KalmanParams", "KalmanTimesync", "make_estimator"]
 # --- ours: RTT-weighted Kalman filter ---------------------------------------------------
 @dataclass(frozen=True, slots=True)
 class KalmanParams:
-    """Parameters of :class:`KalmanTimesync` (units beside each; ranges in ``_KALMAN_RANGES``)."""
+    """Parameters of :class:`KalmanTimesync`, with their units and allowed ranges."""
 
-    max_rtt_us: int = MAX_RTT_SAMPLE_US  # hard RTT gate [us]
-    rtt_window_samples: int = 2000  # recent RTTs kept for the floor quantile
-    rtt_floor_quantile: float = 0.05  # RTT quantile taken as the floor
-    floor_noise_us: float = 80.0  # offset noise of a sample at the RTT floor [us, 1-sigma]
-    offset_walk_us_per_sqrt_s: float = 1.0  # offset random walk [us/sqrt(s)]
-    skew_walk_ppm_per_sqrt_s: float = 0.1  # skew random walk [ppm/sqrt(s)]
-    skew_prior_ppm: float = 200.0  # prior on the skew after a reset [ppm, 1-sigma]
-    gate_sigmas: float = 6.0  # innovation gate [standard deviations]
-    gate_floor_us: int = 1_000  # innovations below this are never gated [us]
-    max_consecutive_high_deviation: int = MAX_CONSECUTIVE_HIGH_DEVIATION  # more: clock jump
-    converged_std_us: float = 20.0  # converged once the offset 1-sigma is below this [us]
-    converged_min_samples: int = 10  # ... and at least this many samples are in
+    max_rtt_us: int = param(MAX_RTT_SAMPLE_US, unit="us", range=(0, 1_000_000), lo_open=True)
+    """Hard RTT gate."""
+    rtt_window_samples: int = param(2000, range=(10, 100_000))
+    """Recent RTTs kept for the floor quantile."""
+    rtt_floor_quantile: float = param(0.05, range=(0.0, 0.5))
+    """RTT quantile taken as the floor."""
+    floor_noise_us: float = param(80.0, unit="us", range=(0.0, 1e5), lo_open=True)
+    """Offset noise (1-sigma) of a sample at the RTT floor."""
+    offset_walk_us_per_sqrt_s: float = param(1.0, unit="us/sqrt(s)", range=(0.0, 1e4))
+    """Offset random walk."""
+    skew_walk_ppm_per_sqrt_s: float = param(0.1, unit="ppm/sqrt(s)", range=(0.0, 1e3))
+    """Skew random walk."""
+    skew_prior_ppm: float = param(200.0, unit="ppm", range=(0.0, 1e4), lo_open=True)
+    """Prior (1-sigma) on the skew after a reset."""
+    gate_sigmas: float = param(6.0, range=(2.0, 100.0))
+    """Innovation gate [standard deviations]."""
+    gate_floor_us: int = param(1_000, unit="us", range=(0, 100_000_000))
+    """Innovations below this are never gated."""
+    max_consecutive_high_deviation: int = param(MAX_CONSECUTIVE_HIGH_DEVIATION, range=(1, 1000))
+    """More gated samples in a row than this: a clock jump, reset."""
+    converged_std_us: float = param(20.0, unit="us", range=(0.0, 1e6), lo_open=True)
+    """Converged once the offset 1-sigma is below this ..."""
+    converged_min_samples: int = param(10, range=(1, 100_000))
+    """... and at least this many samples are in."""
 
     def __post_init__(self) -> None:
-        for key, lo, hi, lo_open in _KALMAN_RANGES:
-            value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise TimesyncParameterError(f"{key}={value!r}: must be a number")
-            if not ((lo < value) if lo_open else (lo <= value)) or value > hi:
-                left = "(" if lo_open else "["
-                raise TimesyncParameterError(f"{key}={value!r}: must be in {left}{lo}, {hi}]")
-        for key in ("max_rtt_us", "rtt_window_samples", "gate_floor_us",
-                    "max_consecutive_high_deviation", "converged_min_samples"):
-            if not isinstance(getattr(self, key), int):
-                raise TimesyncParameterError(f"{key}={getattr(self, key)!r}: must be an int")
-
-
-# Allowed range of each KalmanParams field: (key, low, high, low bound open); high is closed.
-_KALMAN_RANGES: tuple[tuple[str, float, float, bool], ...] = (
-    ("max_rtt_us", 0, 1_000_000, True),
-    ("rtt_window_samples", 10, 100_000, False),
-    ("rtt_floor_quantile", 0.0, 0.5, False),
-    ("floor_noise_us", 0.0, 1e5, True),
-    ("offset_walk_us_per_sqrt_s", 0.0, 1e4, False),
-    ("skew_walk_ppm_per_sqrt_s", 0.0, 1e3, False),
-    ("skew_prior_ppm", 0.0, 1e4, True),
-    ("gate_sigmas", 2.0, 100.0, False),
-    ("gate_floor_us", 0, 100_000_000, False),
-    ("max_consecutive_high_deviation", 1, 1000, False),
-    ("converged_std_us", 0.0, 1e6, True),
-    ("converged_min_samples", 1, 100_000, False),
-)
+        try:
+            validate_parameters(self)
+        except ParameterError as exc:
+            raise TimesyncParameterError(exc.problem, key=f"kalman.{exc.key}") from None
 
 
 class KalmanTimesync:
@@ -285,13 +275,10 @@ def _make_px4(**params: object) -> Px4Timesync:
 
 
 def _make_kalman(**params: object) -> KalmanTimesync:
-    allowed = {f.name for f in fields(KalmanParams)}
-    unknown = sorted(set(params) - allowed)
-    if unknown:
-        raise TimesyncParameterError(
-            f"unknown kalman parameter(s) {unknown}; allowed: {sorted(allowed)}"
-        )
-    return KalmanTimesync(KalmanParams(**params))  # type: ignore[arg-type]
+    try:
+        return KalmanTimesync(build_parameters(KalmanParams, params, "kalman"))
+    except ParameterError as exc:
+        raise TimesyncParameterError(exc.problem, key=exc.key) from None
 
 
 ESTIMATORS: Mapping[str, Callable[..., TimesyncEstimator]] = MappingProxyType(

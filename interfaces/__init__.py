@@ -2,8 +2,11 @@
 
 from interfaces.api import (
     ActionType,
+    ConstantInfo,
+    FieldInfo,
     ServiceType,
     cancel_goal_service,
+    describe,
     deserialize,
     get_action,
     get_message,
@@ -20,12 +23,15 @@ from interfaces.errors import DefinitionError, InterfaceError, MessageError, Unk
 
 __all__ = [
     "ActionType",
+    "ConstantInfo",
     "DefinitionError",
+    "FieldInfo",
     "InterfaceError",
     "MessageError",
     "ServiceType",
     "UnknownTypeError",
     "cancel_goal_service",
+    "describe",
     "deserialize",
     "get_action",
     "get_message",

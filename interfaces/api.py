@@ -284,6 +284,53 @@ def messages_equal(a: Any, b: Any) -> bool:
     return type_name(a) == type_name(b) and serialize(a) == serialize(b)
 
 
+def _type_text(node: Any) -> str:
+    """A field's type as a .msg file writes it: ``float32[3]``, ``string<=8``, ``pkg/msg/T[]``."""
+    kind, detail = node
+    if kind == Nodetype.BASE:
+        name, bound = detail
+        return f"{name}<={bound}" if bound else str(name)
+    if kind == Nodetype.NAME:
+        return str(detail)
+    inner, size = detail
+    if kind == Nodetype.ARRAY:
+        return f"{_type_text(inner)}[{size}]"
+    return f"{_type_text(inner)}[<={size}]" if size else f"{_type_text(inner)}[]"
+
+
+@dataclass(frozen=True)
+class FieldInfo:
+    """One field of a message type: its name, its type as .msg writes it, its default."""
+
+    name: str
+    type: str
+    default: Any
+    nested: bool  # a message (or array of messages), not a base type
+
+
+@dataclass(frozen=True)
+class ConstantInfo:
+    name: str
+    type: str
+    value: Any
+
+
+def describe(type_or_name: type | str) -> tuple[list[ConstantInfo], list[FieldInfo]]:
+    """The constants and fields (type and default) of a message type."""
+    msg = new(type_or_name)
+    consts, fields = _fielddefs(type_name(msg))
+    constants = [ConstantInfo(name, str(ctype), value) for name, ctype, value in consts]
+    infos = []
+    for fname, node in fields:
+        nested = node[0] == Nodetype.NAME or (
+            node[0] != Nodetype.BASE and node[1][0][0] == Nodetype.NAME)
+        default = getattr(msg, fname)
+        if isinstance(default, np.ndarray):
+            default = default.tolist()
+        infos.append(FieldInfo(fname, _type_text(node), default, nested))
+    return constants, infos
+
+
 def registered_types(package: str | None = None) -> list[str]:
     """Every registered message type name, optionally of one package, sorted."""
     names = sorted(typestore().types)

@@ -1,10 +1,16 @@
-"""The ``quadmission`` command: one entry point, one subcommand per capability."""
+"""The ``quadmission`` command: one entry point, one subcommand per capability.
+
+Errors are mapped here, at the boundary, once: the project's own errors (each package's
+``errors.py`` base class) are bad input, said in one line with exit code 2; any other
+exception is a bug and keeps its traceback. See :data:`EXIT_CODES`.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import logging
+import math
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -12,6 +18,45 @@ from dataclasses import dataclass
 from pathlib import Path
 
 Handler = Callable[[argparse.Namespace], int]
+
+EXIT_CODES = """\
+exit codes:
+  0    done (sim: the flight succeeded)
+  1    the run finished but failed its check (sim: a crash, a mission not completed),
+       or a bug in quadmission: an unexpected exception, printed with its traceback
+  2    bad input: a wrong argument, or one of quadmission's own errors (an unknown YAML
+       key, a value out of range, a YAML syntax error, an unknown message type...),
+       said in one line on stderr; -v shows its traceback
+  130  interrupted (Ctrl-C)
+  141  the output pipe was closed (quadmission interfaces | head): stops quietly
+"""
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a C tool killed by the signal returns
+
+
+def project_errors() -> tuple[type[Exception], ...]:
+    """The base class of each package's own errors: what the CLI reports as bad input."""
+    from flight_control.errors import FlightControlError
+    from interfaces.errors import InterfaceError
+    from quadmission.errors import QuadmissionError
+    from runtime.errors import RuntimeApiError
+    from sim.errors import SimError
+    from sim.fcu.errors import SchedulerError
+
+    return (InterfaceError, RuntimeApiError, SimError, SchedulerError, FlightControlError,
+            QuadmissionError)
+
+
+def _positive_seconds(text: str) -> float:
+    """An argparse type: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"{text} must be a positive number of seconds")
+    return value
 
 
 @dataclass(frozen=True)
@@ -26,7 +71,8 @@ class Command:
 
 # -- interfaces ------------------------------------------------------------------------------
 def _interfaces_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("name", nargs="?", help="a type to show, e.g. px4_msgs/msg/VehicleOdometry")
+    p.add_argument("name", nargs="?", help="a type to show (constants, then each field's type, "
+                   "name and default), e.g. px4_msgs/msg/VehicleOdometry")
     p.add_argument("--package", help="list only this package's types")
 
 
@@ -34,12 +80,16 @@ def _interfaces_run(args: argparse.Namespace) -> int:
     import interfaces
 
     if args.name:
-        msg = interfaces.new(args.name)
-        consts, fields = interfaces.typestore().fielddefs[interfaces.type_name(msg)]
-        for cname, ctype, value in consts:
-            print(f"{ctype} {cname}={value}")
-        for fname, _node in fields:
-            print(f"{fname}: {getattr(msg, fname)!r}")
+        constants, fields = interfaces.describe(args.name)
+        for c in constants:
+            print(f"{c.type} {c.name}={c.value}")
+        if constants and fields:
+            print()
+        type_w = max((len(f.type) for f in fields), default=0)
+        name_w = max((len(f.name) for f in fields), default=0)
+        for f in fields:
+            default = "" if f.nested else f"  {f.default!r}"
+            print(f"{f.type:<{type_w}}  {f.name:<{name_w}}{default}".rstrip())
         return 0
     for name in interfaces.registered_types(args.package):
         print(name)
@@ -48,18 +98,19 @@ def _interfaces_run(args: argparse.Namespace) -> int:
 
 # -- launch ----------------------------------------------------------------------------------
 def _launch_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", type=Path, help="launch YAML: nodes: [{factory, name, ...}]")
-    p.add_argument("--duration", type=float, default=10.0, help="simulated seconds to run")
-    p.add_argument("--config-dir", type=Path, default=None, help="node YAMLs (default config/)")
+    p.add_argument("file", type=Path, help="launch YAML: nodes: [{factory, name, ...}], "
+                   "e.g. config/launch/example.yaml")
+    p.add_argument("--duration", type=_positive_seconds, default=10.0,
+                   help="simulated seconds to run")
+    p.add_argument("--config-dir", type=Path, default=None,
+                   help="node YAMLs (default: config/, or $QUADMISSION_CONFIG_DIR)")
 
 
 def _launch_run(args: argparse.Namespace) -> int:
     from runtime import DeterministicExecutor, LaunchDescription, launch
-    from runtime.executor import DEFAULT_CONFIG_DIR
 
-    if args.duration <= 0:
-        raise ValueError(f"--duration must be positive, got {args.duration}")
-    ex = DeterministicExecutor(config_dir=args.config_dir or DEFAULT_CONFIG_DIR)
+    ex = (DeterministicExecutor() if args.config_dir is None
+          else DeterministicExecutor(config_dir=args.config_dir))
     nodes = launch(LaunchDescription.from_yaml(args.file), ex)
     print(f"launched {len(nodes)} node(s): "
           + ", ".join(n.get_fully_qualified_name() for n in nodes), file=sys.stderr)
@@ -117,7 +168,7 @@ def _sim_run(args: argparse.Namespace) -> int:
 def _fcu_schedule_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--offsets", default="balanced", choices=("balanced", "naive"),
                    help="offset strategy for the periodic functions")
-    p.add_argument("--flight-s", type=float, default=10.0,
+    p.add_argument("--flight-s", type=_positive_seconds, default=10.0,
                    help="simulated seconds of hover to measure duty and rates")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -127,8 +178,6 @@ def _fcu_schedule_run(args: argparse.Namespace) -> int:
     from quadmission.offboard_harness import hover_flight
     from sim.fcu.sitl import schedule_report
 
-    if args.flight_s <= 0:
-        raise ValueError(f"--flight-s must be positive, got {args.flight_s}")
     print(f"flying {args.flight_s:.0f} s of hover to measure the schedule...", file=sys.stderr)
     sitl, _ = hover_flight(args.flight_s, seed=args.seed, offsets=args.offsets)
     report = schedule_report(sitl)
@@ -156,7 +205,8 @@ def _fcu_schedule_run(args: argparse.Namespace) -> int:
 
 # -- latency -------------------------------------------------------------------------------
 def _latency_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--duration", type=float, default=60.0, help="simulated seconds to run")
+    p.add_argument("--duration", type=_positive_seconds, default=60.0,
+                   help="simulated seconds to run")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same run)")
     p.add_argument("--estimator", default="kalman", choices=("kalman", "px4"),
                    help="time-sync estimator of the top-level JSON figures (both always run)")
@@ -180,7 +230,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
             _latency_args, _latency_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
-    Command("interfaces", "list message types, or show one with its defaults",
+    Command("interfaces", "list message types, or show one: field types and defaults",
             _interfaces_args, _interfaces_run),
 )
 
@@ -189,29 +239,47 @@ def build_parser(commands: Sequence[Command] = COMMANDS) -> argparse.ArgumentPar
     parser = argparse.ArgumentParser(
         prog="quadmission",
         description="Autonomous quadcopter mission stack: simulation, nodes, tools.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for command in commands:
-        p = sub.add_parser(command.name, help=command.help, description=command.help)
+        p = sub.add_parser(command.name, help=command.help, description=command.help,
+                           epilog=EXIT_CODES, formatter_class=argparse.RawDescriptionHelpFormatter)
         command.add_arguments(p)
         p.set_defaults(handler=command.run)
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null, so that the interpreter's last flush cannot fail again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+
+
+def main(argv: Sequence[str] | None = None, commands: Sequence[Command] = COMMANDS) -> int:
+    """Run one subcommand; the exit code is one of :data:`EXIT_CODES`."""
     # headless by default: mujoco reads this when it is first imported
     os.environ.setdefault("MUJOCO_GL", "egl")
-    args = build_parser().parse_args(argv)
+    args = build_parser(commands).parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
     try:
-        return int(args.handler(args))
-    except Exception as exc:  # a user-facing tool: say what was wrong, no traceback
-        if args.verbose:
-            raise
+        code = int(args.handler(args))
+        sys.stdout.flush()  # a closed pipe shows here, not at exit
+        return code
+    except BrokenPipeError:
+        _quiet_stdout()
+        return EXIT_BROKEN_PIPE
+    except KeyboardInterrupt:
+        print(f"quadmission {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:
+        if args.verbose or not isinstance(exc, project_errors()):
+            raise  # a bug (or -v): the traceback is what a report needs
         print(f"quadmission {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

@@ -1,10 +1,14 @@
-"""Errors raised by the quadmission app layer (scenarios, experiments)."""
+"""Errors raised by the app layer (experiments, scenarios): each names what was wrong."""
 
 from __future__ import annotations
 
 
 class QuadmissionError(Exception):
-    """Base class for quadmission errors."""
+    """Base class for the app layer's errors."""
+
+
+class ExperimentError(QuadmissionError, ValueError):
+    """An experiment that cannot give its figures with the settings asked for."""
 
 
 class ScenarioRefused(QuadmissionError, ValueError):

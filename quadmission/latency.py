@@ -69,6 +69,7 @@ from typing import Any
 import numpy as np
 
 from flight_control.latency_node import LatencyTestNode, OffsetLog, ReceivedImu, SentVision
+from quadmission.errors import ExperimentError
 from sim.fcu.link import (
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
@@ -307,14 +308,15 @@ def analyse(
     ``true_offset_us(t_us)`` is the true ``companion - FCU`` offset at local time ``t_us``,
     ``true_fcu_us(t_us)`` the FCU clock at local time ``t_us`` and ``true_local_us(fcu_us)``
     the local time at which the FCU clock read ``fcu_us``.
-    Raises ValueError when an estimator never converged (run longer).
+    Raises ExperimentError when an estimator never converged (run longer).
     """
     names = list(converged_us)
     if primary not in names:
         raise ValueError(f"primary estimator {primary!r} is not one of {names}")
     missing = [name for name, t in converged_us.items() if t is None]
     if missing:
-        raise ValueError(f"estimator(s) {missing} never converged in {duration_s:g} s: run longer")
+        raise ExperimentError(
+            f"estimator(s) {missing} never converged in {duration_s:g} s: run longer")
     start_us = max(t for t in converged_us.values() if t is not None)
 
     window = [s for s in sent.values() if s.created_us >= start_us]

@@ -12,6 +12,7 @@ import heapq
 import itertools
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -19,6 +20,7 @@ from runtime.clock import Clock, SimClock, Time, seconds_to_ns
 from runtime.errors import ClockError
 from runtime.future import Future, Task
 from runtime.loop import EventLoop, Handle, Label
+from runtime.parameters import config_dir as default_config_dir
 from runtime.transport import InProcessTransport, Transport
 
 if TYPE_CHECKING:
@@ -26,8 +28,13 @@ if TYPE_CHECKING:
 
 T = TypeVar("T")
 
-#: config/ at the repository root: one YAML per node.
-DEFAULT_CONFIG_DIR = Path(__file__).resolve().parent.parent / "config"
+
+class _Default(Enum):
+    CONFIG_DIR = "the config folder"
+
+
+DEFAULT_CONFIG_DIR = _Default.CONFIG_DIR
+"""``config_dir`` default: :func:`runtime.parameters.config_dir`, read when the executor is made."""
 
 
 @dataclass
@@ -36,7 +43,7 @@ class Context:
 
     loop: EventLoop
     transport: Transport
-    config_dir: Path | None = DEFAULT_CONFIG_DIR
+    config_dir: Path | None = None
     nodes: list[Node] = field(default_factory=list)
 
     def create_task(self, coro: Coroutine[Any, Any, T], label: Label) -> Task[T]:
@@ -65,7 +72,7 @@ class DeterministicExecutor:
         self,
         *,
         start_ns: int = 0,
-        config_dir: Path | None = DEFAULT_CONFIG_DIR,
+        config_dir: Path | _Default | None = DEFAULT_CONFIG_DIR,
         transport: Transport | None = None,
         record_trace: bool = False,
     ) -> None:
@@ -76,7 +83,9 @@ class DeterministicExecutor:
         self.trace: list[TraceEntry] | None = [] if record_trace else None
         self.callbacks_run = 0
         self.context = Context(
-            loop=self, transport=transport or InProcessTransport(), config_dir=config_dir
+            loop=self,
+            transport=transport or InProcessTransport(),
+            config_dir=default_config_dir() if isinstance(config_dir, _Default) else config_dir,
         )
 
     # EventLoop ---------------------------------------------------------------------------

@@ -13,6 +13,7 @@ import yaml
 from runtime.errors import LaunchError
 from runtime.executor import DeterministicExecutor
 from runtime.node import Node
+from runtime.parameters import load_yaml, yaml_syntax_problem
 
 NodeFactory = Callable[..., Node]
 
@@ -56,9 +57,11 @@ class LaunchDescription:
     def from_yaml(cls, path: Path) -> LaunchDescription:
         """Read ``nodes: [{factory, name, namespace, parameters, remappings}, ...]``."""
         try:
-            doc = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
-        except (OSError, yaml.YAMLError) as exc:
-            raise LaunchError(f"{path}: {exc}") from None
+            doc = load_yaml(Path(path).read_text(encoding="utf-8")) or {}
+        except OSError as exc:
+            raise LaunchError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        except yaml.YAMLError as exc:
+            raise LaunchError(f"{path}: {yaml_syntax_problem(exc)}") from None
         if not isinstance(doc, Mapping) or set(doc) != {"nodes"}:
             raise LaunchError(f"{path}: expected exactly one top-level key 'nodes'")
         allowed = {"factory", "name", "namespace", "parameters", "remappings"}

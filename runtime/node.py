@@ -7,10 +7,12 @@ move to another process unchanged.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import logging
 from collections import deque
 from collections.abc import Callable, Coroutine, Mapping, Sequence
+from enum import Enum
 from typing import Any, Generic, TypeVar
 
 import interfaces
@@ -28,9 +30,9 @@ from runtime.parameters import (
     SetParametersResult,
     check_value,
     coerce_value,
-    dataclass_descriptors,
     is_missing,
     load_node_yaml,
+    parameter_fields,
     type_of_value,
 )
 from runtime.transport import Endpoint, EndpointKind, RequestId
@@ -547,23 +549,28 @@ class Node:
         """Declare a parameter; its value is the launch override, else the node's YAML,
         else ``value``. Type comes from the descriptor or the default."""
         if name in self._parameters:
-            raise ParameterError(f"{self._where(name)}: declared twice")
+            raise ParameterError("declared twice", key=self._where(name))
         descriptor = descriptor or ParameterDescriptor()
+        source: str | None
         if name in self._overrides:
             raw, source = self._overrides[name], "launch override"
         elif name in self._yaml_params:
             raw, source = self._yaml_params[name], str(self._config_path)
         else:
-            raw, source = value, "default"
+            raw, source = value, None
         kind = descriptor.type or type_of_value(value) or type_of_value(raw)
         if raw is None or kind is None:
             where = self._config_path or "config/"
             raise ParameterError(
-                f"{self._where(name)}: no value (set it in {where} or pass a default)"
+                f"no value (set it in {where} or pass a default); expected "
+                f"{dataclasses.replace(descriptor, type=kind).allowed()}",
+                key=self._where(name),
             )
-        where = f"{self._where(name)} ({source})"
-        coerced = coerce_value(where, kind, raw)
-        check_value(where, descriptor, coerced)
+        try:
+            coerced = coerce_value(self._where(name), kind, raw, descriptor)
+            check_value(self._where(name), descriptor, coerced)
+        except ParameterError as exc:
+            raise exc.with_source(source) from None
         param = Parameter(name, kind, coerced)
         self._parameters[name] = param
         self._descriptors[name] = descriptor
@@ -575,15 +582,36 @@ class Node:
         prefix = f"{namespace}." if namespace else ""
         return [self.declare_parameter(f"{prefix}{n}", v) for n, v in parameters]
 
-    def declare_params(self, cls: type[P]) -> P:
-        """Declare every field of the frozen dataclass ``cls`` as a parameter and return a
-        validated instance. Fields without a default must be set in the node's YAML."""
+    def declare_params(self, cls: type[P], prefix: str = "") -> P:
+        """Declare every field of the frozen parameter dataclass ``cls`` (see
+        :mod:`runtime.parameters`) and return a validated instance. A nested section's
+        fields are declared as ``section.field``; an Enum as a string among its values.
+        Fields without a default must be set in the node's YAML."""
         values: dict[str, Any] = {}
-        for name, (descriptor, default) in dataclass_descriptors(cls).items():
-            values[name] = self.declare_parameter(
-                name, None if is_missing(default) else default, descriptor
-            ).value
-        return cls(**values)
+        for f in parameter_fields(cls):
+            name = f"{prefix}{f.name}"
+            if f.section is not None:
+                values[f.name] = self.declare_params(f.section, f"{name}.")
+                continue
+            descriptor, default = f.descriptor, f.default
+            if f.enum is not None:
+                descriptor = dataclasses.replace(
+                    descriptor, type=ParameterType.STRING,
+                    choices=tuple(m.value for m in f.enum))
+                default = default.value if isinstance(default, Enum) else default
+            elif f.kind is None:
+                raise ParameterError(
+                    f"type of {cls.__name__}.{f.name} cannot be a parameter (use bool, int, "
+                    "float, str, tuple[X, ...], an Enum or a nested parameter dataclass)",
+                    key=self._where(name))
+            declared = self.declare_parameter(
+                name, None if is_missing(default) else default, descriptor).value
+            values[f.name] = f.convert(self._where(name), declared)
+        try:
+            return cls(**values)
+        except ParameterError as exc:  # a check across fields in __post_init__
+            raise exc.prefixed(self._where(prefix.rstrip("."))
+                               if prefix else self._name) from None
 
     def has_parameter(self, name: str) -> bool:
         return name in self._parameters
@@ -593,7 +621,7 @@ class Node:
             return self._parameters[name]
         except KeyError:
             raise ParameterError(
-                f"{self._where(name)}: not declared; declared: {sorted(self._parameters)}"
+                f"not declared; declared: {sorted(self._parameters)}", key=self._where(name)
             ) from None
 
     def get_parameters_by_prefix(self, prefix: str) -> dict[str, Parameter]:
@@ -613,12 +641,12 @@ class Node:
         for p in parameters:
             try:
                 if p.name not in self._parameters:
-                    raise ParameterError(f"{self._where(p.name)}: not declared")
+                    raise ParameterError("not declared", key=self._where(p.name))
                 old = self._parameters[p.name]
                 descriptor = self._descriptors[p.name]
                 if descriptor.read_only:
-                    raise ParameterError(f"{self._where(p.name)}: read-only")
-                value = coerce_value(self._where(p.name), old.type, p.value)
+                    raise ParameterError("read-only", key=self._where(p.name))
+                value = coerce_value(self._where(p.name), old.type, p.value, descriptor)
                 check_value(self._where(p.name), descriptor, value)
             except ParameterError as exc:
                 results.append(SetParametersResult(False, str(exc)))
@@ -644,8 +672,10 @@ class Node:
             if unknown:
                 declared = ", ".join(sorted(self._parameters)) or "none"
                 raise ParameterError(
-                    f"{source}: unknown parameter {unknown[0]!r} for node {self._name} "
-                    f"(declared: {declared})"
+                    f"unknown parameter {unknown[0]!r} for node {self._name} "
+                    f"(declared: {declared})",
+                    key=self._where(unknown[0]),
+                    source=source,
                 )
 
 

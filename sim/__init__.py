@@ -15,7 +15,7 @@ from sim.arena import (
     robot_pose,
 )
 from sim.arena_generator import GeneratorConfig, generate_arena
-from sim.errors import ArenaError, ParameterError, SimError
+from sim.errors import ArenaError, SimError
 from sim.quadrotor import (
     CameraParams,
     ImuNoiseModel,
@@ -41,7 +41,6 @@ __all__: list[str] = [
     "Lighting",
     "MotorModel",
     "Pad",
-    "ParameterError",
     "QuadrotorParams",
     "RobotPose",
     "SimError",

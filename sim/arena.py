@@ -26,13 +26,15 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from runtime.parameters import config_path, load_yaml, yaml_syntax_problem
 from sim.errors import ArenaError
 from sim.geometry import FloodGrid, Rect, segment_distance, segment_rect_distance
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 
-DEFAULT_ARENA_PATH = Path(__file__).resolve().parent.parent / "config" / "arenas" / "contest.yaml"
+DEFAULT_ARENA = "arenas/contest.yaml"
+"""The default arena, in the config folder (:func:`runtime.parameters.config_path`)."""
 
 PAD_IDS = range(1, 11)
 """Marker IDs printed on landing pads (DICT_7X7_1000)."""
@@ -450,27 +452,6 @@ def validate_arena(spec: ArenaSpec) -> None:
 # --------------------------------------------------------------------------- YAML
 
 
-class _StrictLoader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate mapping keys (PyYAML keeps the last one silently)."""
-
-
-def _construct_unique_mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict[Any, Any]:
-    mapping: dict[Any, Any] = {}
-    for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        if key in mapping:
-            line = key_node.start_mark.line + 1
-            raise ArenaError(str(key), f"duplicate key on line {line}")
-        mapping[key] = loader.construct_object(value_node, deep=True)
-    return mapping
-
-
-_StrictLoader.add_constructor(
-    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
-    _construct_unique_mapping,
-)
-
-
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
 
@@ -615,15 +596,16 @@ def arena_from_dict(data: object) -> ArenaSpec:
 def arena_from_yaml(text: str) -> ArenaSpec:
     """Parse arena YAML text strictly and validate it; raises :class:`ArenaError`."""
     try:
-        data = yaml.load(text, Loader=_StrictLoader)
+        data = load_yaml(text)
     except yaml.YAMLError as exc:
-        raise ArenaError("", f"invalid YAML: {exc}") from None
+        raise ArenaError("", yaml_syntax_problem(exc)) from None
     return arena_from_dict(data)
 
 
-def load_arena(path: str | Path = DEFAULT_ARENA_PATH) -> ArenaSpec:
-    """Load and validate an arena YAML file; errors name the file and the key."""
-    path = Path(path)
+def load_arena(path: str | Path | None = None) -> ArenaSpec:
+    """Load and validate an arena YAML file (default: :data:`DEFAULT_ARENA` in the config
+    folder); errors name the file and the key."""
+    path = Path(path) if path is not None else config_path(DEFAULT_ARENA)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
@@ -636,7 +618,7 @@ def load_arena(path: str | Path = DEFAULT_ARENA_PATH) -> ArenaSpec:
 
 def default_arena() -> ArenaSpec:
     """The contest-like default field, ``config/arenas/contest.yaml``."""
-    return load_arena(DEFAULT_ARENA_PATH)
+    return load_arena()
 
 
 def arena_to_dict(spec: ArenaSpec) -> dict[str, Any]:

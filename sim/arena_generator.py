@@ -27,6 +27,7 @@ from typing import TypeVar
 import numpy as np
 import numpy.typing as npt
 
+from runtime.errors import ParameterError
 from sim.arena import (
     DEFAULT_ROBOT_SPEED,
     DEFAULT_WALL_THICKNESS,
@@ -46,7 +47,7 @@ from sim.arena import (
     Vec3,
     flight_grid,
 )
-from sim.errors import ArenaError, ParameterError
+from sim.errors import ArenaError
 from sim.geometry import FloodGrid, Rect, segment_distance, segment_rect_distance
 
 T = TypeVar("T")

@@ -1,4 +1,8 @@
-"""Errors raised by the sim package (arena specs, model parameters)."""
+"""Errors raised by the sim package (arena specs, the link's ordering).
+
+A model parameter out of range (quadrotor, sensor, generator setting, FCU module) raises
+the project's one :class:`runtime.errors.ParameterError`.
+"""
 
 from __future__ import annotations
 
@@ -27,7 +31,3 @@ class ArenaError(SimError, ValueError):
     def __str__(self) -> str:
         where = ": ".join(part for part in (self.source, self.key) if part)
         return f"{where}: {self.problem}" if where else self.problem
-
-
-class ParameterError(SimError, ValueError):
-    """A model parameter (quadrotor, sensor, generator setting) outside its allowed range."""

@@ -18,8 +18,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from runtime.errors import ParameterError
 from sim.arena import PAD_MARKER_SIZE, PAD_SIZE, ROBOT_MARKER_SIZE, ROBOT_SIZE
-from sim.errors import ParameterError
 
 ARUCO_DICTIONARY_ID = cv2.aruco.DICT_7X7_1000
 MARKER_MODULES = 9  # 7 x 7 bits + a one-module black border on each side

@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from sim.errors import ParameterError
+from runtime.errors import ParameterError
 
 GRAVITY = 9.81  # m/s^2, also the MuJoCo model's gravity
 NUM_ROTORS = 4

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from sim.errors import ParameterError
+from runtime.errors import ParameterError
 from sim.mjcf import DEPTH_CAMERA, DOWN_CAMERA, QUAD_GEOM_GROUP, TOP_CAMERA
 from sim.quadrotor import CameraParams
 

@@ -11,7 +11,7 @@ companion node that forwards it to the flight controller sees only this topic.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,6 +19,7 @@ import numpy as np
 import interfaces
 from runtime import Node, Time, qos_profile_sensor_data
 from runtime.clock import seconds_to_ns
+from runtime.parameters import param, validate_parameters
 from sim.scene import quad_state
 from sim.world import Scene
 
@@ -28,37 +29,53 @@ MAP_FRAME = "map"
 
 @dataclass(frozen=True)
 class VisionNoise:
-    """Noise and drift of the visual odometry; zeros give the truth."""
+    """Noise and drift of the visual odometry; :meth:`zero` gives the truth."""
 
-    position_std: float = 0.01  # m, white noise per sample
-    yaw_std: float = 0.005  # rad, white noise per sample
-    drift_rate: float = 0.002  # m/sqrt(s), random-walk drift of the position
-    latency_s: float = 0.05  # s, processing delay before the pose is published
+    position_std: float = param(unit="m", range=(0.0, 1.0))
+    """White noise of the position, per sample."""
+    yaw_std: float = param(unit="rad", range=(0.0, 1.0))
+    """White noise of the yaw, per sample."""
+    drift_rate: float = param(unit="m/sqrt(s)", range=(0.0, 1.0))
+    """Random-walk drift of the position."""
+    latency_s: float = param(unit="s", range=(0.0, 1.0))
+    """Processing delay before the pose is published."""
 
     def __post_init__(self) -> None:
-        for name in ("position_std", "yaw_std", "drift_rate", "latency_s"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"VisionNoise.{name}: {value!r} must be >= 0")
+        validate_parameters(self)
+
+    @classmethod
+    def zero(cls) -> VisionNoise:
+        """No noise, no drift, no delay: the true pose."""
+        return cls(position_std=0.0, yaw_std=0.0, drift_rate=0.0, latency_s=0.0)
+
+
+@dataclass(frozen=True)
+class VisionParams:
+    """The simulated visual odometry (``config/sim_vision.yaml``)."""
+
+    noise: VisionNoise
+    rate_hz: float = param(unit="Hz", range=(1.0, 1000.0))
+    """Poses per second (must divide the physics rate)."""
 
 
 class VisionNode(Node):
-    """Owns the vision topic's publisher (the sim side of the measurement)."""
+    """Owns the vision topic's publisher and the measurement's parameters (the sim side)."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("sim_vision", **kwargs)
+        self.params = self.declare_params(VisionParams)
         self.pose = self.create_publisher("geometry_msgs/msg/PoseWithCovarianceStamped",
                                           VISION_POSE_TOPIC, qos_profile_sensor_data)
 
 
 @dataclass
 class VisionPose:
-    """The world part that measures and publishes the pose."""
+    """The world part that measures and publishes the pose (at ``rate_hz``, with ``noise``)."""
 
     node: VisionNode
-    noise: VisionNoise = field(default_factory=VisionNoise)
+    noise: VisionNoise
+    rate_hz: float
     seed: int = 0
-    rate_hz: float = 30.0
     name: str = "vision"
     tracking: bool = True
     published: int = 0
@@ -66,6 +83,12 @@ class VisionPose:
     def __post_init__(self) -> None:
         self._rng = np.random.default_rng(self.seed)
         self._drift = np.zeros(3)
+
+    @classmethod
+    def from_node(cls, node: VisionNode, seed: int = 0,
+                  noise: VisionNoise | None = None) -> VisionPose:
+        """The part with the node's parameters (``noise`` replaces the node's noise)."""
+        return cls(node, noise or node.params.noise, node.params.rate_hz, seed=seed)
 
     def update(self, t_ns: int, scene: Scene) -> None:
         n = self.noise

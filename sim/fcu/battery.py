@@ -39,23 +39,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from interfaces.px4 import BatteryWarning
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.params import (
-    load_parameters,
-    param,
-    parameters_from_mapping,
-    parameters_from_yaml,
-    validate_parameters,
-)
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 
 __all__ = [
     "BATTERY_NODE_NAME",
-    "DEFAULT_BATTERY_CONFIG_PATH",
     "LIPO_OCV_TABLE",
     "BatteryEstimator",
     "BatteryEstimatorParams",
@@ -64,15 +56,10 @@ __all__ = [
     "BatteryModelParams",
     "BatteryParams",
     "BatteryStatusData",
-    "battery_params_from_mapping",
-    "battery_params_from_yaml",
     "cell_ocv_v",
-    "load_battery_params",
     "warning_for_remaining",
 ]
 
-DEFAULT_BATTERY_CONFIG_PATH = Path(__file__).resolve().parents[2] / "config" / "fcu_battery.yaml"
-"""The battery's parameter file (ROS 2 parameter-file shape)."""
 BATTERY_NODE_NAME = "fcu_battery"
 """The top-level key of the battery's section in a ROS 2 parameter file."""
 
@@ -116,23 +103,23 @@ _OCV_V = np.array([v for _, v in LIPO_OCV_TABLE])
 class BatteryModelParams:
     """The pack and the power drawn by the rotors (see the module docstring)."""
 
-    cell_count: int = param(1, 14, "cells", default=4)
+    cell_count: int = param(4, unit="cells", range=(1, 14))
     """Cells in series (4S)."""
-    capacity_mah: float = param(0.0, 1e6, "mAh", default=4000.0, lo_open=True)
+    capacity_mah: float = param(4000.0, unit="mAh", range=(0.0, 1e6), lo_open=True)
     """Charge from full to empty [mAh]."""
-    internal_resistance_ohm: float = param(0.0, 1.0, "Ohm", default=0.008)
+    internal_resistance_ohm: float = param(0.008, unit="Ohm", range=(0.0, 1.0))
     """Internal resistance of one cell [Ohm]; the pack's is ``cell_count`` times that."""
-    initial_soc: float = param(0.0, 1.0, default=1.0)
+    initial_soc: float = param(1.0, range=(0.0, 1.0))
     """State of charge at the start [0..1]."""
-    rotor_radius_m: float = param(0.0, 2.0, "m", default=0.127, lo_open=True)
+    rotor_radius_m: float = param(0.127, unit="m", range=(0.0, 2.0), lo_open=True)
     """Propeller radius [m] (10" props), for the rotor disk area."""
-    air_density_kg_m3: float = param(0.0, 2.0, "kg/m^3", default=1.225, lo_open=True)
+    air_density_kg_m3: float = param(1.225, unit="kg/m^3", range=(0.0, 2.0), lo_open=True)
     """Air density [kg/m^3]."""
-    figure_of_merit: float = param(0.0, 1.0, default=0.6, lo_open=True)
+    figure_of_merit: float = param(0.6, range=(0.0, 1.0), lo_open=True)
     """Rotor figure of merit: ideal induced power over actual aerodynamic power."""
-    drive_efficiency: float = param(0.0, 1.0, default=0.75, lo_open=True)
+    drive_efficiency: float = param(0.75, range=(0.0, 1.0), lo_open=True)
     """Motor and ESC efficiency: shaft power over electrical power."""
-    avionics_power_w: float = param(0.0, 1e3, "W", default=8.0)
+    avionics_power_w: float = param(8.0, unit="W", range=(0.0, 1e3))
     """Power of the flight controller, companion computer and sensors [W], always drawn."""
 
     def __post_init__(self) -> None:
@@ -148,34 +135,35 @@ class BatteryModelParams:
 class BatteryEstimatorParams:
     """PX4's ``BAT1_*`` and ``BAT_*_THR`` parameters, for the FCU's estimate."""
 
-    v_empty: float = param(2.5, 4.5, "V", default=3.6)
+    v_empty: float = param(3.6, unit="V", range=(2.5, 4.5))
     """``BAT1_V_EMPTY``: cell voltage [V] at 0 % under the load compensation."""
-    v_charged: float = param(2.5, 4.5, "V", default=4.05)
+    v_charged: float = param(4.05, unit="V", range=(2.5, 4.5))
     """``BAT1_V_CHARGED``: cell voltage [V] at 100 %, > v_empty."""
-    r_internal_ohm: float = param(0.0, 1.0, "Ohm", default=0.008)
+    r_internal_ohm: float = param(0.008, unit="Ohm", range=(0.0, 1.0))
     """``BAT1_R_INTERNAL``: per-cell resistance [Ohm] used for load compensation."""
-    low_thr: float = param(0.12, 0.5, default=0.15)
+    low_thr: float = param(0.15, range=(0.12, 0.5))
     """``BAT_LOW_THR``: remaining fraction below which the warning is LOW."""
-    crit_thr: float = param(0.05, 0.5, default=0.07)
+    crit_thr: float = param(0.07, range=(0.05, 0.5))
     """``BAT_CRIT_THR``: remaining fraction below which the warning is CRITICAL."""
-    emergen_thr: float = param(0.03, 0.5, default=0.05)
+    emergen_thr: float = param(0.05, range=(0.03, 0.5))
     """``BAT_EMERGEN_THR``: remaining fraction below which the warning is EMERGENCY."""
-    current_filter_tau_s: float = param(0.0, 100.0, "s", default=2.0)
+    current_filter_tau_s: float = param(2.0, unit="s", range=(0.0, 100.0))
     """Time constant [s] of the averaged current (``current_average_a``); 0: no filter."""
-    voltage_weight_per_s: float = param(0.0, 10.0, "1/s", default=0.03)
+    voltage_weight_per_s: float = param(0.03, unit="1/s", range=(0.0, 10.0))
     """Pull of the voltage-based estimate on the fused one at 0 % [1/s] (PX4: 3e-4 @ 100 Hz)."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
         if self.v_charged <= self.v_empty:
-            raise FcuParameterError(
-                "v_charged", f"{self.v_charged!r} must be above v_empty = {self.v_empty!r} V"
+            raise ParameterError(
+                f"{self.v_charged!r} must be above v_empty = {self.v_empty!r} V",
+                key="v_charged",
             )
         if not self.emergen_thr < self.crit_thr < self.low_thr:
-            raise FcuParameterError(
-                "crit_thr",
+            raise ParameterError(
                 f"thresholds must satisfy emergen_thr < crit_thr < low_thr, got "
                 f"{self.emergen_thr!r} < {self.crit_thr!r} < {self.low_thr!r}",
+                key="crit_thr",
             )
 
 
@@ -185,25 +173,6 @@ class BatteryParams:
 
     model: BatteryModelParams = field(default_factory=BatteryModelParams)
     estimator: BatteryEstimatorParams = field(default_factory=BatteryEstimatorParams)
-
-
-def battery_params_from_mapping(doc: object) -> BatteryParams:
-    """Battery parameters from a parsed ROS 2 parameter file (``fcu_battery: ros__parameters``).
-
-    Keys left out take their defaults; unknown keys, wrong types and values out of range
-    raise :class:`FcuParameterError` naming the key path and the allowed range.
-    """
-    return parameters_from_mapping(BatteryParams, BATTERY_NODE_NAME, doc)
-
-
-def battery_params_from_yaml(text: str, source: str | None = None) -> BatteryParams:
-    """Battery parameters from the text of a ROS 2 parameter file; ``source`` names it."""
-    return parameters_from_yaml(BatteryParams, BATTERY_NODE_NAME, text, source)
-
-
-def load_battery_params(path: Path = DEFAULT_BATTERY_CONFIG_PATH) -> BatteryParams:
-    """Battery parameters from a ROS 2 parameter file (default: ``config/fcu_battery.yaml``)."""
-    return load_parameters(BatteryParams, BATTERY_NODE_NAME, path)
 
 
 # -- the pack ------------------------------------------------------------------------------

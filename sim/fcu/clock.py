@@ -29,13 +29,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.fcu.errors import FcuParameterError  # re-exported: its old home
+from runtime.parameters import param, validate_parameters
 
 __all__ = [
     "BOOT_OFFSET_RANGE_US",
     "SKEW_RANGE_PPM",
     "FcuClock",
-    "FcuParameterError",
 ]
 
 BOOT_OFFSET_RANGE_US = (0, 10**15)
@@ -51,29 +50,13 @@ _NS_PER_US = 1000
 class FcuClock:
     """The FCU's clock as a function of simulated time (see the module docstring)."""
 
-    boot_offset_us: int
+    boot_offset_us: int = param(unit="us", range=BOOT_OFFSET_RANGE_US)
     """FCU uptime at simulated time 0 [us], in ``BOOT_OFFSET_RANGE_US``."""
-    skew_ppm: float
+    skew_ppm: float = param(unit="ppm", range=SKEW_RANGE_PPM)
     """FCU clock rate error [ppm], positive = FCU runs fast; used to the nearest ppb."""
 
     def __post_init__(self) -> None:
-        lo, hi = BOOT_OFFSET_RANGE_US
-        if isinstance(self.boot_offset_us, bool) or not isinstance(self.boot_offset_us, int):
-            raise FcuParameterError(
-                "boot_offset_us", f"{self.boot_offset_us!r} must be an integer number of us"
-            )
-        if not lo <= self.boot_offset_us <= hi:
-            raise FcuParameterError(
-                "boot_offset_us",
-                f"{self.boot_offset_us} is outside the allowed range [{lo}, {hi}] us",
-            )
-        slo, shi = SKEW_RANGE_PPM
-        if isinstance(self.skew_ppm, bool) or not isinstance(self.skew_ppm, int | float):
-            raise FcuParameterError("skew_ppm", f"{self.skew_ppm!r} must be a number of ppm")
-        if not slo <= self.skew_ppm <= shi:  # also rejects NaN
-            raise FcuParameterError(
-                "skew_ppm", f"{self.skew_ppm} is outside the allowed range [{slo}, {shi}] ppm"
-            )
+        validate_parameters(self)
 
     @property
     def skew_ppb(self) -> int:

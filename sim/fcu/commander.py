@@ -154,7 +154,6 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from enum import Enum, IntEnum
-from pathlib import Path
 
 from interfaces.px4 import (
     FORCE_ARM_DISARM_MAGIC,
@@ -168,18 +167,11 @@ from interfaces.px4 import (
     Px4CustomSubModeAuto,
     VehicleCmd,
 )
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.params import (
-    load_parameters,
-    param,
-    parameters_from_mapping,
-    parameters_from_yaml,
-    validate_parameters,
-)
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 
 __all__ = [
     "COMMANDER_NODE_NAME",
-    "DEFAULT_COMMANDER_CONFIG_PATH",
     "TRANSITIONS",
     "Action",
     "BatteryFailsafeAction",
@@ -200,17 +192,10 @@ __all__ = [
     "TakeoffTarget",
     "VehicleCommandAckData",
     "VehicleCommandData",
-    "commander_params_from_mapping",
-    "commander_params_from_yaml",
     "commander_step",
-    "load_commander_params",
     "render_transition_table",
 ]
 
-DEFAULT_COMMANDER_CONFIG_PATH = (
-    Path(__file__).resolve().parents[2] / "config" / "fcu_commander.yaml"
-)
-"""The commander's parameter file (ROS 2 parameter-file shape)."""
 COMMANDER_NODE_NAME = "fcu_commander"
 """The top-level key of the commander's section in a ROS 2 parameter file."""
 
@@ -502,64 +487,45 @@ class BatteryFailsafeAction(Enum):
 class CommanderParams:
     """Everything in ``config/fcu_commander.yaml``; defaults are PX4's where PX4 has one."""
 
-    system_id: int = param(1, 255, default=1)
+    system_id: int = param(1, range=(1, 255))
     """``MAV_SYS_ID``: commands for another system are ignored (0 = broadcast)."""
-    component_id: int = param(1, 255, default=1)
+    component_id: int = param(1, range=(1, 255))
     """``MAV_COMP_ID``: commands for another component are ignored (0 = all)."""
-    offboard_min_rate_hz: float = param(0.1, 1000.0, "Hz", default=2.0)
+    offboard_min_rate_hz: float = param(2.0, unit="Hz", range=(0.1, 1000.0))
     """The offboard heartbeat must be faster than this (gaps below 1 / rate)."""
-    offboard_min_stream_s: float = param(0.0, 60.0, "s", default=1.0)
+    offboard_min_stream_s: float = param(1.0, unit="s", range=(0.0, 60.0))
     """... for longer than this before OFFBOARD can be entered."""
-    offboard_loss_timeout_s: float = param(0.0, 60.0, "s", default=1.0)
+    offboard_loss_timeout_s: float = param(1.0, unit="s", range=(0.0, 60.0))
     """``COM_OF_LOSS_T``: heartbeat silence in OFFBOARD that counts as loss."""
     offboard_loss_action: OffboardLossAction = OffboardLossAction.LAND
     """``COM_OBL_RC_ACT``: action after the hold (hold, land, return)."""
-    failsafe_hold_s: float = param(0.0, 60.0, "s", default=5.0)
+    failsafe_hold_s: float = param(5.0, unit="s", range=(0.0, 60.0))
     """``COM_FAIL_ACT_T``: hold after offboard loss before the action."""
     low_battery_action: BatteryFailsafeAction = BatteryFailsafeAction.LAND
     """``COM_LOW_BAT_ACT``: warning, land, or return at critical (land at emergency)."""
-    disarm_land_s: float = param(-1.0, 20.0, "s", default=2.0)
+    disarm_land_s: float = param(2.0, unit="s", range=(-1.0, 20.0))
     """``COM_DISARM_LAND``: landed this long after flight -> disarm; negative: never."""
-    disarm_preflight_s: float = param(-1.0, 60.0, "s", default=10.0)
+    disarm_preflight_s: float = param(10.0, unit="s", range=(-1.0, 60.0))
     """``COM_DISARM_PRFLT``: landed this long without taking off -> disarm; negative: never."""
-    takeoff_height_m: float = param(0.1, 100.0, "m", default=2.5)
+    takeoff_height_m: float = param(2.5, unit="m", range=(0.1, 100.0))
     """``MIS_TAKEOFF_ALT``: takeoff height above home without (or below) a requested one."""
-    takeoff_max_height_m: float = param(0.1, 1000.0, "m", default=10.0)
+    takeoff_max_height_m: float = param(10.0, unit="m", range=(0.1, 1000.0))
     """Requested takeoff heights above this are refused."""
-    takeoff_acceptance_m: float = param(0.01, 10.0, "m", default=0.3)
+    takeoff_acceptance_m: float = param(0.3, unit="m", range=(0.01, 10.0))
     """Takeoff is done within this of the target height."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
         if self.takeoff_max_height_m < self.takeoff_height_m:
-            raise FcuParameterError(
-                "takeoff_max_height_m",
+            raise ParameterError(
                 f"{self.takeoff_max_height_m!r} is outside the allowed range "
                 f"[takeoff_height_m = {self.takeoff_height_m!r}, 1000] m",
+                key="takeoff_max_height_m",
             )
 
     @property
     def offboard_max_gap_us(self) -> int:
         return round(_US_PER_S / self.offboard_min_rate_hz)
-
-
-def commander_params_from_mapping(doc: object) -> CommanderParams:
-    """Parameters from a parsed ROS 2 parameter file (``fcu_commander: ros__parameters``).
-
-    Keys left out take their defaults; unknown keys, wrong types, values out of range and
-    unknown action names raise :class:`FcuParameterError` naming the key and what is allowed.
-    """
-    return parameters_from_mapping(CommanderParams, COMMANDER_NODE_NAME, doc)
-
-
-def commander_params_from_yaml(text: str, source: str | None = None) -> CommanderParams:
-    """Parameters from the text of a ROS 2 parameter file; ``source`` names it in errors."""
-    return parameters_from_yaml(CommanderParams, COMMANDER_NODE_NAME, text, source)
-
-
-def load_commander_params(path: Path = DEFAULT_COMMANDER_CONFIG_PATH) -> CommanderParams:
-    """Parameters from a ROS 2 parameter file (default: ``config/fcu_commander.yaml``)."""
-    return load_parameters(CommanderParams, COMMANDER_NODE_NAME, path)
 
 
 # -- inputs and outputs --------------------------------------------------------------------

@@ -24,18 +24,16 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.params import load_parameters, param, parameters_from_yaml, validate_parameters
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams, mix
 
 __all__ = [
     "CONTROL_NODE_NAME",
-    "DEFAULT_CONTROL_CONFIG_PATH",
     "AttitudeController",
     "Cascade",
     "CascadeOutput",
@@ -48,9 +46,7 @@ __all__ = [
     "TrajectorySetpointData",
     "VehicleState",
     "attitude_from_thrust_vector",
-    "control_gains_from_yaml",
     "cross3",
-    "load_control_gains",
     "mix_with_desaturation",
     "quat_from_axis_angle",
     "quat_from_dcm",
@@ -61,7 +57,6 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 CONTROL_NODE_NAME = "fcu_control"
-DEFAULT_CONTROL_CONFIG_PATH = Path(__file__).resolve().parents[2] / "config" / "fcu_control.yaml"
 _US_PER_S = 1_000_000
 _EPS = 1e-9
 
@@ -252,68 +247,58 @@ class ControlGains:
     airframe's scale. Ranges and units are declared here once.
     """
 
-    rate_loop_hz: int = param(50, 8000, "Hz")
-    attitude_loop_hz: int = param(10, 8000, "Hz")
-    position_loop_hz: int = param(5, 8000, "Hz")
-    position_p_xy: float = param(0.0, 10.0, "1/s")
-    position_p_z: float = param(0.0, 10.0, "1/s")
-    velocity_p_xy: float = param(0.0, 30.0, "1/s")
-    velocity_i_xy: float = param(0.0, 30.0, "1/s^2")
-    velocity_d_xy: float = param(0.0, 2.0, "s/s")
-    velocity_p_z: float = param(0.0, 30.0, "1/s")
-    velocity_i_z: float = param(0.0, 30.0, "1/s^2")
-    velocity_d_z: float = param(0.0, 2.0, "s/s")
-    velocity_d_cutoff_hz: float = param(0.5, 200.0, "Hz")
-    max_speed_xy: float = param(0.1, 20.0, "m/s")
-    max_speed_up: float = param(0.1, 10.0, "m/s")
-    max_speed_down: float = param(0.1, 10.0, "m/s")
-    max_tilt: float = param(0.05, 1.5, "rad")
-    thrust_min_fraction: float = param(0.0, 0.5, "of total max thrust")
-    thrust_max_fraction: float = param(0.1, 1.0, "of total max thrust")
-    thrust_xy_margin_fraction: float = param(0.0, 0.5, "of total max thrust")
-    attitude_p_roll_pitch: float = param(0.0, 30.0, "1/s")
-    attitude_p_yaw: float = param(0.0, 30.0, "1/s")
-    max_rate_roll_pitch: float = param(0.1, 30.0, "rad/s")
-    max_rate_yaw: float = param(0.1, 30.0, "rad/s")
-    rate_p_roll_pitch: float = param(0.0, 200.0, "1/s")
-    rate_i_roll_pitch: float = param(0.0, 500.0, "1/s^2")
-    rate_d_roll_pitch: float = param(0.0, 2.0, "s/s")
-    rate_integral_limit_roll_pitch: float = param(0.0, 200.0, "rad/s^2")
-    rate_p_yaw: float = param(0.0, 200.0, "1/s")
-    rate_i_yaw: float = param(0.0, 500.0, "1/s^2")
-    rate_d_yaw: float = param(0.0, 2.0, "s/s")
-    rate_integral_limit_yaw: float = param(0.0, 200.0, "rad/s^2")
-    rate_d_cutoff_hz: float = param(0.5, 1000.0, "Hz")
+    rate_loop_hz: int = param(unit="Hz", range=(50, 8000))
+    attitude_loop_hz: int = param(unit="Hz", range=(10, 8000))
+    position_loop_hz: int = param(unit="Hz", range=(5, 8000))
+    position_p_xy: float = param(unit="1/s", range=(0.0, 10.0))
+    position_p_z: float = param(unit="1/s", range=(0.0, 10.0))
+    velocity_p_xy: float = param(unit="1/s", range=(0.0, 30.0))
+    velocity_i_xy: float = param(unit="1/s^2", range=(0.0, 30.0))
+    velocity_d_xy: float = param(unit="s/s", range=(0.0, 2.0))
+    velocity_p_z: float = param(unit="1/s", range=(0.0, 30.0))
+    velocity_i_z: float = param(unit="1/s^2", range=(0.0, 30.0))
+    velocity_d_z: float = param(unit="s/s", range=(0.0, 2.0))
+    velocity_d_cutoff_hz: float = param(unit="Hz", range=(0.5, 200.0))
+    max_speed_xy: float = param(unit="m/s", range=(0.1, 20.0))
+    max_speed_up: float = param(unit="m/s", range=(0.1, 10.0))
+    max_speed_down: float = param(unit="m/s", range=(0.1, 10.0))
+    max_tilt: float = param(unit="rad", range=(0.05, 1.5))
+    thrust_min_fraction: float = param(unit="of total max thrust", range=(0.0, 0.5))
+    thrust_max_fraction: float = param(unit="of total max thrust", range=(0.1, 1.0))
+    thrust_xy_margin_fraction: float = param(unit="of total max thrust", range=(0.0, 0.5))
+    attitude_p_roll_pitch: float = param(unit="1/s", range=(0.0, 30.0))
+    attitude_p_yaw: float = param(unit="1/s", range=(0.0, 30.0))
+    max_rate_roll_pitch: float = param(unit="rad/s", range=(0.1, 30.0))
+    max_rate_yaw: float = param(unit="rad/s", range=(0.1, 30.0))
+    rate_p_roll_pitch: float = param(unit="1/s", range=(0.0, 200.0))
+    rate_i_roll_pitch: float = param(unit="1/s^2", range=(0.0, 500.0))
+    rate_d_roll_pitch: float = param(unit="s/s", range=(0.0, 2.0))
+    rate_integral_limit_roll_pitch: float = param(unit="rad/s^2", range=(0.0, 200.0))
+    rate_p_yaw: float = param(unit="1/s", range=(0.0, 200.0))
+    rate_i_yaw: float = param(unit="1/s^2", range=(0.0, 500.0))
+    rate_d_yaw: float = param(unit="s/s", range=(0.0, 2.0))
+    rate_integral_limit_yaw: float = param(unit="rad/s^2", range=(0.0, 200.0))
+    rate_d_cutoff_hz: float = param(unit="Hz", range=(0.5, 1000.0))
 
     def __post_init__(self) -> None:
         validate_parameters(self)
         for name in ("attitude_loop_hz", "position_loop_hz"):
             hz = getattr(self, name)
             if hz > self.rate_loop_hz or self.rate_loop_hz % hz:
-                raise FcuParameterError(
-                    name,
+                raise ParameterError(
                     f"{hz} Hz must divide rate_loop_hz ({self.rate_loop_hz} Hz) exactly",
+                    key=name,
                 )
         if self.thrust_min_fraction >= self.thrust_max_fraction:
-            raise FcuParameterError(
-                "thrust_min_fraction",
+            raise ParameterError(
                 f"{self.thrust_min_fraction} must be below thrust_max_fraction "
                 f"({self.thrust_max_fraction})",
+                key="thrust_min_fraction",
             )
 
     def period_us(self, hz: int) -> int:
         """Loop period [us] of a loop at ``hz`` (rounded to the microsecond)."""
         return round(_US_PER_S / hz)
-
-
-def control_gains_from_yaml(text: str, source: str | None = None) -> ControlGains:
-    """Gains from the text of a ROS 2 parameter file with an ``fcu_control`` section."""
-    return parameters_from_yaml(ControlGains, CONTROL_NODE_NAME, text, source)
-
-
-def load_control_gains(path: Path = DEFAULT_CONTROL_CONFIG_PATH) -> ControlGains:
-    """Gains from ``config/fcu_control.yaml`` (or ``path``)."""
-    return load_parameters(ControlGains, CONTROL_NODE_NAME, path)
 
 
 # --- position control --------------------------------------------------------------------

@@ -1,14 +1,12 @@
 """Errors raised by the simulated flight controller: each one names what was wrong.
 
-The scheduler's (``SchedulerError`` and its subclasses) and the modules' parameters'
-(``FcuParameterError``, raised by :mod:`sim.fcu.params` and the parameter dataclasses).
+The scheduler's (``SchedulerError`` and its subclasses). The modules' parameters raise
+the project's one :class:`runtime.errors.ParameterError`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-
-from sim.errors import ParameterError
 
 
 class SchedulerError(Exception):
@@ -79,31 +77,3 @@ class UnknownStrategyError(SchedulerError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return str(self.args[0]) if self.args else "unknown offset strategy"
-
-
-class FcuParameterError(ParameterError):
-    """A parameter of the simulated FCU (link, clock, controller, ...) outside its allowed values.
-
-    ``key`` is the parameter's path (``skew_ppm``, or ``fcu_link.ros__parameters.clock.skew_ppm``
-    when it came from the YAML), ``problem`` says what is wrong and what is allowed,
-    ``source`` is the file it came from, if any.
-    """
-
-    def __init__(self, key: str, problem: str, source: str | None = None) -> None:
-        self.key = key
-        self.problem = problem
-        self.source = source
-        super().__init__(key, problem, source)
-
-    def prefixed(self, prefix: str) -> FcuParameterError:
-        """The same error with ``prefix.`` in front of its key."""
-        key = f"{prefix}.{self.key}" if prefix and self.key else prefix or self.key
-        return type(self)(key, self.problem, self.source)
-
-    def with_source(self, source: str) -> FcuParameterError:
-        """The same error, attributed to the file ``source``."""
-        return type(self)(self.key, self.problem, source)
-
-    def __str__(self) -> str:
-        where = ": ".join(part for part in (self.source, self.key) if part)
-        return f"{where}: {self.problem}" if where else self.problem

@@ -24,11 +24,11 @@ import bisect
 import math
 from collections import deque
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from runtime.parameters import param, validate_parameters
 from sim.fcu.control import (
     VehicleState,
     cross3,
@@ -37,25 +37,18 @@ from sim.fcu.control import (
     quat_to_dcm,
     quat_yaw,
 )
-from sim.fcu.params import load_parameters, param, parameters_from_yaml, validate_parameters
 from sim.quadrotor import GRAVITY
 
 __all__ = [
-    "DEFAULT_ESTIMATOR_CONFIG_PATH",
     "ESTIMATOR_NODE_NAME",
     "Estimator",
     "EstimatorOutput",
     "EstimatorParams",
     "VisionSample",
-    "estimator_params_from_yaml",
-    "load_estimator_params",
 ]
 
 FloatArray = npt.NDArray[np.float64]
 ESTIMATOR_NODE_NAME = "fcu_estimator"
-DEFAULT_ESTIMATOR_CONFIG_PATH = (
-    Path(__file__).resolve().parents[2] / "config" / "fcu_estimator.yaml"
-)
 _US_PER_S = 1_000_000
 _GRAVITY_NED = np.array([0.0, 0.0, GRAVITY])
 
@@ -64,35 +57,25 @@ _GRAVITY_NED = np.array([0.0, 0.0, GRAVITY])
 class EstimatorParams:
     """Tuning of the estimator (``config/fcu_estimator.yaml``); ranges declared once."""
 
-    accel_correction_gain: float = param(0.0, 20.0, "1/s")
-    accel_gate: float = param(0.0, 10.0, "m/s^2")
-    motion_compensation: float = param(0.0, 1.0, "-")
-    gyro_bias_gain: float = param(0.0, 10.0, "1/s^2")
-    gyro_bias_limit: float = param(0.0, 1.0, "rad/s")
-    yaw_correction_fraction: float = param(0.0, 1.0, "per vision sample")
-    yaw_bias_gain: float = param(0.0, 10.0, "1/s per vision sample")
-    accel_noise: float = param(1e-4, 100.0, "m/s^2/sqrt(Hz)")
-    accel_bias_noise: float = param(0.0, 10.0, "m/s^3/sqrt(Hz)")
-    vision_position_std: float = param(1e-4, 100.0, "m")
-    vision_velocity_std: float = param(1e-4, 100.0, "m/s")
-    initial_position_std: float = param(1e-3, 1000.0, "m")
-    initial_velocity_std: float = param(1e-3, 100.0, "m/s")
-    initial_accel_bias_std: float = param(0.0, 10.0, "m/s^2")
-    buffer_length_us: int = param(1_000, 10_000_000, "us")
-    vision_timeout_us: int = param(1_000, 100_000_000, "us")
+    accel_correction_gain: float = param(unit="1/s", range=(0.0, 20.0))
+    accel_gate: float = param(unit="m/s^2", range=(0.0, 10.0))
+    motion_compensation: float = param(unit="-", range=(0.0, 1.0))
+    gyro_bias_gain: float = param(unit="1/s^2", range=(0.0, 10.0))
+    gyro_bias_limit: float = param(unit="rad/s", range=(0.0, 1.0))
+    yaw_correction_fraction: float = param(unit="per vision sample", range=(0.0, 1.0))
+    yaw_bias_gain: float = param(unit="1/s per vision sample", range=(0.0, 10.0))
+    accel_noise: float = param(unit="m/s^2/sqrt(Hz)", range=(1e-4, 100.0))
+    accel_bias_noise: float = param(unit="m/s^3/sqrt(Hz)", range=(0.0, 10.0))
+    vision_position_std: float = param(unit="m", range=(1e-4, 100.0))
+    vision_velocity_std: float = param(unit="m/s", range=(1e-4, 100.0))
+    initial_position_std: float = param(unit="m", range=(1e-3, 1000.0))
+    initial_velocity_std: float = param(unit="m/s", range=(1e-3, 100.0))
+    initial_accel_bias_std: float = param(unit="m/s^2", range=(0.0, 10.0))
+    buffer_length_us: int = param(unit="us", range=(1_000, 10_000_000))
+    vision_timeout_us: int = param(unit="us", range=(1_000, 100_000_000))
 
     def __post_init__(self) -> None:
         validate_parameters(self)
-
-
-def estimator_params_from_yaml(text: str, source: str | None = None) -> EstimatorParams:
-    """Parameters from the text of a ROS 2 parameter file with an ``fcu_estimator`` section."""
-    return parameters_from_yaml(EstimatorParams, ESTIMATOR_NODE_NAME, text, source)
-
-
-def load_estimator_params(path: Path = DEFAULT_ESTIMATOR_CONFIG_PATH) -> EstimatorParams:
-    """Parameters from ``config/fcu_estimator.yaml`` (or ``path``)."""
-    return load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME, path)
 
 
 @dataclass(frozen=True)

@@ -26,10 +26,18 @@ import numpy.typing as npt
 import interfaces
 from interfaces.px4 import ArmingState, BatteryWarning, NavigationState
 from interfaces.px4.timesync import Px4Timesync, ns_to_us
+from runtime.parameters import load_parameters, param, validate_parameters
 from sim.fcu.agent import FcuAgentNode
-from sim.fcu.battery import BatteryEstimator, BatteryModel, BatteryParams, BatteryStatusData
+from sim.fcu.battery import (
+    BATTERY_NODE_NAME,
+    BatteryEstimator,
+    BatteryModel,
+    BatteryParams,
+    BatteryStatusData,
+)
 from sim.fcu.clock import FcuClock
 from sim.fcu.commander import (
+    COMMANDER_NODE_NAME,
     Commander,
     CommanderInputs,
     CommanderParams,
@@ -38,6 +46,7 @@ from sim.fcu.commander import (
     VehicleCommandData,
 )
 from sim.fcu.control import (
+    CONTROL_NODE_NAME,
     AttitudeController,
     ControlGains,
     PositionController,
@@ -48,8 +57,15 @@ from sim.fcu.control import (
     mix_with_desaturation,
 )
 from sim.fcu.errors import ModuleSpecError
-from sim.fcu.estimator import Estimator, EstimatorOutput, EstimatorParams, VisionSample
+from sim.fcu.estimator import (
+    ESTIMATOR_NODE_NAME,
+    Estimator,
+    EstimatorOutput,
+    EstimatorParams,
+    VisionSample,
+)
 from sim.fcu.land_detector import (
+    LAND_DETECTOR_NODE_NAME,
     LandDetectedData,
     LandDetector,
     LandDetectorInputs,
@@ -62,10 +78,27 @@ from sim.world import Imu, Scene
 
 FloatArray = npt.NDArray[np.float64]
 
-LAND_SPEED = 0.7  # m/s, PX4 MPC_LAND_SPEED
-LAND_CRAWL_SPEED = 0.3  # m/s, below LAND_CRAWL_HEIGHT
-LAND_CRAWL_HEIGHT = 0.5  # m above home
-IDLE_THRUST_FRACTION = 0.05  # of max per motor, armed on the ground (PX4 spins at idle)
+FIRMWARE_NODE_NAME = "fcu_firmware"
+"""The firmware's section in its ROS 2 parameter file, ``config/fcu_firmware.yaml``."""
+
+
+@dataclass(frozen=True)
+class FirmwareParams:
+    """What the firmware's modules share (``config/fcu_firmware.yaml``); ranges declared once."""
+
+    imu_rate_hz: float = param(unit="Hz", range=(1.0, 8000.0))
+    """IMU samples the firmware reads (one per main-loop tick at 500 Hz)."""
+    land_speed: float = param(unit="m/s", range=(0.1, 5.0))
+    """Auto-land descent speed (PX4 ``MPC_LAND_SPEED``)."""
+    land_crawl_speed: float = param(unit="m/s", range=(0.05, 5.0))
+    """Descent speed below ``land_crawl_height``."""
+    land_crawl_height: float = param(unit="m", range=(0.0, 20.0))
+    """Height above home below which the landing descent slows to ``land_crawl_speed``."""
+    idle_thrust_fraction: float = param(unit="of max thrust per motor", range=(0.0, 0.3))
+    """Motor thrust while armed on the ground (PX4 spins the motors at idle)."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
 
 
 def _periodic(fun: str, hz: float) -> PeriodicSpec:
@@ -155,6 +188,8 @@ class FirmwareConfig:
     """
 
     quad: QuadrotorParams = field(default_factory=QuadrotorParams)
+    firmware: FirmwareParams | None = None
+    land_detector: LandDetectorParams | None = None
     control: ControlGains | None = None
     estimator: EstimatorParams | None = None
     commander: CommanderParams | None = None
@@ -164,20 +199,16 @@ class FirmwareConfig:
     rates_hz: Mapping[str, float] = field(default_factory=dict)
 
     def resolved(self) -> FirmwareConfig:
-        from sim.fcu.battery import load_battery_params
-        from sim.fcu.commander import load_commander_params
-        from sim.fcu.control import load_control_gains
-        from sim.fcu.estimator import load_estimator_params
-
-        return FirmwareConfig(
-            self.quad,
-            self.control or load_control_gains(),
-            self.estimator or load_estimator_params(),
-            self.commander or load_commander_params(),
-            self.battery or load_battery_params(),
-            self.main_freq_hz,
-            self.offsets,
-            self.rates_hz,
+        """This configuration with every module's parameters not given read from config/."""
+        return replace(
+            self,
+            firmware=self.firmware or load_parameters(FirmwareParams, FIRMWARE_NODE_NAME),
+            land_detector=self.land_detector
+            or load_parameters(LandDetectorParams, LAND_DETECTOR_NODE_NAME),
+            control=self.control or load_parameters(ControlGains, CONTROL_NODE_NAME),
+            estimator=self.estimator or load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME),
+            commander=self.commander or load_parameters(CommanderParams, COMMANDER_NODE_NAME),
+            battery=self.battery or load_parameters(BatteryParams, BATTERY_NODE_NAME),
         )
 
 
@@ -208,6 +239,8 @@ class Firmware:
                  config: FirmwareConfig | None = None) -> None:
         cfg = (config or FirmwareConfig()).resolved()
         assert cfg.control and cfg.estimator and cfg.commander and cfg.battery
+        assert cfg.firmware and cfg.land_detector
+        self.params = cfg.firmware
         self.config = cfg
         self.rate_hz = float(cfg.main_freq_hz)
         self.agent = agent
@@ -220,10 +253,10 @@ class Firmware:
         self.rate_controller = RateController(cfg.control, cfg.quad)
         self.estimator = Estimator(cfg.estimator)
         self.commander = Commander(cfg.commander)
-        self.land_detector = LandDetector(LandDetectorParams(
+        self.land_detector = LandDetector(replace(
+            cfg.land_detector,
             thrust_min=cfg.control.thrust_min_fraction,
             thrust_hover=cfg.quad.hover_thrust / cfg.quad.max_motor_thrust,
-            descent_vz_threshold=0.5 * LAND_CRAWL_SPEED,  # a landing descent counts
         ))
         self.battery_model = BatteryModel(cfg.battery.model)
         self.battery_estimator = BatteryEstimator(
@@ -407,7 +440,8 @@ class Firmware:
         elif mode in (NavigationState.AUTO_LAND, NavigationState.AUTO_RTL):
             here = self._hold_here(mode)
             height = -float(self.estimate.state.position_ned[2])
-            speed = LAND_CRAWL_SPEED if height < LAND_CRAWL_HEIGHT else LAND_SPEED
+            p = self.params
+            speed = p.land_crawl_speed if height < p.land_crawl_height else p.land_speed
             self.setpoint = TrajectorySetpointData(
                 position=np.array([here[0], here[1], math.nan]),
                 velocity=np.array([math.nan, math.nan, speed]), yaw=self._hold_yaw)
@@ -449,7 +483,8 @@ class Firmware:
 
     def allocate(self) -> None:
         if not self.armed or self.position_out is None:
-            idle = IDLE_THRUST_FRACTION * self.quad.max_motor_thrust if self.armed else 0.0
+            idle = (self.params.idle_thrust_fraction * self.quad.max_motor_thrust
+                    if self.armed else 0.0)
             self.motor_commands = np.full(NUM_ROTORS, idle)
             return
         mixed = mix_with_desaturation(self.quad, self.position_out.collective_thrust,

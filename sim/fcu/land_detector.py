@@ -32,10 +32,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.params import param, validate_parameters
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 
 __all__ = [
+    "LAND_DETECTOR_NODE_NAME",
     "Hysteresis",
     "LandDetectedData",
     "LandDetector",
@@ -43,42 +44,51 @@ __all__ = [
     "LandDetectorParams",
 ]
 
+LAND_DETECTOR_NODE_NAME = "fcu_land_detector"
+"""The land detector's section in its ROS 2 parameter file, ``config/fcu_land_detector.yaml``."""
+
 _US_PER_S = 1_000_000
-_ROTATION_WIDENING = 2.5  # PX4: wider thresholds once maybe landed
-_Z_VEL_WIDENING = 2.5
-_LOW_THRUST_FRACTION = 0.3  # of (hover - min): ground contact
-_MIN_THRUST_FRACTION = 0.1  # of (hover - min): maybe landed
 
 
 @dataclass(frozen=True, slots=True)
 class LandDetectorParams:
     """PX4's ``LNDMC_*``, ``LNDMC_FFALL_*`` and ``MPC_THR_*`` parameters (PX4 defaults)."""
 
-    z_vel_max: float = param(0.0, 10.0, "m/s", default=0.25)
+    z_vel_max: float = param(0.25, unit="m/s", range=(0.0, 10.0))
     """``LNDMC_Z_VEL_MAX`` [m/s]: vertical speed below which the vehicle is not moving."""
-    xy_vel_max: float = param(0.0, 10.0, "m/s", default=1.5)
+    xy_vel_max: float = param(1.5, unit="m/s", range=(0.0, 10.0))
     """``LNDMC_XY_VEL_MAX`` [m/s]: horizontal speed allowed while landed."""
-    rot_max_deg_s: float = param(0.0, 1000.0, "deg/s", default=20.0)
+    rot_max_deg_s: float = param(20.0, unit="deg/s", range=(0.0, 1000.0))
     """``LNDMC_ROT_MAX`` [deg/s]: roll/pitch rate allowed while landed."""
-    trigger_time_s: float = param(0.0, 10.0, "s", default=1.0)
+    trigger_time_s: float = param(1.0, unit="s", range=(0.0, 10.0))
     """``LNDMC_TRIG_TIME`` [s]: total hysteresis, a third per stage."""
-    freefall_acc_threshold: float = param(0.0, 10.0, "m/s^2", default=2.0)
+    freefall_acc_threshold: float = param(2.0, unit="m/s^2", range=(0.0, 10.0))
     """``LNDMC_FFALL_THR`` [m/s^2]: specific-force norm below which the vehicle falls."""
-    freefall_trigger_time_s: float = param(0.0, 5.0, "s", default=0.3)
+    freefall_trigger_time_s: float = param(0.3, unit="s", range=(0.0, 5.0))
     """``LNDMC_FFALL_TTRI`` [s]."""
-    thrust_min: float = param(0.0, 1.0, default=0.12)
-    """``MPC_THR_MIN``: minimum collective thrust in auto modes [0..1]."""
-    thrust_hover: float = param(0.0, 1.0, default=0.5)
-    """``MPC_THR_HOVER``: hover collective thrust [0..1]."""
-    descent_vz_threshold: float = param(0.0, 10.0, "m/s", default=0.6)
+    thrust_min: float = param(0.12, range=(0.0, 1.0))
+    """``MPC_THR_MIN``: minimum collective thrust in auto modes [0..1]; the firmware sets it
+    from ``fcu_control.thrust_min_fraction``."""
+    thrust_hover: float = param(0.5, range=(0.0, 1.0))
+    """``MPC_THR_HOVER``: hover collective thrust [0..1]; the firmware sets it from the
+    airframe's hover thrust."""
+    descent_vz_threshold: float = param(0.6, unit="m/s", range=(0.0, 10.0))
     """Commanded descent speed [m/s, NED down] above which the vehicle is ``in_descend``."""
+    low_thrust_fraction: float = param(0.3, range=(0.0, 1.0))
+    """Ground contact needs thrust at or below ``min + this * (hover - min)`` (PX4: 0.3)."""
+    minimal_thrust_fraction: float = param(0.1, range=(0.0, 1.0))
+    """Maybe landed needs thrust at or below ``min + this * (hover - min)`` (PX4: 0.1)."""
+    z_vel_widening: float = param(2.5, range=(1.0, 10.0))
+    """Factor on ``z_vel_max`` once maybe landed (PX4: 2.5)."""
+    rotation_widening: float = param(2.5, range=(1.0, 10.0))
+    """Factor on ``rot_max_deg_s`` once maybe landed (PX4: 2.5)."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
         if self.thrust_hover <= self.thrust_min:
-            raise FcuParameterError(
-                "thrust_hover",
+            raise ParameterError(
                 f"{self.thrust_hover!r} must be above thrust_min = {self.thrust_min!r}",
+                key="thrust_hover",
             )
 
     @property
@@ -89,12 +99,13 @@ class LandDetectorParams:
     @property
     def low_thrust(self) -> float:
         """Thrust at or below which ground contact is possible."""
-        return self.thrust_min + (self.thrust_hover - self.thrust_min) * _LOW_THRUST_FRACTION
+        return self.thrust_min + (self.thrust_hover - self.thrust_min) * self.low_thrust_fraction
 
     @property
     def minimal_thrust(self) -> float:
         """Thrust at or below which the vehicle may be landed."""
-        return self.thrust_min + (self.thrust_hover - self.thrust_min) * _MIN_THRUST_FRACTION
+        span = self.thrust_hover - self.thrust_min
+        return self.thrust_min + span * self.minimal_thrust_fraction
 
 
 @dataclass(frozen=True, slots=True)
@@ -202,7 +213,7 @@ class LandDetector:
         freefall = self._freefall.update(inputs.specific_force_norm < p.freefall_acc_threshold, now)
 
         # stage 1: ground contact
-        z_threshold = p.z_vel_max * (_Z_VEL_WIDENING if maybe_landed_before else 1.0)
+        z_threshold = p.z_vel_max * (p.z_vel_widening if maybe_landed_before else 1.0)
         vertical_movement = not inputs.v_z_valid or abs(inputs.vz) > z_threshold
         horizontal_movement = inputs.v_xy_valid and math.hypot(inputs.vx, inputs.vy) > p.xy_vel_max
         has_low_throttle = inputs.thrust <= p.low_thrust
@@ -223,7 +234,7 @@ class LandDetector:
 
         # stage 2: maybe landed
         rot_threshold = math.radians(p.rot_max_deg_s) * (
-            _ROTATION_WIDENING if maybe_landed_before else 1.0
+            p.rotation_widening if maybe_landed_before else 1.0
         )
         rotational_movement = math.hypot(inputs.roll_rate, inputs.pitch_rate) > rot_threshold
         maybe_now = (

@@ -41,7 +41,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from pathlib import Path
 
 import numpy as np
 
@@ -51,19 +50,12 @@ from interfaces.px4.seed000 import (
     TABLE3_TO_FCU,
     LatencyFigure,
 )
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 from sim.errors import SimError
 from sim.fcu.clock import FcuClock
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.params import (
-    load_parameters,
-    param,
-    parameters_from_mapping,
-    parameters_from_yaml,
-    validate_parameters,
-)
 
 __all__ = [
-    "DEFAULT_LINK_CONFIG_PATH",
     "LINK_NODE_NAME",
     "TABLE3_MESSAGE_SIZE_BYTES",
     "TABLE3_TO_COMPANION",
@@ -76,15 +68,10 @@ __all__ = [
     "LinkOrderError",
     "LinkParams",
     "calibrate_direction",
-    "link_params_from_mapping",
-    "link_params_from_yaml",
-    "load_link_params",
 ]
 
-DEFAULT_LINK_CONFIG_PATH = Path(__file__).resolve().parents[2] / "config" / "fcu_link.yaml"
-"""The link's parameter file (ROS 2 parameter-file shape)."""
 LINK_NODE_NAME = "fcu_link"
-"""The top-level key of the link's section in a ROS 2 parameter file."""
+"""The link's section in its ROS 2 parameter file, ``config/fcu_link.yaml``."""
 
 _NS_PER_S = 1_000_000_000
 _NS_PER_US = 1000
@@ -108,34 +95,34 @@ class LinkOrderError(SimError, ValueError):
 class LinkDirectionParams:
     """Latency, spikes, loss and line settings of one direction (see the module docstring)."""
 
-    base_latency_us: float = param(0.0, 1e6, "us")
+    base_latency_us: float = param(unit="us", range=(0.0, 1e6))
     """Fixed latency floor on top of the wire time [us]."""
-    jitter_shape: float = param(1e-3, 1e3)
+    jitter_shape: float = param(range=(1e-3, 1e3))
     """Shape k of the gamma jitter (skewness 2/sqrt(k); large k looks Gaussian)."""
-    jitter_scale_us: float = param(0.0, 1e6, "us")
+    jitter_scale_us: float = param(unit="us", range=(0.0, 1e6))
     """Scale theta of the gamma jitter [us]: mean k*theta, variance k*theta^2."""
-    spike_probability: float = param(0.0, 1.0)
+    spike_probability: float = param(range=(0.0, 1.0))
     """Chance that a message gets a load spike on top of its latency."""
-    spike_min_us: float = param(0.0, 1e7, "us")
+    spike_min_us: float = param(unit="us", range=(0.0, 1e7))
     """Smallest extra latency of a spike [us]."""
-    spike_max_us: float = param(0.0, 1e7, "us")
+    spike_max_us: float = param(unit="us", range=(0.0, 1e7))
     """Largest extra latency of a spike [us], >= spike_min_us; uniform in between."""
-    loss_probability: float = param(0.0, 1.0)
+    loss_probability: float = param(range=(0.0, 1.0))
     """Chance that a message is lost (never delivered)."""
-    baud_rate: int = param(300, 100_000_000, "bit/s")
+    baud_rate: int = param(unit="bit/s", range=(300, 100_000_000))
     """Line rate [bit/s] (symbols per second of the UART)."""
-    bits_per_byte: int = param(0, 12, "bit")
+    bits_per_byte: int = param(unit="bit", range=(0, 12))
     """Bits on the line per byte: 10 for 8N1 (start + 8 data + stop); 0 is an ideal line."""
-    framing_overhead_bytes: int = param(0, 65_535, "bytes")
+    framing_overhead_bytes: int = param(unit="bytes", range=(0, 65_535))
     """Bytes added to each message's CDR size by the transport's framing and headers."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
         if self.spike_max_us < self.spike_min_us:
-            raise FcuParameterError(
-                "spike_max_us",
+            raise ParameterError(
                 f"{self.spike_max_us!r} is outside the allowed range "
                 f"[spike_min_us = {self.spike_min_us!r}, 1e+07] us",
+                key="spike_max_us",
             )
 
     def wire_time_ns(self, size_bytes: int) -> int:
@@ -195,7 +182,7 @@ def calibrate_direction(
 
     The floor, spikes, loss and line settings of ``template`` are kept; with
     ``m = mean - floor - wire time - p * spike mean`` and ``v = sd^2 - spike variance``
-    the gamma has shape ``m^2 / v`` and scale ``v / m``. Raises FcuParameterError when
+    the gamma has shape ``m^2 / v`` and scale ``v / m``. Raises ParameterError when
     the template leaves no positive mean or variance for the jitter.
     """
     wire_us = template.wire_time_ns(size_bytes) / _NS_PER_US
@@ -207,18 +194,18 @@ def calibrate_direction(
     )
     jitter_var_us2 = target.sd_us**2 - _spike_variance_us2(template)
     if jitter_mean_us <= 0.0:
-        raise FcuParameterError(
-            "base_latency_us",
+        raise ParameterError(
             f"floor {template.base_latency_us:g} us + wire time {wire_us:.1f} us + mean spike "
             f"{template.spike_probability * template.spike_mean_us:.1f} us leave no room "
             f"under the target mean {target.mean_us:g} us",
+            key="base_latency_us",
         )
     if jitter_var_us2 <= 0.0:
-        raise FcuParameterError(
-            "spike_probability",
+        raise ParameterError(
             f"the spikes alone have a standard deviation of "
             f"{math.sqrt(_spike_variance_us2(template)):.1f} us, not below the target "
             f"{target.sd_us:g} us",
+            key="spike_probability",
         )
     return replace(
         template,
@@ -235,7 +222,7 @@ class LinkParams:
     """Companion computer -> flight controller (``/fmu/in/*``)."""
     to_companion: LinkDirectionParams
     """Flight controller -> companion computer (``/fmu/out/*``)."""
-    seed: int = param(0, 2**63 - 1)
+    seed: int = param(range=(0, 2**63 - 1))
     """Seed of the per-direction random generators."""
     clock: FcuClock = field(default_factory=FcuClock.ideal)
     """The FCU's clock against simulated time."""
@@ -252,29 +239,6 @@ class LinkParams:
         """An ideal link (delivery at the send time, nothing lost) and an ideal clock."""
         ideal = LinkDirectionParams.null()
         return cls(to_fcu=ideal, to_companion=ideal, seed=seed, clock=FcuClock.ideal())
-
-
-# -- loading from YAML -----------------------------------------------------------------------
-
-
-def link_params_from_mapping(doc: object) -> LinkParams:
-    """Link parameters from a parsed ROS 2 parameter file (``fcu_link: ros__parameters: ...``).
-
-    Every key must be present; unknown keys, wrong types and values out of range raise
-    FcuParameterError naming the key path and the allowed range. Other nodes' sections
-    in the same file are ignored.
-    """
-    return parameters_from_mapping(LinkParams, LINK_NODE_NAME, doc)
-
-
-def link_params_from_yaml(text: str, source: str | None = None) -> LinkParams:
-    """Link parameters from the text of a ROS 2 parameter file; ``source`` names it in errors."""
-    return parameters_from_yaml(LinkParams, LINK_NODE_NAME, text, source)
-
-
-def load_link_params(path: Path = DEFAULT_LINK_CONFIG_PATH) -> LinkParams:
-    """Link parameters from a ROS 2 parameter file (default: ``config/fcu_link.yaml``)."""
-    return load_parameters(LinkParams, LINK_NODE_NAME, path)
 
 
 # -- the link ------------------------------------------------------------------------------

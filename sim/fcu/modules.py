@@ -26,6 +26,7 @@ from typing import Any
 
 import yaml
 
+from runtime.parameters import load_yaml, yaml_syntax_problem
 from sim.fcu.errors import ModuleSpecError
 
 
@@ -324,9 +325,9 @@ def module_from_dict(data: Mapping[str, Any], key: str = "module") -> ModuleSpec
 def modules_from_yaml(text: str) -> tuple[ModuleSpec, ...]:
     """Modules from YAML text with a top-level ``modules:`` list."""
     try:
-        data = yaml.safe_load(text)
+        data = load_yaml(text)
     except yaml.YAMLError as exc:
-        raise ModuleSpecError("<yaml>", f"not valid YAML: {exc}") from None
+        raise ModuleSpecError("<yaml>", yaml_syntax_problem(exc)) from None
     if not isinstance(data, Mapping) or "modules" not in data:
         raise ModuleSpecError("modules", "expected a mapping with a top-level 'modules' list")
     extra = [k for k in data if k != "modules"]

@@ -12,10 +12,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from runtime import DeterministicExecutor
+from runtime.parameters import load_parameters
 from sim.arena import ArenaSpec, default_arena
 from sim.fcu.agent import FcuAgentNode
 from sim.fcu.firmware import Firmware, FirmwareConfig
-from sim.fcu.link import Link, LinkParams, load_link_params
+from sim.fcu.link import LINK_NODE_NAME, Link, LinkParams
 from sim.quadrotor import MotorModel
 from sim.vision import VisionNode, VisionNoise, VisionPose
 from sim.world import (
@@ -68,14 +69,16 @@ def build_sitl(
     scene = Scene.build(arena or default_arena())
     scene.place_at_takeoff()
     ex = executor or DeterministicExecutor()
-    link_params = link or load_link_params()
+    link_params = link or load_parameters(LinkParams, LINK_NODE_NAME)
+    firmware = (firmware or FirmwareConfig()).resolved()
+    assert firmware.firmware is not None
     the_link = Link(link_params.__class__(link_params.to_fcu, link_params.to_companion,
                                           seed + link_params.seed, link_params.clock))
     agent = FcuAgentNode(the_link, context=ex.context)
-    imu = Imu.seeded(seed + 1, rate_hz=500.0)  # what the 500 Hz main loop reads
+    imu = Imu.seeded(seed + 1, rate_hz=firmware.firmware.imu_rate_hz)
     fw = Firmware(agent, imu, the_link.clock, firmware)
     vision_node = VisionNode(context=ex.context)
-    vision = VisionPose(vision_node, vision_noise or VisionNoise(), seed=seed + 2)
+    vision = VisionPose.from_node(vision_node, seed=seed + 2, noise=vision_noise)
     actuation = Actuation(fw, MotorModel(scene.quad), rate_hz=fw.rate_hz)
     for node in (agent, vision_node):
         ex.add_node(node)

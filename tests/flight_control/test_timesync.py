@@ -439,9 +439,16 @@ def test_registry_and_parameter_errors() -> None:
         make_estimator("ntp")
     with pytest.raises(TimesyncParameterError, match="takes no parameters"):
         make_estimator("px4", alpha=0.1)
-    with pytest.raises(TimesyncParameterError, match=r"unknown kalman parameter.*'alpha'"):
+    with pytest.raises(TimesyncParameterError,
+                       match=r"^kalman\.alpha: unknown key; allowed keys are max_rtt_us, "):
         make_estimator("kalman", alpha=0.1)
-    with pytest.raises(TimesyncParameterError, match=r"rtt_floor_quantile=0\.9.*\[0\.0, 0\.5\]"):
+    with pytest.raises(TimesyncParameterError, match=r"^kalman\.gate_sigmas: 1\.0 is outside "
+                                                     r"the allowed range \[2, 100\]$"):
+        make_estimator("kalman", gate_sigmas=1)
+    with pytest.raises(TimesyncParameterError, match=r"^kalman\.rtt_floor_quantile: 0\.9 is "
+                                                     r"outside the allowed range \[0, 0\.5\]$"):
         KalmanParams(rtt_floor_quantile=0.9)
-    with pytest.raises(TimesyncParameterError, match=r"max_rtt_us.*int"):
+    with pytest.raises(TimesyncParameterError, match=r"^kalman\.max_rtt_us: 10000\.0 must be an "
+                                                     r"integer in the allowed range "
+                                                     r"\(0, 1000000\] us$"):
         KalmanParams(max_rtt_us=10_000.0)  # type: ignore[arg-type]

@@ -29,9 +29,10 @@ from quadmission.latency import (
     run_latency_experiment,
     stream_charges,
 )
+from runtime.parameters import load_parameters
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.firmware import FIRMWARE_MODULES, firmware_modules, firmware_schedule
-from sim.fcu.link import Link, LinkDirection, load_link_params
+from sim.fcu.link import LINK_NODE_NAME, Link, LinkDirection, LinkParams
 
 STATS_KEYS = {"mean_us", "sd_us", "p50_us", "p99_us", "max_us", "n"}
 TOLERANCE = 0.15  # relative, against the link model's calibrated means
@@ -127,7 +128,7 @@ def test_firmware_rates_override_only_what_it_names() -> None:
 def test_the_link_charges_115_bytes_for_the_two_streams_only() -> None:
     charges = stream_charges()
     assert charges == {(LinkDirection.TO_FCU, 118): 115, (LinkDirection.TO_COMPANION, 52): 115}
-    params = load_link_params()
+    params = load_parameters(LinkParams, LINK_NODE_NAME)
     charged, plain = ChargedSizeLink(params, charges), Link(params)
     for k in range(50):  # same draws: the charged sizes give the 115-byte deliveries
         t = k * 5_000_000
@@ -168,7 +169,7 @@ def test_corrected_latency_is_the_link_plus_consumption(report: LatencyReport,
 def test_uncorrected_latency_carries_the_clock_offset(report: LatencyReport,
                                                       path: LatencyPath) -> None:
     figures = report.path(path)
-    boot_offset_us = load_link_params().clock.boot_offset_us
+    boot_offset_us = load_parameters(LinkParams, LINK_NODE_NAME).clock.boot_offset_us
     assert abs(figures.uncorrected.mean_us) > 1e6
     sign = 1 if path is LatencyPath.FORWARD else -1
     # raw stamps differ from the true ones by the FCU's boot offset plus its 20 ppm drift
@@ -241,5 +242,7 @@ def test_cli_prints_json_and_table(report: LatencyReport, capsys: pytest.Capture
     assert json.loads(capsys.readouterr().out)["forward"]["corrected"]["n"] > 0
     assert main(["latency", "--estimator", "px4"]) == 0
     assert "Companion -> FCU" in capsys.readouterr().out
-    assert main(["latency", "--duration", "0"]) == 2
-    assert "duration_s=0.0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:
+        main(["latency", "--duration", "0"])
+    assert exit_info.value.code == 2
+    assert "0 must be a positive number of seconds" in capsys.readouterr().err

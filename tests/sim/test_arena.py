@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 import yaml
 
+from runtime.parameters import config_path
 from sim.arena import (
-    DEFAULT_ARENA_PATH,
+    DEFAULT_ARENA,
     FLIGHT_ALTITUDE,
     LOW_OBSTACLE_MAX_HEIGHT,
     PAD_IDS,
@@ -32,7 +33,7 @@ from tests.sim.footprints import overlapping_pairs
 
 
 def _raw() -> dict[str, Any]:
-    data: dict[str, Any] = yaml.safe_load(DEFAULT_ARENA_PATH.read_text())
+    data: dict[str, Any] = yaml.safe_load(config_path(DEFAULT_ARENA).read_text())
     return data
 
 
@@ -240,14 +241,26 @@ def test_low_obstacles_do_not_wall_off_the_field() -> None:
 
 
 def test_duplicate_yaml_keys_are_rejected() -> None:
-    text = DEFAULT_ARENA_PATH.read_text().replace("start_pad: 1", "start_pad: 1\nstart_pad: 2")
-    with pytest.raises(ArenaError, match="start_pad: duplicate key on line"):
+    text = config_path(DEFAULT_ARENA).read_text().replace("start_pad: 1",
+                                                          "start_pad: 1\nstart_pad: 2")
+    with pytest.raises(ArenaError,
+                       match=r"invalid YAML at line \d+, column 1: duplicate key 'start_pad'"):
         arena_from_yaml(text)
 
 
 def test_broken_yaml_is_an_arena_error() -> None:
     with pytest.raises(ArenaError, match="invalid YAML"):
         arena_from_yaml("pads: [1, 2\nname: x")
+
+
+def test_a_yaml_syntax_error_is_one_line_naming_the_file(tmp_path: Path) -> None:
+    path = tmp_path / "broken.yaml"
+    path.write_text("name: x\npads: [1, 2\nfield: {}\n")
+    with pytest.raises(ArenaError) as caught:
+        load_arena(path)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: invalid YAML at line 3, column 6: ")
 
 
 def test_file_errors_name_the_file_and_the_key(tmp_path: Path) -> None:

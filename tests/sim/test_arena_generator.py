@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from runtime.errors import ParameterError
 from sim.arena import (
     LOW_OBSTACLE_MAX_HEIGHT,
     PAD_IDS,
@@ -15,7 +16,7 @@ from sim.arena import (
     reachable_cells,
 )
 from sim.arena_generator import GeneratorConfig, generate_arena
-from sim.errors import ArenaError, ParameterError
+from sim.errors import ArenaError
 from tests.sim.footprints import overlapping_pairs
 
 SEEDS = range(20)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.errors import ParameterError
+from runtime.errors import ParameterError
 from sim.markers import (
     MARKER_MODULES,
     PAD_RGB,

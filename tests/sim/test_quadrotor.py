@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sim.errors import ParameterError
+from runtime.errors import ParameterError
 from sim.quadrotor import (
     GRAVITY,
     ImuNoiseModel,

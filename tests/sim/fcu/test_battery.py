@@ -8,18 +8,19 @@ import math
 import pytest
 
 from interfaces.px4 import BatteryWarning
+from runtime.errors import ParameterError
+from runtime.parameters import load_parameters, parameters_from_mapping
 from sim.fcu.battery import (
+    BATTERY_NODE_NAME,
     BatteryEstimator,
     BatteryEstimatorParams,
     BatteryModel,
     BatteryModelParams,
+    BatteryParams,
     BatteryStatusData,
-    battery_params_from_mapping,
     cell_ocv_v,
-    load_battery_params,
     warning_for_remaining,
 )
-from sim.fcu.errors import FcuParameterError
 
 STEP_US = 100_000  # 10 Hz
 HOVER_N = (1.5 * 9.80665 / 4,) * 4  # the default 1.5 kg quad
@@ -136,20 +137,21 @@ def test_the_model_and_the_estimate_are_deterministic() -> None:
 
 
 def test_the_config_file_loads_and_errors_name_the_key() -> None:
-    params = load_battery_params()
+    params = load_parameters(BatteryParams, BATTERY_NODE_NAME)
     assert params.model.cell_count == 4
     assert params.estimator.low_thr == 0.15
     assert params.estimator.crit_thr == 0.07
     assert params.estimator.emergen_thr == 0.05
-    with pytest.raises(FcuParameterError, match=r"fcu_battery\.ros__parameters\.model\.cells"):
-        battery_params_from_mapping({"fcu_battery": {"ros__parameters": {"model": {"cells": 4}}}})
-    with pytest.raises(FcuParameterError, match=r"estimator\.low_thr.*\[0.12, 0.5\]"):
-        battery_params_from_mapping(
+    with pytest.raises(ParameterError, match=r"fcu_battery\.model\.cells"):
+        parameters_from_mapping(BatteryParams, BATTERY_NODE_NAME,
+                                {"fcu_battery": {"ros__parameters": {"model": {"cells": 4}}}})
+    with pytest.raises(ParameterError, match=r"estimator\.low_thr.*\[0.12, 0.5\]"):
+        parameters_from_mapping(BatteryParams, BATTERY_NODE_NAME,
             {"fcu_battery": {"ros__parameters": {"estimator": {"low_thr": 0.9}}}}
         )
-    with pytest.raises(FcuParameterError, match="emergen_thr < crit_thr < low_thr"):
+    with pytest.raises(ParameterError, match="emergen_thr < crit_thr < low_thr"):
         BatteryEstimatorParams(crit_thr=0.2, low_thr=0.15)
-    with pytest.raises(FcuParameterError, match=r"capacity_mah.*\(0, 1e\+06\] mAh"):
+    with pytest.raises(ParameterError, match=r"capacity_mah.*\(0, 1e\+06\] mAh"):
         BatteryModelParams(capacity_mah=0.0)
 
 

@@ -19,7 +19,10 @@ from interfaces.px4 import (
     NavigationState,
     VehicleCmd,
 )
+from runtime.errors import ParameterError
+from runtime.parameters import load_parameters, parameters_from_mapping, parameters_from_yaml
 from sim.fcu.commander import (
+    COMMANDER_NODE_NAME,
     TRANSITIONS,
     BatteryFailsafeAction,
     Commander,
@@ -32,12 +35,8 @@ from sim.fcu.commander import (
     FlightState,
     OffboardLossAction,
     VehicleCommandData,
-    commander_params_from_mapping,
-    commander_params_from_yaml,
-    load_commander_params,
     render_transition_table,
 )
-from sim.fcu.errors import FcuParameterError
 
 MS = 1000
 S = 1_000_000
@@ -629,22 +628,23 @@ def test_random_command_sequences_keep_the_invariants(
 
 
 def test_the_config_file_loads() -> None:
-    params = load_commander_params()
+    params = load_parameters(CommanderParams, COMMANDER_NODE_NAME)
     assert params.offboard_loss_timeout_s == 1.0
     assert params.disarm_land_s == 2.0
     assert params.offboard_loss_action is OffboardLossAction.LAND
 
 
 def test_parameter_errors_name_the_key_and_the_range() -> None:
-    with pytest.raises(FcuParameterError, match=r"fcu_commander\.ros__parameters\.bogus"):
-        commander_params_from_mapping({"fcu_commander": {"ros__parameters": {"bogus": 1}}})
-    with pytest.raises(FcuParameterError, match=r"disarm_land_s.*\[-1, 20\] s"):
-        commander_params_from_mapping(
+    with pytest.raises(ParameterError, match=r"fcu_commander\.bogus"):
+        parameters_from_mapping(CommanderParams, COMMANDER_NODE_NAME,
+                                {"fcu_commander": {"ros__parameters": {"bogus": 1}}})
+    with pytest.raises(ParameterError, match=r"disarm_land_s.*\[-1, 20\] s"):
+        parameters_from_mapping(CommanderParams, COMMANDER_NODE_NAME,
             {"fcu_commander": {"ros__parameters": {"disarm_land_s": 99.0}}}
         )
-    with pytest.raises(FcuParameterError, match=r"offboard_loss_action.*hold, land, return"):
-        commander_params_from_yaml(
+    with pytest.raises(ParameterError, match=r"offboard_loss_action.*hold, land, return"):
+        parameters_from_yaml(CommanderParams, COMMANDER_NODE_NAME,
             "fcu_commander:\n  ros__parameters:\n    offboard_loss_action: explode\n"
         )
-    with pytest.raises(FcuParameterError, match=r"failsafe_hold_s.*must be a number"):
+    with pytest.raises(ParameterError, match=r"failsafe_hold_s.*must be a number"):
         CommanderParams(failsafe_hold_s="5")  # type: ignore[arg-type]

@@ -15,7 +15,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from runtime.errors import ParameterError
+from runtime.parameters import config_path, load_parameters, parameters_from_yaml
 from sim.fcu.control import (
+    CONTROL_NODE_NAME,
     AttitudeController,
     Cascade,
     ControlGains,
@@ -23,16 +26,13 @@ from sim.fcu.control import (
     TrajectorySetpointData,
     VehicleState,
     attitude_from_thrust_vector,
-    control_gains_from_yaml,
-    load_control_gains,
     mix_with_desaturation,
     quat_from_axis_angle,
     quat_multiply,
     quat_to_dcm,
     quat_yaw,
 )
-from sim.fcu.errors import FcuParameterError
-from sim.fcu.estimator import Estimator, load_estimator_params
+from sim.fcu.estimator import ESTIMATOR_NODE_NAME, Estimator, EstimatorParams
 from sim.fcu.rigid_body import (
     FlightLog,
     RigidBody,
@@ -50,7 +50,7 @@ PARAMS = QuadrotorParams()
 
 @pytest.fixture(scope="module")
 def gains() -> ControlGains:
-    return load_control_gains()
+    return load_parameters(ControlGains, CONTROL_NODE_NAME)
 
 
 def flight(
@@ -61,7 +61,8 @@ def flight(
         PARAMS, position_enu=(0.0, 0.0, ALTITUDE), yaw_enu=math.pi / 2,
         rng=np.random.default_rng(seed),
     )  # fmt: skip
-    estimator = Estimator(load_estimator_params(), position_ned=HOVER_NED)
+    estimator = Estimator(load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME),
+                          position_ned=HOVER_NED)
     return fly(
         body, Cascade(gains, PARAMS), setpoints, round(duration_s * 1e6),
         estimator=estimator, vision=VisionModel(latency_us=50_000, seed=seed),
@@ -77,39 +78,40 @@ def test_default_config_loads_with_loop_rates_that_divide(gains: ControlGains) -
 
 
 def _yaml_with(key: str, value: str) -> str:
-    from sim.fcu.control import DEFAULT_CONTROL_CONFIG_PATH
 
-    lines = DEFAULT_CONTROL_CONFIG_PATH.read_text(encoding="utf-8").splitlines()
+    lines = config_path("fcu_control.yaml").read_text(encoding="utf-8").splitlines()
     out = [f"    {key}: {value}" if line.strip().startswith(f"{key}:") else line for line in lines]
     return "\n".join(out)
 
 
 def test_out_of_range_gain_names_the_key_and_the_range() -> None:
-    with pytest.raises(FcuParameterError) as info:
-        control_gains_from_yaml(_yaml_with("max_tilt", "2.0"), "fcu_control.yaml")
+    with pytest.raises(ParameterError) as info:
+        parameters_from_yaml(ControlGains, CONTROL_NODE_NAME, _yaml_with("max_tilt", "2.0"),
+                             "fcu_control.yaml")
     message = str(info.value)
-    assert "fcu_control.ros__parameters.max_tilt" in message
+    assert "fcu_control.max_tilt" in message
     assert "[0.05, 1.5] rad" in message and "fcu_control.yaml" in message
 
 
 def test_unknown_and_missing_keys_are_named() -> None:
-    with pytest.raises(FcuParameterError, match=r"ros__parameters\.max_tilt_deg: unknown key"):
-        control_gains_from_yaml(_yaml_with("max_tilt", "0.6\n    max_tilt_deg: 30"))
+    with pytest.raises(ParameterError, match=r"max_tilt_deg: unknown key"):
+        parameters_from_yaml(ControlGains, CONTROL_NODE_NAME,
+                             _yaml_with("max_tilt", "0.6\n    max_tilt_deg: 30"))
     text = "\n".join(
         line for line in _yaml_with("max_tilt", "0.6").splitlines() if "rate_p_yaw" not in line
     )
-    with pytest.raises(FcuParameterError, match=r"rate_p_yaw: missing"):
-        control_gains_from_yaml(text)
+    with pytest.raises(ParameterError, match=r"rate_p_yaw: missing"):
+        parameters_from_yaml(ControlGains, CONTROL_NODE_NAME, text)
 
 
 def test_loop_rate_that_does_not_divide_the_rate_loop_is_rejected(gains: ControlGains) -> None:
-    with pytest.raises(FcuParameterError, match=r"position_loop_hz.*must divide"):
+    with pytest.raises(ParameterError, match=r"position_loop_hz.*must divide"):
         dataclasses.replace(gains, position_loop_hz=75)
 
 
 def test_integer_parameter_rejects_a_float() -> None:
-    with pytest.raises(FcuParameterError, match=r"rate_loop_hz.*integer"):
-        control_gains_from_yaml(_yaml_with("rate_loop_hz", "500.5"))
+    with pytest.raises(ParameterError, match=r"rate_loop_hz.*integer"):
+        parameters_from_yaml(ControlGains, CONTROL_NODE_NAME, _yaml_with("rate_loop_hz", "500.5"))
 
 
 # --- frames and pieces ----------------------------------------------------------------------

@@ -12,22 +12,22 @@ import math
 import numpy as np
 import pytest
 
+from runtime.errors import ParameterError
+from runtime.parameters import config_path, load_parameters, parameters_from_yaml
 from sim.fcu.control import (
+    CONTROL_NODE_NAME,
     Cascade,
+    ControlGains,
     TrajectorySetpointData,
-    load_control_gains,
     quat_from_axis_angle,
     quat_multiply,
     quat_to_dcm,
 )
-from sim.fcu.errors import FcuParameterError
 from sim.fcu.estimator import (
-    DEFAULT_ESTIMATOR_CONFIG_PATH,
+    ESTIMATOR_NODE_NAME,
     Estimator,
     EstimatorParams,
     VisionSample,
-    estimator_params_from_yaml,
-    load_estimator_params,
 )
 from sim.fcu.rigid_body import FlightLog, RigidBody, VisionModel, fly
 from sim.quadrotor import GRAVITY, ImuNoiseModel, ImuNoiseParams, QuadrotorParams
@@ -40,7 +40,7 @@ LEVEL = np.array([1.0, 0.0, 0.0, 0.0])
 
 @pytest.fixture(scope="module")
 def params() -> EstimatorParams:
-    return load_estimator_params()
+    return load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME)
 
 
 def _angle_between(p: np.ndarray, q: np.ndarray) -> float:
@@ -60,12 +60,12 @@ def test_default_config_loads(params: EstimatorParams) -> None:
 
 
 def test_bad_parameter_names_the_key_and_range() -> None:
-    text = DEFAULT_ESTIMATOR_CONFIG_PATH.read_text(encoding="utf-8").replace(
+    text = config_path("fcu_estimator.yaml").read_text(encoding="utf-8").replace(
         "buffer_length_us: 500000", "buffer_length_us: 0"
     )
-    with pytest.raises(FcuParameterError) as info:
-        estimator_params_from_yaml(text, "fcu_estimator.yaml")
-    assert "fcu_estimator.ros__parameters.buffer_length_us" in str(info.value)
+    with pytest.raises(ParameterError) as info:
+        parameters_from_yaml(EstimatorParams, ESTIMATOR_NODE_NAME, text, "fcu_estimator.yaml")
+    assert "fcu_estimator.buffer_length_us" in str(info.value)
     assert "[1000, 10000000] us" in str(info.value)
 
 
@@ -95,7 +95,7 @@ def test_rewinds_to_the_sample_time_and_reports_dead_reckoning(params: Estimator
 
 
 def test_converges_from_a_wrong_initial_position(params: EstimatorParams) -> None:
-    gains = load_control_gains()
+    gains = load_parameters(ControlGains, CONTROL_NODE_NAME)
     body = RigidBody(position_enu=(0.0, 0.0, ALTITUDE), rng=np.random.default_rng(4))
     wrong = HOVER_NED + np.array([1.0, -0.8, 0.5])
     est = Estimator(params, position_ned=wrong)
@@ -166,7 +166,7 @@ def _gusty_hover(fuse_at_arrival: bool, params: EstimatorParams) -> FlightLog:
     )  # fmt: skip
     est = Estimator(params, position_ned=HOVER_NED, fuse_at_arrival=fuse_at_arrival)
     return fly(
-        body, Cascade(load_control_gains()),
+        body, Cascade(load_parameters(ControlGains, CONTROL_NODE_NAME)),
         lambda _t, _s: TrajectorySetpointData.hold_position(HOVER_NED, 0.0),
         8_000_000, estimator=est, vision=VisionModel(latency_us=50_000, seed=1),
     )  # fmt: skip

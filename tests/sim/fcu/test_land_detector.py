@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.fcu.errors import FcuParameterError
+from runtime.errors import ParameterError
+from runtime.parameters import config_path, load_parameters
 from sim.fcu.land_detector import (
+    LAND_DETECTOR_NODE_NAME,
     Hysteresis,
     LandDetectedData,
     LandDetector,
@@ -145,7 +149,28 @@ def test_freefall_after_its_trigger_time() -> None:
 
 
 def test_parameters_are_checked() -> None:
-    with pytest.raises(FcuParameterError, match="thrust_hover"):
+    with pytest.raises(ParameterError, match="thrust_hover"):
         LandDetectorParams(thrust_min=0.5, thrust_hover=0.4)
-    with pytest.raises(FcuParameterError, match=r"trigger_time_s.*\[0, 10\]"):
+    with pytest.raises(ParameterError, match=r"trigger_time_s.*\[0, 10\]"):
         LandDetectorParams(trigger_time_s=-1.0)
+
+
+@pytest.mark.parametrize(("widening", "still_in_contact"), [(2.5, True), (1.0, False)])
+def test_once_maybe_landed_the_vertical_speed_threshold_widens(
+    widening: float, still_in_contact: bool
+) -> None:
+    detector = LandDetector(replace(PARAMS, z_vel_widening=widening))
+    outs, _ = _descent_then_touchdown(detector, descent_us=1000 * MS, ground_us=2000 * MS)
+    assert outs[-1].landed
+    # 0.5 m/s is above z_vel_max (0.25) but within 2.5 times it
+    out = detector.update(LandDetectorInputs(outs[-1].timestamp_us + TICK_US, armed=True,
+                                             thrust=0.13, vz=0.5, vz_setpoint=0.7))
+    assert out.ground_contact is still_in_contact
+
+
+def test_the_thresholds_come_from_the_config_file() -> None:
+    params = load_parameters(LandDetectorParams, LAND_DETECTOR_NODE_NAME)
+    text = config_path(f"{LAND_DETECTOR_NODE_NAME}.yaml").read_text(encoding="utf-8")
+    for name in ("z_vel_widening", "rotation_widening", "low_thrust_fraction",
+                 "minimal_thrust_fraction", "descent_vz_threshold", "trigger_time_s"):
+        assert f"    {name}: {getattr(params, name)!r} " in text, name

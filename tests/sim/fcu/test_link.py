@@ -13,10 +13,15 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from runtime.errors import ParameterError
+from runtime.parameters import (
+    config_path,
+    load_parameters,
+    parameters_from_mapping,
+)
 from sim.fcu.clock import FcuClock
-from sim.fcu.errors import FcuParameterError
 from sim.fcu.link import (
-    DEFAULT_LINK_CONFIG_PATH,
+    LINK_NODE_NAME,
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
     TABLE3_TO_FCU,
@@ -27,9 +32,6 @@ from sim.fcu.link import (
     LinkOrderError,
     LinkParams,
     calibrate_direction,
-    link_params_from_mapping,
-    link_params_from_yaml,
-    load_link_params,
 )
 
 TO_FCU = LinkDirection.TO_FCU
@@ -37,7 +39,7 @@ TO_COMPANION = LinkDirection.TO_COMPANION
 TABLE3 = {TO_FCU: TABLE3_TO_FCU, TO_COMPANION: TABLE3_TO_COMPANION}
 PERIOD_200HZ_NS = 5_000_000  # the seed's message rate (section 2.9, Tables 1-2)
 
-DEFAULTS = load_link_params()
+DEFAULTS = load_parameters(LinkParams, LINK_NODE_NAME)
 
 
 def fixed_direction(**overrides: object) -> LinkDirectionParams:
@@ -137,13 +139,13 @@ def test_calibration_reproduces_the_default_jitter() -> None:
 def test_calibration_refuses_a_floor_above_the_target_mean() -> None:
     # Micro XRCE-DDS framing (~19 bytes) pushes 115 bytes past 1329 us at 921600 baud.
     template = replace(DEFAULTS.to_fcu, framing_overhead_bytes=19)
-    with pytest.raises(FcuParameterError, match="leave no room under the target mean 1329"):
+    with pytest.raises(ParameterError, match="leave no room under the target mean 1329"):
         calibrate_direction(TABLE3_TO_FCU, template)
 
 
 def test_calibration_refuses_spikes_wider_than_the_target_sd() -> None:
     template = replace(DEFAULTS.to_fcu, spike_probability=0.5)
-    with pytest.raises(FcuParameterError) as info:
+    with pytest.raises(ParameterError) as info:
         calibrate_direction(LatencyFigure(mean_us=5000.0, sd_us=100.0), template)
     assert info.value.key == "spike_probability"
 
@@ -289,7 +291,7 @@ def test_a_send_earlier_than_the_previous_one_is_refused() -> None:
 
 
 def test_default_yaml_loads_with_its_clock_and_seed() -> None:
-    assert DEFAULT_LINK_CONFIG_PATH.name == "fcu_link.yaml"
+    assert config_path("fcu_link.yaml").name == "fcu_link.yaml"
     assert DEFAULTS.clock.boot_offset_us > 0
     assert Link(DEFAULTS).clock == DEFAULTS.clock
     assert DEFAULTS.to_fcu.baud_rate == DEFAULTS.to_companion.baud_rate == 921_600
@@ -297,7 +299,7 @@ def test_default_yaml_loads_with_its_clock_and_seed() -> None:
 
 
 def default_doc() -> dict[str, object]:
-    doc = yaml.safe_load(DEFAULT_LINK_CONFIG_PATH.read_text(encoding="utf-8"))
+    doc = yaml.safe_load(config_path("fcu_link.yaml").read_text(encoding="utf-8"))
     assert isinstance(doc, dict)
     return doc
 
@@ -317,7 +319,7 @@ def with_value(path: str, value: object) -> dict[str, object]:
 
 
 _REMOVE = object()
-P = "fcu_link.ros__parameters"
+P = "fcu_link"
 
 
 @pytest.mark.parametrize(
@@ -330,7 +332,7 @@ P = "fcu_link.ros__parameters"
         ("to_fcu.jitter_shape", "0.75", "must be a number"),
         ("to_fcu.bits_per_byte", True, "must be an integer"),
         ("to_companion.spike_max_us", 100.0, "[spike_min_us = 500.0, 1e+07] us"),
-        ("clock.skew_ppm", 5000.0, "outside the allowed range [-1000.0, 1000.0] ppm"),
+        ("clock.skew_ppm", 5000.0, "outside the allowed range [-1000, 1000] ppm"),
         ("clock.boot_offset_us", -1, "outside the allowed range"),
         ("seed", -1, "outside the allowed range [0, 9223372036854775807]"),
         ("to_fcu.baud", 921600, "unknown key; allowed keys are base_latency_us"),
@@ -342,8 +344,8 @@ P = "fcu_link.ros__parameters"
 def test_yaml_errors_name_the_key_and_the_allowed_range(
     path: str, value: object, message: str
 ) -> None:
-    with pytest.raises(FcuParameterError) as info:
-        link_params_from_mapping(with_value(path, value))
+    with pytest.raises(ParameterError) as info:
+        parameters_from_mapping(LinkParams, LINK_NODE_NAME, with_value(path, value))
     assert info.value.key == f"{P}.{path}"
     assert message in str(info.value)
     assert str(info.value).startswith(f"{P}.{path}: ")
@@ -352,26 +354,17 @@ def test_yaml_errors_name_the_key_and_the_allowed_range(
 def test_yaml_file_errors_name_the_file(tmp_path: Path) -> None:
     bad = tmp_path / "fcu_link.yaml"
     bad.write_text(
-        DEFAULT_LINK_CONFIG_PATH.read_text(encoding="utf-8").replace(
+        config_path("fcu_link.yaml").read_text(encoding="utf-8").replace(
             "loss_probability: 0.001", "loss_probability: 2.0", 1
         ),
         encoding="utf-8",
     )
-    with pytest.raises(FcuParameterError) as info:
-        load_link_params(bad)
+    with pytest.raises(ParameterError) as info:
+        load_parameters(LinkParams, LINK_NODE_NAME, bad)
     assert str(info.value).startswith(f"{bad}: {P}.to_fcu.loss_probability: 2.0 is outside")
 
 
-def test_yaml_must_have_the_node_and_ros__parameters() -> None:
-    with pytest.raises(FcuParameterError, match=r"^fcu_link: missing"):
-        link_params_from_yaml("other_node:\n  ros__parameters: {}\n")
-    with pytest.raises(FcuParameterError, match=r"^fcu_link\.params: unknown key"):
-        link_params_from_yaml("fcu_link:\n  params: {}\n")
-    with pytest.raises(FcuParameterError, match="not valid YAML"):
-        link_params_from_yaml("fcu_link: [\n")
-
-
 def test_parameters_are_validated_when_built_in_code_too() -> None:
-    with pytest.raises(FcuParameterError) as info:
+    with pytest.raises(ParameterError) as info:
         fixed_direction(spike_probability=-0.1)
     assert str(info.value) == "spike_probability: -0.1 is outside the allowed range [0, 1]"
