@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ import mujoco
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from sim.arena import default_arena
 from sim.mjcf import DOWN_CAMERA, QUAD_GEOM_GROUP
-from sim.quadrotor import CameraParams, MotorModel, QuadrotorParams
+from sim.quadrotor import MotorModel, QuadrotorParams
 from sim.render import CameraIntrinsics, SceneRenderer
 from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
@@ -64,20 +64,19 @@ def bench_physics(sim_seconds: float) -> dict[str, Any]:
 
 
 def bench_camera(width: int, height: int, frames: int) -> dict[str, Any]:
-    quad = QuadrotorParams(
-        down_camera=CameraParams(width=width, height=height, fovy=math.radians(60.0),
-                                 position=(0.0, 0.0, -0.06))
-    )
+    default = QuadrotorParams()
+    quad = replace(default, down_camera=replace(default.down_camera, width=width, height=height))
     scene = Scene.build(default_arena(), quad)
     scene.place_at_takeoff(height=1.5)
-    ex = DeterministicExecutor(config_dir=None)
+    ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
     node = SimSensorsNode(context=ex.context)
     received: list[int] = []
     Node("viewer", context=ex.context).create_subscription(
         "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, lambda m: received.append(m.width),
         qos_profile_sensor_data)
     with SceneRenderer(scene.model) as renderer:
-        camera = DownCamera(node, renderer, CameraIntrinsics.from_camera(quad.down_camera))
+        camera = DownCamera(node, renderer, CameraIntrinsics.from_camera(quad.down_camera),
+                            rate_hz=node.params.down_camera.rate_hz)
         camera.update(0, scene)  # warm up the GL context
         ex.spin_until(0)
         ours = []

@@ -211,12 +211,29 @@ def _latency_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--estimator", default="kalman", choices=("kalman", "px4"),
                    help="time-sync estimator of the top-level JSON figures (both always run)")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.add_argument("--fit", action="store_true",
+                   help="instead, refit the link's jitter so that the test reproduces Table 3 "
+                        "(seeds SEED..SEED+2, --duration each; two refits, 9 runs; slow) "
+                        "and print the values for config/fcu_link.yaml")
 
 
 def _latency_run(args: argparse.Namespace) -> int:
-    from quadmission.latency import LatencyConfig, format_report, run_latency_experiment
+    from quadmission.latency import (
+        LatencyConfig,
+        fit_link,
+        format_fit,
+        format_report,
+        run_latency_experiment,
+    )
 
     config = LatencyConfig(duration_s=args.duration, seed=args.seed, primary=args.estimator)
+    if args.fit:
+        seeds = tuple(range(args.seed, args.seed + 3))
+        print(f"fitting the link: seeds {seeds}, {args.duration:g} s simulated each, "
+              f"9 runs...", file=sys.stderr)
+        print(format_fit(fit_link(seeds=seeds, duration_s=args.duration), seeds,
+                         args.duration))
+        return 0
     print(f"running the latency test for {args.duration:g} s simulated...", file=sys.stderr)
     report = run_latency_experiment(config)
     print(json.dumps(report.to_json(), indent=2) if args.json else format_report(report))

@@ -1,7 +1,8 @@
 """Seed 000's FCU <-> companion latency test (sections 2.9-3.2, Table 3) in our SITL.
 
 Two 200 Hz streams of 115-byte messages cross the simulated serial link
-(:mod:`sim.fcu.link`, calibrated to Table 3's MicroXRCE-DDS - ROS 2 row):
+(:mod:`sim.fcu.link`), calibrated so that the figures this experiment measures are Table 3's
+MicroXRCE-DDS - ROS 2 row (:data:`interfaces.px4.seed000.TABLE3_TO_FCU`, ``_TO_COMPANION``):
 
 ============  ============================================  ==================================
 path          stream                                        latency, measured where
@@ -35,13 +36,28 @@ Choices, stated once:
   that publishes it) and the FCU's other telemetry at 1 Hz: seed 000 ran its bridges with
   only the test topics (section 3.3), and the serial line is FIFO, so full telemetry would
   queue the IMU stream (about +200 us here). All in :data:`EXPERIMENT_RATES_HZ`.
-- **Forward consumption delay.** The FCU takes companion messages in ``dds_receive``
-  (500 Hz, every other tick, like ekf2), so a delivered sample waits for the next one:
-  one 1 kHz main-loop tick on average over all phases (:data:`CONSUMPTION_DELAY_US`), on
-  top of the link, which alone is calibrated to Table 3's end-to-end figure. The stream's
-  5 ms period is a whole number of ticks, so its samples meet the poll at only two phases:
-  forward latencies come out as whole milliseconds (mostly 2 or 3 ms; mean about link +
-  1.2 ms).
+- **Forward consumption: event-driven.** In flight the FCU takes companion messages in its
+  500 Hz ``dds_receive`` poll. Table 3 leaves no room for that wait: at the seed's 921600
+  baud (8N1, section 2.1) the 115 bytes alone take 1247.8 us, all but 81 us of the forward
+  mean, and a poll of period P adds P/2 to the mean and P/sqrt(12) to the spread (500 Hz:
+  +1000 us and 577 us, over three times Table 3's forward standard deviation), whatever
+  the baud rate; the stream's 5 ms period, a whole number of ticks, even made every
+  forward latency a whole 2 or 3 ms. :meth:`~sim.fcu.link.AddedDelay.poll` and
+  :func:`~sim.fcu.link.calibrate_direction` say so. Seed 000's firmware was modified for
+  exactly this: "a complete event-driven MicroXRCE-DDS - ROS 2 bridge, which allows
+  incoming and outgoing messages to be consumed by requesting processes as soon as they
+  are available" (section 4.3). So the experiment's firmware hands the vision stream to its
+  estimator the moment it arrives (:data:`EVENT_DRIVEN_INPUTS`); the other inputs, time
+  sync included, keep the 500 Hz poll they have in flight. The forward latency is still
+  taken where the estimator parses the sample.
+- **End-to-end calibration.** The line is FIFO, so the streams also queue behind the
+  time-sync messages (forward about +15 us mean, reverse about +60 us and a wider
+  spread). :func:`fit_link` runs the experiment, measures what the path adds to the idle
+  link on the true clock (:meth:`~sim.fcu.link.AddedDelay.measured`), and solves the
+  link's gamma jitter again with :func:`~sim.fcu.link.calibrate_direction` so that the
+  end-to-end figures are Table 3's; ``config/fcu_link.yaml`` holds the result
+  (``quadmission latency --fit`` refits it). The corrected figures differ from the
+  true-clock ones by the estimator's offset error.
 - **Time-sync exchanges** at :data:`DEFAULT_TIMESYNC_HZ` (97 Hz, 10.31 ms): a period that
   is not a whole number of FCU ticks, so exchanges meet the FCU's poll at every phase, as
   between free-running clocks. At exactly 100 Hz every request would wait the same part of
@@ -61,7 +77,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from types import MappingProxyType
 from typing import Any
@@ -70,20 +86,25 @@ import numpy as np
 
 from flight_control.latency_node import LatencyTestNode, OffsetLog, ReceivedImu, SentVision
 from quadmission.errors import ExperimentError
+from runtime.parameters import load_parameters
 from sim.fcu.link import (
+    LINK_NODE_NAME,
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
     TABLE3_TO_FCU,
+    AddedDelay,
     LatencyFigure,
     Link,
     LinkDirection,
+    LinkDirectionParams,
     LinkParams,
+    calibrate_direction,
 )
 
 __all__ = [
-    "CONSUMPTION_DELAY_US",
     "DEFAULT_TIMESYNC_HZ",
     "ESTIMATOR_NAMES",
+    "EVENT_DRIVEN_INPUTS",
     "EXPERIMENT_RATES_HZ",
     "MAIN_LOOP_HZ",
     "STREAM_RATE_HZ",
@@ -93,6 +114,7 @@ __all__ = [
     "LatencyPath",
     "LatencyReport",
     "LatencyStats",
+    "LinkFit",
     "OffsetErrorBin",
     "OffsetErrorStats",
     "OffsetLog",
@@ -100,6 +122,8 @@ __all__ = [
     "ReceivedImu",
     "SentVision",
     "analyse",
+    "fit_link",
+    "format_fit",
     "format_report",
     "run_latency_experiment",
     "stream_charges",
@@ -119,9 +143,8 @@ EXPERIMENT_RATES_HZ: Mapping[str, float] = MappingProxyType({
         "battery_status", "timesync_status", "vehicle_land_detected", "failsafe_flags")},
 })
 """Firmware periodic-function rates the experiment overrides [Hz]."""
-CONSUMPTION_DELAY_US = 1_000_000 // MAIN_LOOP_HZ
-"""Mean wait of a delivered vision sample for the FCU's 500 Hz ``dds_receive``, over all
-phases: one main-loop tick [us]."""
+EVENT_DRIVEN_INPUTS: frozenset[str] = frozenset({"vehicle_visual_odometry"})
+"""/fmu/in topics the experiment's firmware consumes on arrival (seed 000 section 4.3)."""
 DEFAULT_TIMESYNC_HZ = 97.0
 """Timesync exchanges per second [Hz]: not a multiple of the FCU tick (see above); PX4's
 filter converges (500 samples) in about 5 s."""
@@ -279,7 +302,7 @@ class LatencyReport:
                           "reverse": table3(LatencyPath.REVERSE)},
             "forward_sent": self.forward_sent,
             "charged_messages": dict(self.charged_messages),
-            "consumption_delay_us": CONSUMPTION_DELAY_US,
+            "event_driven_inputs": sorted(EVENT_DRIVEN_INPUTS),
         }
 
 
@@ -395,9 +418,9 @@ def format_report(report: LatencyReport) -> str:
             left = title if i == 0 else (f"  ({what})" if i == 1 else "")
             tail = f"   {paper.mean_us:.0f} +/- {paper.sd_us:.0f}" if i == 1 else ""
             lines.append(f"{left:<30}{label:<11}{_fmt_stats(stats)}{tail}")
-    lines.append(f"(forward includes the FCU's wait for its 500 Hz dds_receive, about "
-                 f"{CONSUMPTION_DELAY_US} us on average; 'none': raw stamps, with the clock "
-                 f"offset; 'true': the simulator's true offset)")
+    lines.append("(forward: the FCU's estimator takes the sample on arrival, as seed 000's "
+                 "event-driven bridge; 'none': raw stamps, with the clock offset; 'true': the "
+                 "simulator's true offset)")
     lines += ["", "Offset error after convergence, |estimate - true| (us):",
               f"  {'estimator':<10}{'p50':>9}{'p99':>9}{'max':>9}{'bias':>9}{'n':>7}"]
     for name in names:
@@ -473,17 +496,20 @@ class LatencyConfig:
             raise ValueError(f"timesync_hz={self.timesync_hz}: must be > 0")
 
 
-def run_latency_experiment(config: LatencyConfig | None = None) -> LatencyReport:
-    """Run seed 000's test in the SITL (vehicle on the pad, disarmed) and analyse it."""
+def run_latency_experiment(config: LatencyConfig | None = None,
+                           link: LinkParams | None = None) -> LatencyReport:
+    """Run seed 000's test in the SITL (vehicle on the pad, disarmed) and analyse it;
+    ``link`` replaces the parameters of ``config/fcu_link.yaml``."""
     from sim.fcu.firmware import ConsumedVision, FirmwareConfig
     from sim.fcu.sitl import build_sitl
 
     cfg = config or LatencyConfig()
-    sitl = build_sitl(seed=cfg.seed, firmware=FirmwareConfig(
-        main_freq_hz=MAIN_LOOP_HZ, rates_hz=EXPERIMENT_RATES_HZ))
-    link = ChargedSizeLink(sitl.link.params, stream_charges())  # nothing sent yet: same draws
-    sitl.link = link
-    sitl.agent.link = link
+    sitl = build_sitl(seed=cfg.seed, link=link, firmware=FirmwareConfig(
+        main_freq_hz=MAIN_LOOP_HZ, rates_hz=EXPERIMENT_RATES_HZ,
+        event_driven_inputs=EVENT_DRIVEN_INPUTS))
+    charged = ChargedSizeLink(sitl.link.params, stream_charges())  # nothing sent: same draws
+    sitl.link = charged
+    sitl.agent.link = charged
     consumed: list[tuple[int, int]] = []
 
     def on_vision(sample: ConsumedVision) -> None:
@@ -495,7 +521,7 @@ def run_latency_experiment(config: LatencyConfig | None = None) -> LatencyReport
                            context=sitl.executor.context)
     sitl.executor.add_node(node)
     sitl.run(cfg.duration_s)
-    clock = link.clock
+    clock = charged.clock
 
     def true_fcu_us(t_us: int) -> int:  # the companion's clock is simulated time
         return clock.fcu_time_us(t_us * 1000)
@@ -511,5 +537,90 @@ def run_latency_experiment(config: LatencyConfig | None = None) -> LatencyReport
         converged_us=node.converged_us, true_offset_us=true_offset_us,
         true_fcu_us=true_fcu_us, true_local_us=true_local_us,
         duration_s=cfg.duration_s, seed=cfg.seed, primary=cfg.primary,
-        charged_messages={d.value: n for (d, _), n in link.charged.items()},
+        charged_messages={d.value: n for (d, _), n in charged.charged.items()},
         timesync_hz=cfg.timesync_hz)
+
+
+# -- fitting the link to Table 3, end to end ----------------------------------------------------
+_LINK_DIRECTION = {LatencyPath.FORWARD: LinkDirection.TO_FCU,
+                   LatencyPath.REVERSE: LinkDirection.TO_COMPANION}
+
+
+def _pooled(stats: Sequence[LatencyStats]) -> LatencyFigure:
+    """Mean and standard deviation of the union of the samples behind ``stats``."""
+    n = sum(s.n for s in stats)
+    if n == 0:
+        raise ExperimentError("no samples to pool: run longer")
+    mean = sum(s.n * s.mean_us for s in stats) / n
+    var = sum(s.n * (s.sd_us**2 + (s.mean_us - mean) ** 2) for s in stats) / n
+    return LatencyFigure(mean, math.sqrt(var))
+
+
+@dataclass(frozen=True)
+class LinkFit:
+    """The link fitted by :func:`fit_link` and what the experiment measured with it."""
+
+    params: LinkParams
+    measured: Mapping[LatencyPath, LatencyFigure]  # true clock, pooled over the seeds [us]
+    added: Mapping[LatencyPath, AddedDelay]  # what the path adds to the fitted idle link
+
+
+def fit_link(
+    link: LinkParams | None = None,
+    *,
+    seeds: Sequence[int] = (0, 1, 2),
+    duration_s: float = 60.0,
+    iterations: int = 2,
+) -> LinkFit:
+    """Fit the link's gamma jitter so that the experiment's true-clock latencies are Table 3's.
+
+    Each iteration runs the experiment for every seed with the current parameters, pools
+    the true-clock figures, takes what the path added to the idle link's moments
+    (:meth:`AddedDelay.measured`: FIFO queueing behind the other messages) and re-solves
+    each direction with :func:`calibrate_direction`. The floor, spikes, loss and line
+    settings are kept. The result is measured once more with the fitted parameters.
+    Raises FcuParameterError when a direction cannot reach its figure (see
+    :func:`calibrate_direction`).
+    """
+    if iterations < 1:
+        raise ExperimentError(f"iterations={iterations}: must be >= 1")
+    if not seeds:
+        raise ExperimentError("seeds: give at least one")
+    params = link or load_parameters(LinkParams, LINK_NODE_NAME)
+
+    def measure(p: LinkParams) -> dict[LatencyPath, LatencyFigure]:
+        reports = [run_latency_experiment(LatencyConfig(duration_s=duration_s, seed=seed), p)
+                   for seed in seeds]
+        return {path: _pooled([r.path(path).true for r in reports]) for path in LatencyPath}
+
+    def added(p: LinkParams, path: LatencyPath) -> AddedDelay:
+        return AddedDelay.measured(measured[path], p.direction(_LINK_DIRECTION[path]))
+
+    def refit(p: LinkParams, path: LatencyPath) -> LinkDirectionParams:
+        return calibrate_direction(TABLE3[path], p.direction(_LINK_DIRECTION[path]),
+                                   added=added(p, path))
+
+    measured = measure(params)
+    for _ in range(iterations):
+        params = replace(params, to_fcu=refit(params, LatencyPath.FORWARD),
+                         to_companion=refit(params, LatencyPath.REVERSE))
+        measured = measure(params)
+    return LinkFit(params, measured, {path: added(params, path) for path in LatencyPath})
+
+
+def format_fit(fit: LinkFit, seeds: Sequence[int], duration_s: float) -> str:
+    """The fitted jitter as ``config/fcu_link.yaml`` lines, with what it achieves."""
+    lines = [f"# fitted end to end: seeds {list(seeds)}, {duration_s:g} s each, true clock"]
+    for path in LatencyPath:
+        name, paper, got = _LINK_DIRECTION[path].value, TABLE3[path], fit.measured[path]
+        direction = fit.params.direction(_LINK_DIRECTION[path])
+        added = fit.added[path]
+        lines += [
+            f"# {path.value}: {got.mean_us:.1f} +/- {got.sd_us:.1f} us "
+            f"(Table 3: {paper.mean_us:g} +/- {paper.sd_us:g}); the path adds "
+            f"{added.mean_us:+.1f} us mean, {added.variance_us2:+.0f} us^2 variance",
+            f"{name}:",
+            f"  jitter_shape: {direction.jitter_shape:.4f}",
+            f"  jitter_scale_us: {direction.jitter_scale_us:.2f}",
+        ]
+    return "\n".join(lines)

@@ -22,9 +22,11 @@ from sim.quadrotor import (
     ImuNoiseParams,
     ImuSample,
     MotorModel,
+    OnboardCameras,
     QuadrotorParams,
     allocation_matrix,
     mix,
+    onboard_cameras,
 )
 
 __all__: list[str] = [
@@ -40,6 +42,7 @@ __all__: list[str] = [
     "ImuSample",
     "Lighting",
     "MotorModel",
+    "OnboardCameras",
     "Pad",
     "QuadrotorParams",
     "RobotPose",
@@ -49,5 +52,6 @@ __all__: list[str] = [
     "generate_arena",
     "load_arena",
     "mix",
+    "onboard_cameras",
     "robot_pose",
 ]

@@ -299,7 +299,7 @@ def _add_camera(body: mujoco.MjsBody, name: str, params: CameraParams, xyaxes: l
         name=name,
         pos=list(params.position),
         xyaxes=xyaxes,
-        fovy=math.degrees(params.fovy),
+        fovy=params.fovy_deg,
         resolution=[params.width, params.height],
     )
 

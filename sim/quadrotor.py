@@ -1,6 +1,7 @@
 """X-frame contest quadrotor: parameters, rotor layout, mixer, motor lag and IMU noise.
 
-Pure numpy; the MJCF is built from these parameters by :mod:`sim.mjcf`.
+Pure numpy (and the parameter loader for the cameras' config); the MJCF is built from
+these parameters by :mod:`sim.mjcf`.
 
 Frames: body FLU (x forward, y left, z up, REP 103) inside the ENU MuJoCo world. Rotors
 follow PX4's quad-X numbering, with index ``i`` = PX4 motor ``i + 1``:
@@ -20,14 +21,16 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from enum import IntEnum
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from runtime.errors import ParameterError
+from runtime.parameters import config_path, load_parameters, param, validate_parameters
 
 GRAVITY = 9.81  # m/s^2, also the MuJoCo model's gravity
 NUM_ROTORS = 4
@@ -52,25 +55,54 @@ _ROTOR_LAYOUT: tuple[tuple[int, int, Spin], ...] = (
 )
 
 
+CAMERAS_NODE_NAME = "sim_cameras"
+"""The onboard cameras' section in ``config/sim_sensors.yaml`` (next to the sensors node's)."""
+CAMERAS_FILE = "sim_sensors.yaml"
+"""The file, in the config folder, that describes the onboard cameras."""
+
+
 @dataclass(frozen=True)
 class CameraParams:
-    """A body-fixed pinhole camera: image size [px], vertical field of view [rad], range [m]."""
+    """A body-fixed pinhole camera: image size, vertical field of view, mounting, range."""
 
-    width: int
-    height: int
-    fovy: float
-    position: Vec3  # m, in the body frame
-    near: float = 0.05  # m
-    far: float = 30.0  # m
+    width: int = param(unit="px", range=(1, 4096))
+    height: int = param(unit="px", range=(1, 4096))
+    fovy_deg: float = param(unit="deg", range=(0.0, 179.0), lo_open=True)
+    """Vertical field of view."""
+    position: tuple[float, ...] = param(unit="m", range=(-2.0, 2.0))
+    """Optical centre in the body frame (FLU), three values."""
+    near: float = param(unit="m", range=(0.0, 100.0), lo_open=True)
+    """Closest distance the camera sees (depth pixels nearer are dropped)."""
+    far: float = param(unit="m", range=(0.0, 1000.0), lo_open=True)
+    """Farthest distance the camera sees."""
 
-    def validate(self, name: str) -> None:
-        """Raise :class:`ParameterError` naming ``name.<field>`` for a value out of range."""
-        if not (1 <= self.width <= 4096 and 1 <= self.height <= 4096):
-            raise ParameterError(f"{name}.width/height: {self.width}x{self.height} px out of range")
-        if not 0.0 < self.fovy < math.pi:
-            raise ParameterError(f"{name}.fovy: {self.fovy} rad must be in (0, pi)")
-        if not 0.0 < self.near < self.far:
-            raise ParameterError(f"{name}.near/far: need 0 < near ({self.near}) < far ({self.far})")
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+        if len(self.position) != 3:
+            raise ParameterError(f"{self.position!r} must be 3 values (x, y, z)", key="position")
+        if not self.near < self.far:
+            raise ParameterError(f"{self.far!r} must be beyond near ({self.near!r})", key="far")
+
+    @property
+    def fovy(self) -> float:
+        """Vertical field of view [rad]."""
+        return math.radians(self.fovy_deg)
+
+
+@dataclass(frozen=True)
+class OnboardCameras:
+    """The airframe's cameras (``sim_cameras`` in ``config/sim_sensors.yaml``)."""
+
+    down_camera: CameraParams
+    """Looks down; reads the markers (seed 003)."""
+    depth_camera: CameraParams
+    """Looks forward; its depth image becomes the point cloud for mapping."""
+
+
+def onboard_cameras(path: Path | None = None) -> OnboardCameras:
+    """The cameras from ``path`` (default: ``sim_sensors.yaml`` in the config folder)."""
+    return load_parameters(OnboardCameras, CAMERAS_NODE_NAME,
+                           path if path is not None else config_path(CAMERAS_FILE))
 
 
 @dataclass(frozen=True)
@@ -78,8 +110,8 @@ class QuadrotorParams:
     """Physical constants of a 450 mm-class contest quadrotor (SI units, body FLU).
 
     Defaults: 1.5 kg, 0.225 m arms (450 mm motor-to-motor diagonal), 10" props, thrust to
-    weight 2.5, 30 ms motor time constant, a 640x480 downward camera and a forward depth
-    camera.
+    weight 2.5, 30 ms motor time constant; a downward camera and a forward depth camera as
+    ``config/sim_sensors.yaml`` describes them (:func:`onboard_cameras`).
     """
 
     mass: float = 1.5  # kg
@@ -92,17 +124,8 @@ class QuadrotorParams:
     kf: float = 1.0e-5  # N/(rad/s)^2, thrust = kf * omega^2
     km: float = 1.6e-7  # N m/(rad/s)^2, drag torque = km * omega^2
     leg_height: float = 0.14  # m, body origin above the landing-gear contact points
-    down_camera: CameraParams = CameraParams(
-        width=640, height=480, fovy=math.radians(60.0), position=(0.0, 0.0, -0.06)
-    )
-    depth_camera: CameraParams = CameraParams(
-        width=160,
-        height=120,
-        fovy=math.radians(58.0),
-        position=(0.12, 0.0, 0.0),
-        near=0.1,
-        far=10.0,
-    )
+    down_camera: CameraParams = field(default_factory=lambda: onboard_cameras().down_camera)
+    depth_camera: CameraParams = field(default_factory=lambda: onboard_cameras().depth_camera)
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -125,8 +148,6 @@ class QuadrotorParams:
                 f"QuadrotorParams.rotor_radius: {self.rotor_radius} m, neighbouring rotors "
                 f"on {self.arm_length} m arms would touch"
             )
-        self.down_camera.validate("QuadrotorParams.down_camera")
-        self.depth_camera.validate("QuadrotorParams.depth_camera")
 
     @property
     def weight(self) -> float:

@@ -165,7 +165,7 @@ class DepthPointCloud:
         renderer: SceneRenderer,
         params: CameraParams,
         *,
-        noise_std: float = 0.005,
+        noise_std: float,
         seed: int = 0,
         stride: int = 1,
     ) -> None:

@@ -7,6 +7,10 @@ render only while someone subscribes (software rendering costs ~25 ms a frame).
 Frames: ``down_camera`` image up = body forward, image right = body right (seed 003
 eq. 2 holds as written); ``depth_camera`` points are in the camera's FLU frame
 (x forward, ROS ``camera_link``).
+
+Rates and noise are the node's parameters (:class:`SensorParams`, ``config/sim_sensors.yaml``);
+the cameras' image size, field of view and mounting are the airframe's
+(:class:`~sim.quadrotor.QuadrotorParams`), compiled into the MuJoCo model.
 """
 
 from __future__ import annotations
@@ -19,8 +23,10 @@ import numpy as np
 import interfaces
 from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, Time, qos_profile_sensor_data
+from runtime.errors import ParameterError
+from runtime.parameters import param, validate_parameters
 from sim.render import CameraIntrinsics, DepthPointCloud, Image, Points, SceneRenderer
-from sim.world import Scene
+from sim.world import Scene, divides
 
 DOWN_IMAGE_TOPIC = "/camera/down/image_raw"
 DOWN_INFO_TOPIC = "/camera/down/camera_info"
@@ -103,11 +109,54 @@ def points_from_msg(msg: Any) -> Points:
     )
 
 
+SENSORS_NODE_NAME = "sim_sensors"
+"""The sensors node, and its section in ``config/sim_sensors.yaml``."""
+
+
+@dataclass(frozen=True)
+class DownCameraParams:
+    """The downward camera's frame rate (``down_camera`` in ``config/sim_sensors.yaml``)."""
+
+    rate_hz: float = param(unit="Hz", range=(0.1, 1000.0))
+    """Images per second (must divide the physics rate)."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+
+
+@dataclass(frozen=True)
+class DepthCameraParams:
+    """The depth camera's rate and noise (``depth_camera`` in ``config/sim_sensors.yaml``)."""
+
+    rate_hz: float = param(unit="Hz", range=(0.1, 1000.0))
+    """Point clouds per second (must divide the physics rate)."""
+    noise_std: float = param(unit="m", range=(0.0, 1.0))
+    """Gaussian noise on each pixel's depth, along its ray."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """The simulated sensors' rates and noise (``config/sim_sensors.yaml``)."""
+
+    down_camera: DownCameraParams
+    depth_camera: DepthCameraParams
+    clock_rate_hz: float = param(unit="Hz", range=(0.1, 10000.0))
+    """/clock messages per second (must divide the physics rate)."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+
+
 class SimSensorsNode(Node):
-    """Publishes the simulated sensors; the world loop's parts decide when."""
+    """Publishes the simulated sensors; the world loop's parts decide when. Holds the
+    sensors' parameters (:class:`SensorParams`)."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("sim_sensors", **kwargs)
+        super().__init__(SENSORS_NODE_NAME, **kwargs)
+        self.params = self.declare_params(SensorParams)
         self.down_image = self.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
                                                 qos_profile_sensor_data)
         self.down_info = self.create_publisher("sensor_msgs/msg/CameraInfo", DOWN_INFO_TOPIC,
@@ -125,7 +174,7 @@ class DownCamera:
     node: SimSensorsNode
     renderer: SceneRenderer
     intrinsics: CameraIntrinsics
-    rate_hz: float = 12.0
+    rate_hz: float
     name: str = "down_camera"
     frames_rendered: int = 0
 
@@ -145,7 +194,7 @@ class DepthCamera:
 
     node: SimSensorsNode
     cloud: DepthPointCloud
-    rate_hz: float = 10.0
+    rate_hz: float
     name: str = "depth_camera"
 
     def update(self, t_ns: int, scene: Scene) -> None:
@@ -159,7 +208,7 @@ class ClockPublisher:
     """/clock, the simulated time, for tools that follow it."""
 
     node: SimSensorsNode
-    rate_hz: float = 100.0
+    rate_hz: float
     name: str = "clock"
 
     def update(self, t_ns: int, scene: Scene) -> None:
@@ -173,16 +222,33 @@ def sensor_parts(
     renderer: SceneRenderer,
     scene: Scene,
     *,
-    depth_noise_std: float = 0.01,
+    depth_noise_std: float | None = None,
     seed: int = 0,
-    camera_hz: float = 12.0,
-    depth_hz: float = 10.0,
+    camera_hz: float | None = None,
+    depth_hz: float | None = None,
 ) -> list[DownCamera | DepthCamera | ClockPublisher]:
-    """The standard sensor set of the contest drone, ready for :func:`sim.world.run_world`."""
+    """The standard sensor set of the contest drone, ready for :func:`sim.world.run_world`.
+
+    Rates and noise are the node's parameters unless given here. A node parameter whose
+    rate does not divide the scene's physics rate raises ParameterError naming it.
+    """
+    params = node.params
+
+    def rate(key: str, configured: float, given: float | None) -> float:
+        if given is not None:
+            return given  # run_world checks it (RateError naming the part)
+        if not divides(configured, scene.physics_hz):
+            raise ParameterError(
+                f"{configured:g} Hz does not divide the physics rate {scene.physics_hz} Hz",
+                key=f"{node.get_name()}.{key}")
+        return configured
+
+    noise = params.depth_camera.noise_std if depth_noise_std is None else depth_noise_std
     return [
         DownCamera(node, renderer, CameraIntrinsics.from_camera(scene.quad.down_camera),
-                   rate_hz=camera_hz),
+                   rate_hz=rate("down_camera.rate_hz", params.down_camera.rate_hz, camera_hz)),
         DepthCamera(node, DepthPointCloud(renderer, scene.quad.depth_camera,
-                                          noise_std=depth_noise_std, seed=seed), rate_hz=depth_hz),
-        ClockPublisher(node),
+                                          noise_std=noise, seed=seed),
+                    rate_hz=rate("depth_camera.rate_hz", params.depth_camera.rate_hz, depth_hz)),
+        ClockPublisher(node, rate_hz=rate("clock_rate_hz", params.clock_rate_hz, None)),
     ]

@@ -9,6 +9,9 @@ sensors publish at exact sample times and nodes see them at those times. Null ob
 does not need.
 
 Time is an integer: physics step ``k`` is at ``k * 1e9 // physics_hz`` nanoseconds.
+The physics rate, the parts' default rates and the crash thresholds are tuning, not code:
+:class:`WorldParams`, from ``config/sim_world.yaml`` (:func:`world_params`). A keyword
+given in code (``RobotMotion(rate_hz=10.0)``, ``Scene.build(..., physics_hz=500)``) wins.
 Ground truth (:class:`Trajectory`, crash reports) is for evaluation only; companion nodes
 see only the topics the parts publish.
 """
@@ -20,6 +23,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from pathlib import Path
 from typing import Protocol
 
 import mujoco
@@ -28,6 +32,8 @@ import numpy.typing as npt
 
 from runtime import DeterministicExecutor
 from runtime.clock import NS_PER_S
+from runtime.errors import ParameterError
+from runtime.parameters import load_parameters, param, validate_parameters
 from sim.arena import ArenaSpec, Lighting
 from sim.errors import SimError
 from sim.mjcf import build_model
@@ -50,11 +56,71 @@ from sim.scene import (
 
 FloatArray = npt.NDArray[np.float64]
 
-DEFAULT_PHYSICS_HZ = 3000  # divisible by 1000 (FCU), 500, 200, 100, 50, 30, 12 and 10 Hz
+WORLD_NODE_NAME = "sim_world"
+"""The world's section in its ROS 2 parameter file, ``config/sim_world.yaml``."""
 
 
 class RateError(SimError, ValueError):
     """A part's rate that does not divide the physics rate."""
+
+
+def divides(rate_hz: float, physics_hz: int) -> bool:
+    """Whether a part at ``rate_hz`` runs every whole number (>= 1) of physics steps."""
+    if not rate_hz > 0:
+        return False
+    steps = physics_hz / rate_hz
+    return abs(steps - round(steps)) <= 1e-9 and round(steps) >= 1
+
+
+@dataclass(frozen=True)
+class CrashParams:
+    """When the crash detector ends a flight (``crash`` in ``config/sim_world.yaml``)."""
+
+    rate_hz: float = param(unit="Hz", range=(1.0, 10000.0))
+    """Checks per second (must divide the physics rate)."""
+    max_touchdown_speed: float = param(unit="m/s", range=(0.0, 20.0), lo_open=True)
+    """A contact with the floor or a pad faster than this (downwards) is a crash."""
+    max_tilt_deg: float = param(unit="deg", range=(0.0, 180.0), lo_open=True)
+    """A body tilt beyond this, airborne or landed, is a crash."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+
+
+@dataclass(frozen=True)
+class WorldParams:
+    """The world loop's tuning (``config/sim_world.yaml``); ranges declared once.
+
+    Every ``*rate_hz`` must divide ``physics_hz``: checked here, so a bad file is refused
+    with the key's name before anything runs.
+    """
+
+    crash: CrashParams
+    physics_hz: int = param(unit="Hz", range=(100, 100000))
+    """MuJoCo steps per second; every part's rate divides it."""
+    actuation_rate_hz: float = param(unit="Hz", range=(1.0, 10000.0))
+    """Motor command updates per second (the firmware's loop rate replaces it in SITL)."""
+    robots_rate_hz: float = param(unit="Hz", range=(1.0, 10000.0))
+    """Ground-robot pose updates per second."""
+    trajectory_rate_hz: float = param(unit="Hz", range=(1.0, 10000.0))
+    """Ground-truth samples recorded per second (evaluation only)."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+        rates = [("actuation_rate_hz", self.actuation_rate_hz),
+                 ("robots_rate_hz", self.robots_rate_hz),
+                 ("trajectory_rate_hz", self.trajectory_rate_hz),
+                 ("crash.rate_hz", self.crash.rate_hz)]
+        for key, rate_hz in rates:
+            if not divides(rate_hz, self.physics_hz):
+                raise ParameterError(
+                    f"{rate_hz:g} Hz does not divide the physics rate {self.physics_hz} Hz "
+                    f"(physics_hz)", key=key)
+
+
+def world_params(path: Path | None = None) -> WorldParams:
+    """:class:`WorldParams` from ``path`` (default: ``sim_world.yaml`` in the config folder)."""
+    return load_parameters(WorldParams, WORLD_NODE_NAME, path)
 
 
 @dataclass
@@ -74,8 +140,11 @@ class Scene:
         arena: ArenaSpec,
         quad: QuadrotorParams | None = None,
         lighting: Lighting | None = None,
-        physics_hz: int = DEFAULT_PHYSICS_HZ,
+        physics_hz: int | None = None,
     ) -> Scene:
+        """The compiled scene; ``physics_hz`` defaults to ``config/sim_world.yaml``'s."""
+        if physics_hz is None:
+            physics_hz = world_params().physics_hz
         if physics_hz <= 0:
             raise RateError(f"physics_hz: {physics_hz} must be > 0")
         quad = quad or QuadrotorParams()
@@ -90,12 +159,11 @@ class Scene:
 
     def period_steps(self, name: str, rate_hz: float) -> int:
         """Physics steps per period of a part running at ``rate_hz``; RateError otherwise."""
-        steps = self.physics_hz / rate_hz if rate_hz > 0 else 0.0
-        if rate_hz <= 0 or abs(steps - round(steps)) > 1e-9 or round(steps) < 1:
+        if not divides(rate_hz, self.physics_hz):
             raise RateError(
                 f"{name}: {rate_hz} Hz does not divide the physics rate {self.physics_hz} Hz"
             )
-        return round(steps)
+        return round(self.physics_hz / rate_hz)
 
     def place_at_takeoff(self, height: float = 0.0) -> None:
         """Put the quadrotor on (or ``height`` m above) the start pad, at rest."""
@@ -185,7 +253,7 @@ class Actuation:
     commands: MotorCommands
     motors: MotorModel
     wind: Wind = field(default_factory=NoWind)
-    rate_hz: float = 500.0
+    rate_hz: float = field(default_factory=lambda: world_params().actuation_rate_hz)
     name: str = "actuation"
 
     def update(self, t_ns: int, scene: Scene) -> None:
@@ -201,18 +269,19 @@ class Imu:
     Samples MuJoCo's accelerometer and gyro at ``rate_hz`` through the noise model; the
     latest sample and its time are what the flight controller reads. MuJoCo computes
     sensors at the start of a step, so a sample is one physics step old (0.33 ms at
-    3 kHz), as a real IMU's filter delay would make it.
+    3 kHz), as a real IMU's filter delay would make it. The rate is the flight
+    controller's to choose (``imu_rate_hz`` in ``config/fcu_firmware.yaml``), so it has
+    no default here.
     """
 
     noise: ImuNoiseModel
-    rate_hz: float = 1000.0
+    rate_hz: float
     name: str = "imu"
     latest: ImuSample | None = None
     latest_t_ns: int = -1
 
     @classmethod
-    def seeded(cls, seed: int, params: ImuNoiseParams | None = None,
-               rate_hz: float = 1000.0) -> Imu:
+    def seeded(cls, seed: int, *, rate_hz: float, params: ImuNoiseParams | None = None) -> Imu:
         return cls(ImuNoiseModel(params or ImuNoiseParams(), np.random.default_rng(seed)),
                    rate_hz=rate_hz)
 
@@ -226,7 +295,7 @@ class Imu:
 class RobotMotion:
     """Moves the ground robots along their paths (kinematic, mocap bodies)."""
 
-    rate_hz: float = 50.0
+    rate_hz: float = field(default_factory=lambda: world_params().robots_rate_hz)
     name: str = "robots"
 
     def update(self, t_ns: int, scene: Scene) -> None:
@@ -251,7 +320,7 @@ class Trajectory:
 class TrajectoryRecorder:
     """Samples the quadrotor's true state for evaluation."""
 
-    rate_hz: float = 100.0
+    rate_hz: float = field(default_factory=lambda: world_params().trajectory_rate_hz)
     name: str = "trajectory"
     _rows: list[FloatArray] = field(default_factory=list)
 
@@ -284,14 +353,17 @@ class Crash:
 @dataclass
 class CrashDetector:
     """A crash is a contact with a wall, an obstacle or a robot, a touchdown faster than
-    ``max_touchdown_speed``, or a tilt beyond ``max_tilt`` while airborne or landed."""
+    ``params.max_touchdown_speed``, or a tilt beyond ``params.max_tilt_deg`` while
+    airborne or landed. ``params`` defaults to ``crash`` in ``config/sim_world.yaml``."""
 
-    max_touchdown_speed: float = 1.5  # m/s
-    max_tilt: float = math.radians(80.0)  # rad
-    rate_hz: float = 500.0
+    params: CrashParams = field(default_factory=lambda: world_params().crash)
     name: str = "crash_detector"
+    rate_hz: float = field(init=False)
     crash: Crash | None = None
     _soft_geoms: frozenset[int] = frozenset()
+
+    def __post_init__(self) -> None:
+        self.rate_hz = self.params.rate_hz
 
     def _soft(self, scene: Scene) -> frozenset[int]:
         if not self._soft_geoms:
@@ -312,7 +384,7 @@ class CrashDetector:
         _, x, y, _ = state.quaternion
         up_z = 1.0 - 2.0 * (x * x + y * y)  # body z axis, world z component
         reason = None
-        if up_z < math.cos(self.max_tilt):
+        if up_z < math.cos(math.radians(self.params.max_tilt_deg)):
             reason = f"tilt {math.degrees(math.acos(max(-1.0, min(1.0, up_z)))):.0f} deg"
         soft = self._soft(scene)
         for i in range(data.ncon):
@@ -326,7 +398,7 @@ class CrashDetector:
                 name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, other) or f"geom {other}"
                 reason = f"hit {name}"
                 break
-            if -state.velocity[2] > self.max_touchdown_speed:
+            if -state.velocity[2] > self.params.max_touchdown_speed:
                 reason = f"touchdown at {-state.velocity[2]:.1f} m/s"
                 break
         if reason is not None:
@@ -414,11 +486,12 @@ def run_world(
 
 
 __all__ = [
-    "DEFAULT_PHYSICS_HZ",
+    "WORLD_NODE_NAME",
     "Actuation",
     "ConstantThrust",
     "Crash",
     "CrashDetector",
+    "CrashParams",
     "Imu",
     "MotorCommands",
     "MotorsOff",
@@ -432,7 +505,10 @@ __all__ = [
     "StopWhen",
     "Trajectory",
     "TrajectoryRecorder",
+    "WorldParams",
     "WorldResult",
     "WorldStatus",
+    "divides",
     "run_world",
+    "world_params",
 ]

@@ -11,7 +11,11 @@ see over the wire and nothing else.
   message is published on ``/fmu/out/<topic>`` at its delivery time (QoS as PX4's
   uXRCE-DDS client: best effort, transient local).
 - companion -> FCU: ``/fmu/in/<topic>`` samples go into :class:`FcuInbox` with their
-  delivery time; the firmware takes those that have arrived with :meth:`FcuInbox.take`.
+  delivery time; the firmware takes those that have arrived with :meth:`FcuInbox.take`
+  (polled, at its own tick). A topic registered with :meth:`FcuAgentNode.on_arrival` is
+  instead handed to its consumer at the delivery time itself (event-driven, as the
+  modified firmware of seed 000 section 4.3: "consumed by requesting processes as soon
+  as they are available").
 - The agent also answers the FCU's own time-sync requests on the companion's clock, the
   way the XRCE agent does, so the FCU can estimate the offset it reports in
   ``/fmu/out/timesync_status``.
@@ -20,12 +24,14 @@ see over the wire and nothing else.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import interfaces
 from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_TIMESYNC_BYTES
 from runtime import Node
+from runtime.errors import ParameterError
 from sim.fcu.link import Link, LinkDirection
 
 
@@ -91,6 +97,7 @@ class FcuAgentNode(Node):
             self.create_subscription(topic.type, topic.name,
                                      self._receiver(short, topic.type), topic.qos, raw=True)
         self.malformed = 0
+        self._consumers: dict[str, Callable[[Arrival], None]] = {}
         self.sent = dict.fromkeys(FMU_OUT, 0)
         self.lost = dict.fromkeys(FMU_OUT, 0)
 
@@ -105,9 +112,23 @@ class FcuAgentNode(Node):
                 self.malformed += 1
                 self.get_logger().error(f"/fmu/in/{topic}: {exc}")
                 return
-            self.inbox.put(Arrival(delivery, topic, msg))
+            arrival = Arrival(delivery, topic, msg)
+            consumer = self._consumers.get(topic)
+            if consumer is None:
+                self.inbox.put(arrival)
+            else:
+                self.context.loop.call_at(delivery, lambda: consumer(arrival),
+                                          (self.get_name(), "link", topic))
 
         return receive
+
+    def on_arrival(self, topic: str, consumer: Callable[[Arrival], None]) -> None:
+        """Hand every ``/fmu/in/<topic>`` message to ``consumer`` at its delivery time
+        instead of queueing it in :attr:`inbox` (an event-driven consumer on the FCU)."""
+        if topic not in FMU_IN:
+            raise ParameterError(f"{topic!r} is not an /fmu/in topic; choose from "
+                                 f"{sorted(FMU_IN)}", key="event_driven_inputs")
+        self._consumers[topic] = consumer
 
     def send(self, topic: str, msg: Any, t_ns: int) -> None:
         """Send ``msg`` from the FCU at ``t_ns``: published on /fmu/out/``topic`` when it

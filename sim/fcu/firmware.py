@@ -27,7 +27,7 @@ import interfaces
 from interfaces.px4 import ArmingState, BatteryWarning, NavigationState
 from interfaces.px4.timesync import Px4Timesync, ns_to_us
 from runtime.parameters import load_parameters, param, validate_parameters
-from sim.fcu.agent import FcuAgentNode
+from sim.fcu.agent import Arrival, FcuAgentNode
 from sim.fcu.battery import (
     BATTERY_NODE_NAME,
     BatteryEstimator,
@@ -176,7 +176,7 @@ class ConsumedVision:
 
     timestamp_us: int  # the message's ``timestamp``
     timestamp_sample_us: int  # the message's ``timestamp_sample``
-    consumed_us: int  # FCU clock when the estimator took it (the dds_receive tick)
+    consumed_us: int  # FCU clock when the estimator took it (dds_receive tick, or arrival)
 
 
 @dataclass
@@ -185,6 +185,9 @@ class FirmwareConfig:
 
     ``rates_hz`` overrides periodic-function rates of :data:`FIRMWARE_MODULES` by function
     name [Hz] (see :func:`firmware_modules`); empty keeps the table's rates.
+    ``event_driven_inputs`` names ``/fmu/in`` topics the firmware handles the moment they
+    arrive, between main-loop ticks (seed 000's event-driven bridge), instead of at its
+    500 Hz ``dds_receive`` poll; empty (the default) polls every input, as PX4 does.
     """
 
     quad: QuadrotorParams = field(default_factory=QuadrotorParams)
@@ -197,6 +200,7 @@ class FirmwareConfig:
     main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ
     offsets: str = "balanced"
     rates_hz: Mapping[str, float] = field(default_factory=dict)
+    event_driven_inputs: frozenset[str] = frozenset()
 
     def resolved(self) -> FirmwareConfig:
         """This configuration with every module's parameters not given read from config/."""
@@ -314,6 +318,8 @@ class Firmware:
         }
         self.scheduler = Scheduler(self.schedule, functions, clock=self)
         self.scheduler.init()
+        for topic in sorted(cfg.event_driven_inputs):
+            agent.on_arrival(topic, self._consume_on_arrival)
 
     # -- the scheduler's clock and the world part -------------------------------------------
     def now_us(self) -> int:
@@ -495,14 +501,24 @@ class Firmware:
     # -- datalink -----------------------------------------------------------------------
     def dds_receive(self) -> None:
         for arrival in self.agent.inbox.take(self._now_ns):
-            handler = getattr(self, f"_on_{arrival.topic}")
-            handler(arrival.msg)
+            self._handle(arrival)
         for reply in self.agent.inbox.take_timesync(self._now_ns):
             # (t1, t2, t3): our send time, the agent's clock, our receive time [us]
             self.timesync.update(reply.request_fcu_us, ns_to_us(reply.agent_time_ns),
                                  self._now_us)
             self._last_timesync_status = self.timesync.estimate
             self._last_agent_us = ns_to_us(reply.agent_time_ns)
+
+    def _consume_on_arrival(self, arrival: Arrival) -> None:
+        """An event-driven input, handled at its delivery time (between ticks): the FCU's
+        clock reads that time while it is handled."""
+        self._now_ns = arrival.delivery_ns
+        self._now_us = self.clock.fcu_time_us(arrival.delivery_ns)
+        self._handle(arrival)
+
+    def _handle(self, arrival: Arrival) -> None:
+        handler = getattr(self, f"_on_{arrival.topic}")
+        handler(arrival.msg)
 
     def timesync_request(self) -> None:
         self.agent.request_timesync(self._now_us, self._now_ns)

@@ -21,17 +21,25 @@ direction's own ``numpy.random.Generator``, whether it is lost, spiked or neithe
 the same seed and the same sends give the same deliveries, and the two directions do
 not disturb each other.
 
-Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row): a 115-byte message takes
-1329 +/- 162 us companion -> FCU and 1752 +/- 315 us FCU -> companion (mean +/- standard
-deviation, end to end). The table gives two moments, so the shape is a choice: a
-floor plus a gamma tail (as OS and serial-link latency looks) plus rare load spikes
-(the latency peaks of the seed's Figure 8). :func:`calibrate_direction` keeps the floor,
-the spikes and the line settings and solves the gamma's shape and scale so that the
-mean and the standard deviation at the reference size are the table's exactly; the
-defaults in ``config/fcu_link.yaml`` were fitted that way. At 921 600 baud, 8N1, the
-wire time of 115 bytes alone is 1247.8 us, which leaves only 81 us of mean for
-everything else companion -> FCU: that direction has no floor, no framing overhead
-and a strongly skewed gamma (shape < 1).
+Calibration (seed 000, Table 3, MicroXRCE-DDS - ROS 2 row, in
+:mod:`interfaces.px4.seed000`): the mean and standard deviation of a 115-byte message's
+latency each way, measured end to end: where the FCU's estimator parses it (companion ->
+FCU), and where the companion node receives it (FCU -> companion). The table
+gives two moments, so the shape is a choice: a floor plus a gamma tail (as OS and
+serial-link latency looks) plus rare load spikes (the latency peaks of the seed's Figure 8).
+:func:`calibrate_direction` keeps the floor, the spikes and the line settings and solves
+the gamma's shape and scale so that the link's moments at the reference size, plus what
+the rest of the path adds (:class:`AddedDelay`, taken as independent: means and variances
+add), are the table's. What the path adds is a consumer's wait (:meth:`AddedDelay.poll`)
+or whatever an end-to-end measurement shows beyond the idle link
+(:meth:`AddedDelay.measured`: queueing behind other messages on the FIFO line); the
+defaults in ``config/fcu_link.yaml`` were fitted to the latency experiment that way
+(``quadmission.latency.fit_link``). The wire time is physics: at the seed's 921 600 baud,
+8N1, 115 bytes take 1247.8 us, which leaves only 81 us of mean for everything else
+companion -> FCU. That direction has no floor, no framing overhead and a skewed gamma,
+and no room for a polled consumer: a 500 Hz poll alone adds 1000 +/- 577 us, which no
+baud rate absorbs (the seed's FCU firmware consumed its inputs on arrival, section 4.3).
+:func:`calibrate_direction` names the problem (and the baud rate a mean would need).
 
 Pure module: numpy and PyYAML, no runtime, no MuJoCo.
 """
@@ -41,6 +49,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -60,6 +69,7 @@ __all__ = [
     "TABLE3_MESSAGE_SIZE_BYTES",
     "TABLE3_TO_COMPANION",
     "TABLE3_TO_FCU",
+    "AddedDelay",
     "LatencyFigure",
     "Link",
     "LinkCounters",
@@ -172,40 +182,76 @@ def _spike_variance_us2(params: LinkDirectionParams) -> float:
     return p * second_moment - (p * params.spike_mean_us) ** 2
 
 
+class AddedDelay(NamedTuple):
+    """What the path adds on top of the link's own latency, as two moments: mean [us]
+    and variance [us^2]. Taken as independent of the link's latency (moments add)."""
+
+    mean_us: float
+    variance_us2: float
+
+    @classmethod
+    def none(cls) -> AddedDelay:
+        """Nothing added: the figure is the link's own."""
+        return cls(0.0, 0.0)
+
+    @classmethod
+    def poll(cls, period_us: float) -> AddedDelay:
+        """The wait for a consumer that polls every ``period_us`` at a phase unrelated to the
+        arrivals: uniform on ``[0, period_us)``, mean ``P/2``, variance ``P^2/12``."""
+        if not period_us > 0.0:
+            raise ParameterError(f"poll period {period_us!r} us: must be > 0 us", key="added")
+        return cls(period_us / 2.0, period_us**2 / 12.0)
+
+    @classmethod
+    def measured(cls, end_to_end: LatencyFigure, link: LinkDirectionParams,
+                 size_bytes: int = TABLE3_MESSAGE_SIZE_BYTES) -> AddedDelay:
+        """What a measured ``end_to_end`` figure holds beyond ``link``'s own idle-line
+        moments (queueing behind other messages on the FIFO line, a consumer's wait...)."""
+        return cls(end_to_end.mean_us - link.mean_latency_us(size_bytes),
+                   end_to_end.sd_us**2 - link.latency_sd_us() ** 2)
+
+
 def calibrate_direction(
     target: LatencyFigure,
     template: LinkDirectionParams,
     size_bytes: int = TABLE3_MESSAGE_SIZE_BYTES,
+    added: AddedDelay | None = None,
 ) -> LinkDirectionParams:
-    """``template`` with the gamma jitter solved so that ``size_bytes`` messages have
-    ``target``'s mean and standard deviation (on an idle line).
+    """``template`` with the gamma jitter solved so that ``size_bytes`` messages, plus the
+    ``added`` delay of the rest of the path, have ``target``'s mean and standard deviation.
 
     The floor, spikes, loss and line settings of ``template`` are kept; with
-    ``m = mean - floor - wire time - p * spike mean`` and ``v = sd^2 - spike variance``
-    the gamma has shape ``m^2 / v`` and scale ``v / m``. Raises ParameterError when
-    the template leaves no positive mean or variance for the jitter.
+    ``m = mean - added mean - floor - wire time - p * spike mean`` and
+    ``v = sd^2 - added variance - spike variance`` the gamma has shape ``m^2 / v`` and
+    scale ``v / m``. Raises ParameterError when the template leaves no positive mean or
+    variance for the jitter; a mean that only a faster line can fit names the baud rate
+    it would need (the wire time cannot shrink otherwise).
     """
+    added = added or AddedDelay.none()
     wire_us = template.wire_time_ns(size_bytes) / _NS_PER_US
-    jitter_mean_us = (
-        target.mean_us
-        - template.base_latency_us
-        - wire_us
-        - template.spike_probability * template.spike_mean_us
-    )
-    jitter_var_us2 = target.sd_us**2 - _spike_variance_us2(template)
+    spike_us = template.spike_probability * template.spike_mean_us
+    room_us = target.mean_us - added.mean_us - template.base_latency_us - spike_us
+    jitter_mean_us = room_us - wire_us
+    jitter_var_us2 = target.sd_us**2 - added.variance_us2 - _spike_variance_us2(template)
     if jitter_mean_us <= 0.0:
+        bits = (size_bytes + template.framing_overhead_bytes) * template.bits_per_byte
+        need = (f"the line would need more than {bits / (room_us * 1e-6):,.0f} baud"
+                if room_us > 0.0 else "no baud rate can fit it")
         raise ParameterError(
-            f"floor {template.base_latency_us:g} us + wire time {wire_us:.1f} us + mean spike "
-            f"{template.spike_probability * template.spike_mean_us:.1f} us leave no room "
-            f"under the target mean {target.mean_us:g} us",
-            key="base_latency_us",
+            f"floor {template.base_latency_us:g} us + wire time {wire_us:.1f} us at "
+            f"{template.baud_rate} baud + mean spike {spike_us:.1f} us + added delay "
+            f"{added.mean_us:.1f} us leave no room under the target mean "
+            f"{target.mean_us:g} us: {need}",
+            key="baud_rate" if room_us > 0.0 else "base_latency_us",
         )
     if jitter_var_us2 <= 0.0:
+        spike_sd_us = math.sqrt(_spike_variance_us2(template))
+        added_sd_us = math.sqrt(max(added.variance_us2, 0.0))
         raise ParameterError(
-            f"the spikes alone have a standard deviation of "
-            f"{math.sqrt(_spike_variance_us2(template)):.1f} us, not below the target "
+            f"the spikes (standard deviation {spike_sd_us:.1f} us) and the added delay "
+            f"({added_sd_us:.1f} us) leave no variance for the jitter under the target "
             f"{target.sd_us:g} us",
-            key="spike_probability",
+            key="spike_probability" if spike_sd_us >= target.sd_us else "added",
         )
     return replace(
         template,

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from quadmission.cli import main
+from quadmission.errors import ExperimentError
 from quadmission.latency import (
-    CONSUMPTION_DELAY_US,
     EXPERIMENT_RATES_HZ,
     MAIN_LOOP_HZ,
     STREAM_RATE_HZ,
@@ -25,6 +25,7 @@ from quadmission.latency import (
     ReceivedImu,
     SentVision,
     analyse,
+    fit_link,
     format_report,
     run_latency_experiment,
     stream_charges,
@@ -35,8 +36,6 @@ from sim.fcu.firmware import FIRMWARE_MODULES, firmware_modules, firmware_schedu
 from sim.fcu.link import LINK_NODE_NAME, Link, LinkDirection, LinkParams
 
 STATS_KEYS = {"mean_us", "sd_us", "p50_us", "p99_us", "max_us", "n"}
-TOLERANCE = 0.15  # relative, against the link model's calibrated means
-RUN_S = 15.0
 
 
 # -- pure figures ------------------------------------------------------------------------------
@@ -120,7 +119,7 @@ def test_firmware_rates_override_only_what_it_names() -> None:
     schedule = firmware_schedule(MAIN_LOOP_HZ, "balanced", EXPERIMENT_RATES_HZ)
     prescaler = {p.fun: p.prescaler for p in schedule.periodics}
     assert prescaler["pub_sensor_combined"] == 5  # 200 Hz on the 1 kHz loop
-    assert prescaler["dds_receive"] == 2  # the vision consumer stays at 500 Hz
+    assert prescaler["dds_receive"] == 2  # the other inputs' poll stays at 500 Hz
     with pytest.raises(ModuleSpecError, match="no_such_function"):
         firmware_modules({"no_such_function": 10.0})
 
@@ -141,28 +140,38 @@ def test_the_link_charges_115_bytes_for_the_two_streams_only() -> None:
 
 
 # -- the experiment in the SITL ------------------------------------------------------------------
+# Seed 000 Table 3 is reproduced when the means are within 5 % and the standard deviations
+# within 15 % (issue 14, deliverable 6); RUN_S gives ~2900 samples per stream after the
+# estimators converge (~5.5 s), for a test of ~10 s on 2 cores.
+RUN_S = 20.0
+MEAN_TOLERANCE = 0.05
+SD_TOLERANCE = 0.15
+
+
 @pytest.fixture(scope="module")
 def report() -> LatencyReport:
     return run_latency_experiment(LatencyConfig(duration_s=RUN_S, seed=0))
 
 
-def _expected_mean_us(path: LatencyPath) -> float:
-    """The link's calibrated mean for 115 bytes, plus on the forward path the FCU's wait for
-    its 500 Hz dds_receive: one 1 kHz main-loop tick on average."""
-    extra = CONSUMPTION_DELAY_US if path is LatencyPath.FORWARD else 0
-    return TABLE3[path].mean_us + extra
-
-
 @pytest.mark.parametrize("path", list(LatencyPath))
-def test_corrected_latency_is_the_link_plus_consumption(report: LatencyReport,
-                                                        path: LatencyPath) -> None:
-    expected = _expected_mean_us(path)
+def test_the_experiment_reproduces_table3_end_to_end(report: LatencyReport,
+                                                     path: LatencyPath) -> None:
+    paper = TABLE3[path]
     figures = report.path(path)
     for label, stats in (("kalman", figures.corrected["kalman"]), ("true clock", figures.true)):
-        assert abs(stats.mean_us - expected) < TOLERANCE * expected, (
-            f"{path.value} {label}: mean {stats.mean_us:.0f} us, expected {expected:.0f} us "
-            f"+/- {TOLERANCE:.0%}")
-        assert stats.p50_us <= stats.p99_us <= stats.max_us
+        what = (f"{path.value} {label}: {stats.mean_us:.0f} +/- {stats.sd_us:.0f} us against "
+                f"Table 3's {paper.mean_us:g} +/- {paper.sd_us:g} us")
+        assert abs(stats.mean_us / paper.mean_us - 1.0) < MEAN_TOLERANCE, what
+        assert abs(stats.sd_us / paper.sd_us - 1.0) < SD_TOLERANCE, what
+
+
+def test_forward_latency_is_not_held_to_the_fcu_tick(report: LatencyReport) -> None:
+    """The estimator takes each vision sample on arrival (seed 000's event-driven bridge):
+    a 500 Hz poll would make every forward latency a whole 2 or 3 ms."""
+    true = report.forward.true
+    wire_us = load_parameters(LinkParams, LINK_NODE_NAME).to_fcu.wire_time_ns(115) / 1000
+    assert wire_us < true.p50_us < 1.5 * wire_us, true
+    assert true.p50_us % 1000 != 0, true
 
 
 @pytest.mark.parametrize("path", list(LatencyPath))
@@ -217,7 +226,13 @@ def test_json_has_the_figures_for_each_estimator(report: LatencyReport) -> None:
         assert {"p50", "p99"} <= set(figures["offset_error_us"])
     assert doc["forward"] == {k: doc["estimators"]["kalman"]["forward"][k]
                               for k in doc["forward"]}
-    assert doc["table3_us"]["forward"]["mean_us"] == 1329.0
+    for path in LatencyPath:
+        table3, ours = doc["table3_us"][path.value], report.path(path).corrected["kalman"]
+        assert (table3["mean_us"], table3["sd_us"]) == TABLE3[path]
+        assert table3["ratio_mean"] == pytest.approx(ours.mean_us / TABLE3[path].mean_us,
+                                                     abs=1e-4)
+        assert table3["ratio_sd"] == pytest.approx(ours.sd_us / TABLE3[path].sd_us, abs=1e-4)
+    assert doc["event_driven_inputs"] == ["vehicle_visual_odometry"]
     assert len(doc["offset_error_over_time_us"]) >= 10
 
 
@@ -228,21 +243,34 @@ def test_table_lists_both_paths_and_estimators(report: LatencyReport) -> None:
         assert needle in text
 
 
-def test_cli_prints_json_and_table(report: LatencyReport, capsys: pytest.CaptureFixture[str],
-                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    seen: list[LatencyConfig] = []
+# -- the command line, through the real experiment -------------------------------------------------
+CLI_RUN = ["latency", "--duration", "7", "--seed", "3", "--json"]  # converged by ~5.5 s
 
-    def fake_run(config: LatencyConfig) -> LatencyReport:
-        seen.append(config)
-        return report
 
-    monkeypatch.setattr("quadmission.latency.run_latency_experiment", fake_run)
-    assert main(["latency", "--duration", "7", "--seed", "3", "--json"]) == 0
-    assert seen == [LatencyConfig(duration_s=7.0, seed=3, primary="kalman")]
-    assert json.loads(capsys.readouterr().out)["forward"]["corrected"]["n"] > 0
-    assert main(["latency", "--estimator", "px4"]) == 0
-    assert "Companion -> FCU" in capsys.readouterr().out
+def test_cli_runs_the_experiment_and_the_same_seed_gives_the_same_figures(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(CLI_RUN) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert (first["duration_s"], first["seed"], first["estimator"]) == (7.0, 3, "kalman")
+    assert first["forward"]["corrected"]["n"] > 200
+    assert main([*CLI_RUN, "--estimator", "px4"]) == 0
+    second = json.loads(capsys.readouterr().out)
+    assert second["estimator"] == "px4"
+    assert second["forward"] == second["estimators"]["px4"]["forward"]
+    # both estimators ran in both runs: the same seed gave the same run, figure for figure
+    assert second["estimators"] == first["estimators"]
+    assert second["offset_error_over_time_us"] == first["offset_error_over_time_us"]
+
+
+def test_cli_refuses_a_zero_duration(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_info:
         main(["latency", "--duration", "0"])
     assert exit_info.value.code == 2
     assert "0 must be a positive number of seconds" in capsys.readouterr().err
+
+
+def test_fit_link_refuses_nothing_to_fit() -> None:
+    with pytest.raises(ExperimentError, match="iterations=0"):
+        fit_link(iterations=0)
+    with pytest.raises(ExperimentError, match="seeds"):
+        fit_link(seeds=())

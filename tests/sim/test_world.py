@@ -1,13 +1,21 @@
-"""The world loop: lockstep with the executor, rates checked, crashes, replay, sensors."""
+"""The world loop: lockstep with the executor, rates checked, crashes, replay, sensors, and
+its tuning from config/sim_world.yaml."""
 
 from __future__ import annotations
 
+import math
+import shutil
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 import pytest
 
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
+from runtime.errors import ParameterError
+from runtime.parameters import CONFIG_DIR_ENV, PACKAGE_CONFIG_DIR
 from sim.arena import ArenaSpec, default_arena
 from sim.quadrotor import MotorModel
 from sim.render import SceneRenderer
@@ -22,13 +30,16 @@ from sim.sensors import (
 from sim.world import (
     Actuation,
     ConstantThrust,
+    CrashDetector,
     Imu,
     MotorsOff,
     RateError,
     RobotMotion,
     Scene,
+    WorldResult,
     WorldStatus,
     run_world,
+    world_params,
 )
 
 
@@ -85,7 +96,7 @@ def test_a_rate_that_does_not_divide_physics_is_refused(contest: ArenaSpec) -> N
 def _recorded_run(contest: ArenaSpec, seed: int) -> tuple[Any, list[bytes], Any]:
     scene = Scene.build(contest)
     scene.place_at_takeoff(height=1.0)
-    ex = DeterministicExecutor(config_dir=None)
+    ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
     node = SimSensorsNode(context=ex.context)
     listener = Node("listener", context=ex.context)
     clouds: list[bytes] = []
@@ -116,7 +127,7 @@ def test_the_same_seed_gives_the_same_run(contest: ArenaSpec) -> None:
 def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec) -> None:
     scene = Scene.build(contest)
     scene.place_at_takeoff(height=1.0)
-    ex = DeterministicExecutor(config_dir=None)
+    ex = DeterministicExecutor()  # the sensors node reads config/sim_sensors.yaml
     node = SimSensorsNode(context=ex.context)
     with SceneRenderer(scene.model) as renderer:
         parts = sensor_parts(node, renderer, scene)
@@ -146,7 +157,7 @@ def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None
         scene = Scene.build(contest)
         scene.place_at_takeoff()
         samples: list[Any] = []
-        imu = Imu.seeded(seed)
+        imu = Imu.seeded(seed, rate_hz=1000.0)
 
         class Tap:
             name, rate_hz = "tap", 1000.0
@@ -167,3 +178,105 @@ def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None
     again, _ = run(1)
     other, _ = run(2)
     assert np.array_equal(data, again) and not np.array_equal(data, other)
+
+
+# -- the world's tuning comes from config/sim_world.yaml --------------------------------------
+
+
+def _config_with(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, old: str,
+                 new: str) -> Path:
+    """A copy of the config folder, ``old`` replaced by ``new`` in ``name``, made current."""
+    folder = tmp_path / "config"
+    if not folder.exists():
+        shutil.copytree(PACKAGE_CONFIG_DIR, folder)
+    path = folder / name
+    text = path.read_text(encoding="utf-8")
+    assert old in text, f"{old!r} not in {name}"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    monkeypatch.setenv(CONFIG_DIR_ENV, str(folder))
+    return path
+
+
+def _tilted(scene: Scene, tilt_deg: float) -> Scene:
+    """The quadrotor 1 m above the start pad, rolled by ``tilt_deg``, at rest."""
+    scene.place_at_takeoff(height=1.0)
+    half = math.radians(tilt_deg) / 2.0
+    adr = scene.index.qpos_adr
+    scene.data.qpos[adr + 3: adr + 7] = (math.cos(half), math.sin(half), 0.0, 0.0)
+    mujoco.mj_forward(scene.model, scene.data)
+    return scene
+
+
+def test_the_world_runs_at_the_rates_of_its_config_file(
+        contest: ArenaSpec, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _config_with(tmp_path, monkeypatch, "sim_world.yaml", "trajectory_rate_hz: 100.0",
+                 "trajectory_rate_hz: 40.0")
+    _config_with(tmp_path, monkeypatch, "sim_world.yaml", "physics_hz: 3000", "physics_hz: 1000")
+    scene = Scene.build(contest)
+    scene.place_at_takeoff(height=1.0)
+    result = run_world(scene, DeterministicExecutor(config_dir=None), duration_s=1.0,
+                       parts=_hover_parts(scene))
+    assert scene.model.opt.timestep == pytest.approx(1e-3)
+    assert result.physics_steps == 1000
+    assert len(result.trajectory) == 40  # 40 Hz over [0, 1) s
+    assert RobotMotion().rate_hz == 50.0 and Actuation(MotorsOff(), MotorModel(scene.quad)
+                                                       ).rate_hz == 500.0  # the file's
+    assert RobotMotion(rate_hz=25.0).rate_hz == 25.0  # a rate given in code wins
+    assert Scene.build(contest, physics_hz=500).physics_hz == 500
+
+
+def test_the_crash_tilt_comes_from_config(
+        contest: ArenaSpec, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    scene = _tilted(Scene.build(contest), 45.0)
+    default = CrashDetector()
+    default.update(0, scene)
+    assert default.crash is None  # 45 deg is within the shipped 80 deg
+
+    _config_with(tmp_path, monkeypatch, "sim_world.yaml", "max_tilt_deg: 80.0",
+                 "max_tilt_deg: 30.0")
+    strict = CrashDetector()
+    assert strict.params == world_params().crash
+    strict.update(0, scene)
+    assert strict.crash is not None and strict.crash.reason == "tilt 45 deg"
+
+    lenient = CrashDetector(replace(strict.params, max_tilt_deg=60.0))  # an override in code
+    lenient.update(0, scene)
+    assert lenient.crash is None
+
+
+def test_the_touchdown_speed_comes_from_config(
+        contest: ArenaSpec, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    def drop() -> WorldResult:  # from 0.3 m: between 1.5 and 3 m/s at touchdown
+        scene = Scene.build(contest)
+        scene.place_at_takeoff(height=0.3)
+        return run_world(scene, DeterministicExecutor(config_dir=None), duration_s=1.0,
+                         parts=[Actuation(MotorsOff(), MotorModel(scene.quad))])
+
+    hard = drop()
+    assert hard.crash is not None and hard.crash.reason.startswith("touchdown at")
+    speed = float(hard.crash.reason.split()[2])
+    assert 1.5 < speed < 3.0  # over the shipped limit, under the one below
+    _config_with(tmp_path, monkeypatch, "sim_world.yaml", "max_touchdown_speed: 1.5",
+                 "max_touchdown_speed: 3.0")
+    soft = drop()
+    assert soft.status is WorldStatus.COMPLETED and soft.crash is None
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ("robots_rate_hz: 50.0", "robots_rate_hz: 7.0",
+     "sim_world.robots_rate_hz: 7 Hz does not divide the physics rate 3000 Hz (physics_hz)"),
+    ("  rate_hz: 500.0", "  rate_hz: 2000.0",
+     "sim_world.crash.rate_hz: 2000 Hz does not divide the physics rate 3000 Hz (physics_hz)"),
+    ("physics_hz: 3000", "physics_hz: 3001",
+     "sim_world.actuation_rate_hz: 500 Hz does not divide the physics rate 3001 Hz "
+     "(physics_hz)"),
+    ("max_tilt_deg: 80.0", "max_tilt_deg: 0.0",
+     "sim_world.crash.max_tilt_deg: 0.0 is outside the allowed range (0, 180] deg"),
+])
+def test_a_bad_world_config_names_the_file_and_the_key(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, old: str, new: str,
+        message: str) -> None:
+    path = _config_with(tmp_path, monkeypatch, "sim_world.yaml", old, new)
+    with pytest.raises(ParameterError) as caught:
+        RobotMotion()
+    assert str(caught.value) == f"{path}: {message}"
