@@ -131,22 +131,36 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=Path("runs/default"),
                    help="folder for report.json, pictures and logs")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same run)")
-    p.add_argument("--arena", type=Path, default=None,
-                   help="arena YAML (default config/arenas/contest.yaml)")
-    p.add_argument("--random-arena", action="store_true",
-                   help="generate a random arena from --seed instead")
+    arena = p.add_mutually_exclusive_group()
+    arena.add_argument("--arena", type=Path, default=None,
+                       help="arena YAML (default config/arenas/contest.yaml)")
+    arena.add_argument("--random-arena", action="store_true",
+                       help="generate a random arena from --seed instead")
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
 
 def _sim_run(args: argparse.Namespace) -> int:
+    from quadmission.errors import ScenarioRefused
+    from quadmission.report import REPORT_NAME
     from quadmission.scenarios import SCENARIOS, ScenarioOptions
 
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
-                              random_arena=args.random_arena)
-    print(f"quadmission sim: scenario {args.scenario}, seed {args.seed}, out {args.out}",
-          file=sys.stderr)
-    report = SCENARIOS[args.scenario](options)
-    print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)}))
-    print(f"report: {args.out / 'report.json'}", file=sys.stderr)
+                              random_arena=args.random_arena, progress=_stderr)
+    arena = "random" if args.random_arena else (args.arena or "default")
+    _stderr(f"quadmission sim: scenario {args.scenario}, arena {arena}, seed {args.seed}, "
+            f"out {args.out}")
+    try:
+        report = SCENARIOS[args.scenario](options)
+    except ScenarioRefused as exc:
+        _stderr(f"REFUSED: {exc}")
+        return 2
+    print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)},
+                     allow_nan=False))
+    _stderr(f"report: {args.out / REPORT_NAME}")
+    _stderr(str(report.get("verdict", "")))
     return 0 if report.get("ok", report.get("all_decoded", True)) else 1
 
 

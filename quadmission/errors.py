@@ -9,3 +9,15 @@ class QuadmissionError(Exception):
 
 class ExperimentError(QuadmissionError, ValueError):
     """An experiment that cannot give its figures with the settings asked for."""
+
+
+class ScenarioRefused(QuadmissionError, ValueError):
+    """A scenario that cannot be run as asked in this arena; the message says why."""
+
+
+class SquareDoesNotFit(ScenarioRefused):
+    """No square flight keeps clear of the arena's walls and obstacles."""
+
+
+class OptionsError(QuadmissionError, ValueError):
+    """Scenario options that contradict each other or are out of range."""

@@ -2,21 +2,23 @@
 
 A scenario is a function of :class:`ScenarioOptions` that writes ``report.json`` (and
 pictures) into ``options.out`` and returns the report. The registry maps names to them;
-later capabilities add theirs (the square flight, the contest mission).
+later capabilities add theirs (the contest mission). Each report carries a one-line
+``verdict`` for a person; progress goes to ``options.progress`` (the CLI prints it on
+stderr).
 """
 
 from __future__ import annotations
 
-import json
-import sys
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import cv2
-import numpy as np
 
+from quadmission.errors import OptionsError
+from quadmission.report import write_report
+from quadmission.square_flight import square
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from sim.arena import ArenaSpec, default_arena, load_arena
 from sim.arena_generator import generate_arena
@@ -25,19 +27,25 @@ from sim.quadrotor import MotorModel
 from sim.render import Image, SceneRenderer
 from sim.scene import place_quadrotor
 from sim.sensors import DOWN_IMAGE_TOPIC, SimSensorsNode, image_from_msg, sensor_parts
-from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, StopWhen, run_world
+from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
 
 TOUR_HEIGHT = 1.5  # m, camera height above each pad in the arena tour
 
 
 @dataclass(frozen=True)
 class ScenarioOptions:
-    """What every scenario takes: where to write, the seed, and the arena."""
+    """What every scenario takes: where to write, the seed, the arena, and where progress
+    lines go (default: nowhere)."""
 
     out: Path
     seed: int = 0
     arena: Path | None = None  # None: config/arenas/contest.yaml
     random_arena: bool = False  # generate an arena from the seed instead
+    progress: Callable[[str], None] = field(default=lambda _line: None, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.random_arena and self.arena is not None:
+            raise OptionsError(f"give an arena file ({self.arena}) or a random arena, not both")
 
     def load_arena(self) -> ArenaSpec:
         if self.random_arena:
@@ -46,17 +54,6 @@ class ScenarioOptions:
 
 
 Scenario = Callable[[ScenarioOptions], dict[str, Any]]
-
-
-def _progress(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
-def write_report(out: Path, report: dict[str, Any]) -> Path:
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "report.json"
-    path.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
-    return path
 
 
 def save_png(path: Path, rgb: Image) -> None:
@@ -105,118 +102,19 @@ def arena_tour(options: ScenarioOptions) -> dict[str, Any]:
             decoded = sorted(detect_markers(grabber.latest))
             pads.append({"id": pad.id, "center": [x, y], "decoded_ids": decoded,
                          "decoded": decoded == [pad.id], "image": image_name})
-            _progress(f"  pad {pad.id:2d} at ({x:5.2f}, {y:5.2f}): decoded {decoded}")
+            options.progress(f"  pad {pad.id:2d} at ({x:5.2f}, {y:5.2f}): decoded {decoded}")
+    decoded_count = sum(1 for p in pads if p["decoded"])
     report = {
         "scenario": "arena-tour",
+        "verdict": f"decoded {decoded_count}/{len(pads)} pads",
         "arena": arena.name,
         "seed": options.seed,
         "camera_height_m": TOUR_HEIGHT,
         "pads": pads,
-        "pads_decoded": int(np.sum([p["decoded"] for p in pads])),
+        "pads_decoded": decoded_count,
         "pads_total": len(pads),
         "all_decoded": all(p["decoded"] for p in pads),
         "arena_image": "arena.png",
-    }
-    write_report(options.out, report)
-    return report
-
-
-
-
-# -- the square flight (the simulated flight controller) -----------------------------------
-
-SQUARE_SIDE = 4.0  # m
-SQUARE_ALTITUDE = 1.5  # m
-
-
-def _path_plot(out: Path, reference_enu: np.ndarray, actual_enu: np.ndarray,
-               arena: ArenaSpec) -> None:
-    """Top-down plot of the commanded (blue) and flown (red) paths, 100 px per metre."""
-    scale, margin = 100, 60
-    lo = np.minimum(reference_enu.min(axis=0), actual_enu.min(axis=0))[:2] - 0.5
-    hi = np.maximum(reference_enu.max(axis=0), actual_enu.max(axis=0))[:2] + 0.5
-    size = ((hi - lo) * scale).astype(int) + 2 * margin
-    image = np.full((size[1], size[0], 3), 255, dtype=np.uint8)
-
-    def px(p: np.ndarray) -> tuple[int, int]:
-        x, y = (p[:2] - lo) * scale + margin
-        return int(x), int(size[1] - y)
-
-    for path, colour in ((reference_enu, (200, 80, 0)), (actual_enu, (0, 0, 220))):
-        points = np.array([px(p) for p in path], dtype=np.int32)
-        cv2.polylines(image, [points], False, colour, 2, cv2.LINE_AA)
-    cv2.putText(image, "setpoint", (10, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (200, 80, 0), 2)
-    cv2.putText(image, "flown", (10, 44), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 220), 2)
-    cv2.putText(image, f"1 m = {scale} px, ENU, arena {arena.name}", (10, size[1] - 12),
-                cv2.FONT_HERSHEY_SIMPLEX, 0.5, (60, 60, 60), 1)
-    if not cv2.imwrite(str(out), image):
-        raise OSError(f"could not write {out}")
-
-
-def square(options: ScenarioOptions) -> dict[str, Any]:
-    """Arm, enter offboard through a test harness streaming px4 setpoints, fly a 4 m
-    square at 1.5 m, land and disarm. Writes report.json and path.png."""
-    from flight_control.frames import ned_to_enu
-    from quadmission.offboard_harness import HarnessPhase, OffboardHarness
-    from sim.fcu.link import LinkDirection
-    from sim.fcu.sitl import build_sitl
-
-    options.out.mkdir(parents=True, exist_ok=True)
-    arena = options.load_arena()
-    sitl = build_sitl(arena, seed=options.seed)
-    side = SQUARE_SIDE
-    harness = OffboardHarness(
-        [[side, 0.0, 0.0], [side, side, 0.0], [0.0, side, 0.0], [0.0, 0.0, 0.0]],
-        altitude=SQUARE_ALTITUDE, context=sitl.executor.context)
-    sitl.executor.add_node(harness)
-
-    class _Progress:
-        name, rate_hz = "progress", 1.0
-        last = None
-
-        def update(self, t_ns: int, scene: Scene) -> None:
-            if harness.phase is not self.last:
-                _progress(f"  t={t_ns / 1e9:6.1f} s  {harness.phase.value}")
-                self.last = harness.phase
-
-    sitl.extra_parts.append(_Progress())
-    result = sitl.run(180.0, stop=StopWhen(lambda: harness.done))
-    traj = result.trajectory
-    started = harness.phase_started_ns
-    fly_ref = [(t, p) for t, p in harness.reference
-               if HarnessPhase.FLY in started and HarnessPhase.LAND in started
-               and started[HarnessPhase.FLY] <= t < started[HarnessPhase.LAND]]
-    path_image = None
-    if fly_ref:
-        t_ref = np.array([t for t, _ in fly_ref]) / 1e9
-        ref_enu = ned_to_enu(np.array([p for _, p in fly_ref]))
-        actual = np.column_stack([np.interp(t_ref, traj.t, traj.position[:, i])
-                                  for i in range(3)])
-        err = actual - ref_enu
-        rmse = {axis: float(np.sqrt(np.mean(err[:, i] ** 2))) for i, axis in enumerate("xyz")}
-        path_image = "path.png"
-        _path_plot(options.out / path_image, ref_enu, traj.position, arena)
-    else:
-        rmse = {axis: float("nan") for axis in "xyz"}
-    report = {
-        "scenario": "square",
-        "arena": arena.name,
-        "seed": options.seed,
-        "side_m": side,
-        "altitude_m": SQUARE_ALTITUDE,
-        "completed": harness.done,
-        "final_phase": harness.phase.value,
-        "crashed": result.crash is not None,
-        "crash": None if result.crash is None else result.crash.reason,
-        "tracking_rmse_m": rmse,
-        "sim_time_s": result.sim_time_s,
-        "wall_time_s": result.wall_time_s,
-        "rtf": result.real_time_factor,
-        "fcu_overruns": sitl.firmware.scheduler.report().overruns,
-        "link": {d.name.lower(): {"sent": c.sent, "lost": c.lost, "spikes": c.spikes}
-                 for d in LinkDirection for c in [sitl.link.counters(d)]},
-        "path_image": path_image,
-        "ok": harness.done and result.crash is None,
     }
     write_report(options.out, report)
     return report
