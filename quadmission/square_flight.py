@@ -100,7 +100,7 @@ def refused_report(options: ScenarioOptions, arena: ArenaSpec,
 
 def _plan_json(plan: SquarePlan, speed: float) -> dict[str, Any]:
     return {"side_m": plan.side, "altitude_m": plan.altitude, "speed_m_s": speed,
-            "clearance_m": CLEARANCE, "direction": list(plan.direction),
+            "clearance_m": round(CLEARANCE, 3), "direction": list(plan.direction),
             "start_m": list(plan.start), "corners_m": [list(c) for c in plan.corners()]}
 
 
