@@ -74,8 +74,13 @@ class FcuCommands:
             if protocol.command == int(msg.command):
                 protocol.on_ack(int(msg.result), now_ns)
 
-    async def run(self, request: CommandRequest, timeout_s: float = 0.0) -> CommandProtocol:
-        """Send ``request`` until the protocol is done; ``timeout_s`` 0: the parameter."""
+    async def run(self, request: CommandRequest, timeout_s: float = 0.0,
+                  stop: Callable[[], bool] | None = None) -> CommandProtocol:
+        """Send ``request`` until the protocol is done; ``timeout_s`` 0: the parameter.
+
+        ``stop`` is asked before every send and wait: when it says True (the goal that
+        wanted the command was preempted, canceled or timed out) the command is dropped,
+        never sent again, and the protocol comes back not done."""
         timeout = timeout_s if timeout_s > 0.0 else self._params.command_timeout_s
         protocol = CommandProtocol(request.command, attempts=self._params.command_attempts,
                                    timeout_ns=_ns(timeout))
@@ -83,6 +88,10 @@ class FcuCommands:
         self._running.append(protocol)
         try:
             while True:
+                if stop is not None and stop():
+                    log.info(f"{request.command.name}: dropped, the goal that asked for it "
+                             f"ended")
+                    return protocol
                 now_ns = self._node.now().nanoseconds
                 if protocol.poll(now_ns):
                     if protocol.sent > 1:
@@ -197,6 +206,11 @@ class BehaviourServer:
                                       / self.params.feedback_rate_hz))
         reply: CommandReply | None = None
         tick = 0
+
+        def goal_over() -> bool:  # a command asked for by this goal is dropped after it
+            return (token != self._token or handle.is_cancel_requested
+                    or self.node.now().nanoseconds - start_ns > timeout_ns)
+
         while True:
             now_ns = self.node.now().nanoseconds
             obs = vehicle.observe(reply) or obs
@@ -220,7 +234,7 @@ class BehaviourServer:
                 outcome, reason = Outcome.TIMEOUT, ""
                 break
             if step.command is not None:
-                done = await self.commands.run(step.command)
+                done = await self.commands.run(step.command, stop=goal_over)
                 reply = CommandReply(step.command, done.accepted, done.describe())
                 continue
             await self.node.sleep(period_s)

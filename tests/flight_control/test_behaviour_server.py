@@ -167,3 +167,31 @@ def test_every_action_maps_every_outcome_to_a_result_code() -> None:
                      lambda f: f, lambda *a: "",
                      {o: "RESULT_OK" for o in Outcome
                       if o not in (Outcome.TIMEOUT, Outcome.CANCELED)})
+
+
+def test_a_preempted_goal_stops_sending_its_fcu_command() -> None:
+    rig = make_rig(flying_at=AT)
+    rig.fcu.answers[VehicleCmd.NAV_LAND] = [None, None, None]  # every ack is lost
+    land = rig.send("land")
+    assert land.accepted
+    rig.ex.spin_for(0.6)
+    assert len(rig.fcu.sent(VehicleCmd.NAV_LAND)) == 2  # at 0 and after one 0.5 s timeout
+    reach = rig.send("reach", **reach_goal(3.0, 2.0, 1.5))
+    assert reach.accepted
+    assert rig.result(land, 1.0).result.message == "preempted by a newer goal"
+    done = rig.result(reach, 20.0)
+    assert done.status == GoalStatus.SUCCEEDED, done.result.message
+    assert len(rig.fcu.sent(VehicleCmd.NAV_LAND)) == 2  # never sent again
+    assert rig.fcu.nav_state == NavigationState.OFFBOARD
+
+
+def test_a_canceled_goal_stops_sending_its_fcu_command() -> None:
+    rig = make_rig(flying_at=AT)
+    rig.fcu.answers[VehicleCmd.NAV_LAND] = [None, None, None]
+    land = rig.send("land")
+    rig.ex.spin_for(0.2)
+    rig.wait(land.cancel_goal_async(), 1.0)
+    out = rig.result(land, 1.0)
+    assert out.status == GoalStatus.CANCELED
+    rig.ex.spin_for(2.0)
+    assert len(rig.fcu.sent(VehicleCmd.NAV_LAND)) == 1
