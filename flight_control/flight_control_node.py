@@ -180,12 +180,20 @@ class FlightControlNode(Node):
             if out.accepted:
                 out = await self.commands.run(arm_disarm(True, force=request.force),
                                               request.timeout)
-            if out.accepted:
-                await self._wait_for(self._in_control)
+            in_control = out.accepted and await self._wait_for(self._in_control)
         finally:
             self._arming = False
-        if not out.accepted:
+        if not in_control:
             self.setpoint = None
+        if out.accepted and not in_control:  # acked, but /fcu/status never showed it
+            state = self.vehicle_state()
+            response.success, response.fcu_result = False, int(out.result or 0)
+            response.result = response.RESULT_TIMEOUT
+            response.message = (f"the FCU accepted arming but was not armed in offboard after "
+                                f"{self.params.mode_wait_s:.1f} s (nav_state "
+                                f"{'unknown' if state is None else state.nav_state})")
+            self.get_logger().warning(response.message)
+            return response
         return self._command_response(response, out, f"armed in offboard at {xyz(self.home)}")
 
     def _on_disarm(self, request: Any, response: Any) -> Any:

@@ -30,6 +30,7 @@ class ScriptedFcu(Node):
         self.landing = False
         self.nav_state = NavigationState.AUTO_LOITER
         self.battery_warning = 0
+        self.obeys_mode_changes = True  # False: acks DO_SET_MODE, stays where it is
         self.answers: dict[int, list[int | None]] = {}  # per send; None: no ack
         self.commands: list[tuple[float, int, float, float]] = []  # t, command, p1, p2
         self.setpoint: Any = None
@@ -70,7 +71,7 @@ class ScriptedFcu(Node):
         if result is None:
             return  # the ack is lost
         if result == CommandResult.ACCEPTED:
-            if msg.command == VehicleCmd.DO_SET_MODE:
+            if msg.command == VehicleCmd.DO_SET_MODE and self.obeys_mode_changes:
                 self.offboard, self.landing = True, False
                 self.nav_state = NavigationState.OFFBOARD
             elif msg.command == VehicleCmd.COMPONENT_ARM_DISARM:

@@ -35,6 +35,17 @@ def test_arm_streams_asks_for_offboard_then_arms() -> None:
     assert rig.fc.setpoint is not None
 
 
+def test_arm_fails_when_the_fcu_acks_but_never_enters_offboard() -> None:
+    rig = make_rig()
+    rig.fcu.obeys_mode_changes = False
+    out = rig.call("arm")
+    assert not out.success
+    assert out.result == out.RESULT_TIMEOUT
+    assert out.message.startswith("the FCU accepted arming but was not armed in offboard")
+    assert "nav_state 4" in out.message  # AUTO_LOITER
+    assert rig.fc.setpoint is None  # the stream stops: nothing in control
+
+
 def test_a_temporary_rejection_is_retried() -> None:
     rig = make_rig()
     rig.fcu.answers[VehicleCmd.DO_SET_MODE] = [CommandResult.TEMPORARILY_REJECTED]
