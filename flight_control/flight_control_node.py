@@ -52,7 +52,8 @@ class FlightControlNode(Node):
         super().__init__("flight_control", **kwargs)
         self.params = self.declare_params(FlightControlParams)
         try:
-            self.bounds = self.declare_params(FieldParams).bounds()
+            self.bounds = self.declare_params(FieldParams).bounds(
+                self.params.wall_clearance)
         except ParameterError as exc:
             raise ParameterError(f"{exc}; {FIELD_SOURCE}") from None
         # what the FCU says, through the bridge

@@ -76,6 +76,13 @@ class FieldBounds:
             raise ValueError(f"field bounds need 3 values each, got {list(lo)}, {list(hi)}")
         return cls((lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2]))
 
+    def shrunk(self, clearance: float) -> FieldBounds:
+        """The volume ``clearance`` [m] away from the walls and the ceiling (the floor
+        stays: the floor rule is ``min_altitude``). ValueError if nothing is left."""
+        lo, hi = self.lower, self.upper
+        return FieldBounds((lo[0] + clearance, lo[1] + clearance, lo[2]),
+                           (hi[0] - clearance, hi[1] - clearance, hi[2] - clearance))
+
     def contains(self, position: npt.ArrayLike) -> bool:
         p = np.asarray(position, dtype=np.float64)
         return bool(np.all(p >= np.asarray(self.lower)) and np.all(p <= np.asarray(self.upper)))
@@ -98,7 +105,8 @@ def check_target(target: npt.ArrayLike, bounds: FieldBounds,
         return GoalProblem(GoalError.NOT_FINITE, f"target {p.tolist()} is not 3 finite numbers")
     if not bounds.contains(p):
         return GoalProblem(GoalError.OUTSIDE_FIELD,
-                           f"target {_fmt_point(p)} is outside the field {bounds.describe()}")
+                           f"target {_fmt_point(p)} is outside the flyable volume "
+                           f"{bounds.describe()}")
     if p[2] < min_altitude:
         return GoalProblem(GoalError.BELOW_FLOOR,
                            f"target altitude {fmt_m(float(p[2]))} m is below the floor "

@@ -56,6 +56,9 @@ class FlightControlParams:
                                      description="stream before asking for offboard (PX4: >1 s)")
     status_timeout_s: float = param(unit="s", range=(0.1, 10.0),
                                     description="no /fcu/status this long = FCU disconnected")
+    wall_clearance: float = param(unit="m", range=(0.0, 5.0),
+                                  description="reach targets stay this far from the walls "
+                                              "and the ceiling")
     min_altitude: float = param(unit="m", range=(0.0, 100.0),
                                 description="floor: lowest reach target (map z)")
     battery_critical_warning: int = param(range=(1, 3),
@@ -104,11 +107,13 @@ class FieldParams:
     field_max: tuple[float, ...] = param(unit="m", range=(-1000.0, 1000.0),
                                          description="allowed volume, upper corner x, y, z")
 
-    def bounds(self) -> FieldBounds:
+    def bounds(self, clearance: float = 0.0) -> FieldBounds:
+        """The field, ``clearance`` [m] in from the walls and the ceiling."""
         try:
-            return FieldBounds.of(self.field_min, self.field_max)
+            return FieldBounds.of(self.field_min, self.field_max).shrunk(clearance)
         except ValueError as exc:
-            raise ParameterError(f"flight_control.field_min/field_max: {exc}") from None
+            raise ParameterError(f"flight_control.field_min/field_max with wall_clearance "
+                                 f"{clearance} m: {exc}") from None
 
 
 __all__ = ["FIELD_SOURCE", "FieldParams", "FlightControlParams"]

@@ -90,7 +90,8 @@ def test_a_bad_goal_is_rejected_with_the_reason() -> None:
     handle = rig.send("reach", **reach_goal(12.0, 2.0, 1.5))
     assert not handle.accepted
     assert rig.result(handle).result.message == \
-        "target (12.0, 2.0, 1.5) m is outside the field [0, 10] x [0, 8] x [0, 4] m"
+        "target (12.0, 2.0, 1.5) m is outside the flyable volume [0.4, 9.6] x [0.4, 7.6] x " \
+        "[0, 3.6] m"
     turn = rig.send("turn", yaw=1.0, yaw_rate=9.0)
     assert not turn.accepted
     assert rig.result(turn).result.message == "speed 9.0 is above the limit 2.0"
@@ -195,3 +196,19 @@ def test_a_canceled_goal_stops_sending_its_fcu_command() -> None:
     assert out.status == GoalStatus.CANCELED
     rig.ex.spin_for(2.0)
     assert len(rig.fcu.sent(VehicleCmd.NAV_LAND)) == 1
+
+
+@pytest.mark.parametrize(("target", "accepted"), [
+    ((0.2, 2.0, 1.5), False),  # 0.2 m from the west wall: inside the field, too close
+    ((0.5, 2.0, 1.5), True),
+    ((9.7, 2.0, 1.5), False),  # east wall at 10 m
+    ((2.0, 7.7, 1.5), False),  # north wall at 8 m
+    ((2.0, 2.0, 3.8), False),  # ceiling at 4 m
+    ((2.0, 2.0, 3.5), True),
+])
+def test_reach_targets_keep_wall_clearance_from_walls_and_ceiling(
+        target: tuple[float, float, float], accepted: bool) -> None:
+    rig = make_rig(flying_at=AT)
+    assert rig.fc.params.wall_clearance == 0.4
+    handle = rig.send("reach", **reach_goal(*target))
+    assert handle.accepted is accepted, rig.result(handle).result.message

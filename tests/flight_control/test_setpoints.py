@@ -197,7 +197,15 @@ def test_outside_the_field_is_rejected_with_the_numbers() -> None:
     problem = check_target([25.0, 3.0, 1.5], FIELD, 0.5)
     assert problem is not None and problem.error is GoalError.OUTSIDE_FIELD
     assert problem.message == (
-        "target (25.0, 3.0, 1.5) m is outside the field [0, 20] x [0, 14] x [0, 4] m")
+        "target (25.0, 3.0, 1.5) m is outside the flyable volume [0, 20] x [0, 14] x [0, 4] m")
+
+
+def test_shrunk_keeps_clear_of_walls_and_ceiling_but_not_the_floor() -> None:
+    inner = FIELD.shrunk(0.4)
+    assert inner.lower == (0.4, 0.4, 0.0)
+    assert inner.upper == (19.6, 13.6, 3.6)
+    with pytest.raises(ValueError, match="on z"):
+        FIELD.shrunk(4.0)  # a 4 m ceiling leaves nothing above the floor
 
 
 def test_below_the_floor_and_not_finite() -> None:
