@@ -27,13 +27,16 @@ import numpy as np
 
 import interfaces
 from flight_control.frames import (
-    enu_to_ned,
     frd_to_flu,
     quat_to_xyzw,
-    yaw_enu_to_ned,
 )
 from flight_control.pose_history import PoseHistory, PoseSample
-from flight_control.px4_messages import odometry_enu, vision_odometry
+from flight_control.px4_messages import (
+    odometry_enu,
+    offboard_control_mode,
+    trajectory_setpoint,
+    vision_odometry,
+)
 from flight_control.timesync import make_estimator
 from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
@@ -59,7 +62,6 @@ ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
 MAP_FRAME = "map"
 BODY_FRAME = "base_link"
 COMPANION_COMPONENT = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
-_NAN3 = np.full(3, math.nan, dtype=np.float32)
 
 
 @dataclass(frozen=True)
@@ -270,20 +272,13 @@ class FcuBridgeNode(Node):
     # -- companion -> FCU -----------------------------------------------------------------
     def _on_setpoint(self, msg: Any) -> None:
         stamp = self.to_fcu_us(self.now().nanoseconds)
-        p = enu_to_ned([msg.position.x, msg.position.y, msg.position.z])
-        v = enu_to_ned([msg.velocity.x, msg.velocity.y, msg.velocity.z])
-        a = enu_to_ned([msg.acceleration.x, msg.acceleration.y, msg.acceleration.z])
-        self.mode_out.publish(interfaces.new(
-            "px4_msgs/msg/OffboardControlMode", timestamp=stamp,
-            position=bool(np.isfinite(p).any()), velocity=bool(np.isfinite(v).any()),
-            acceleration=bool(np.isfinite(a).any())))
-        yaw = float(msg.yaw)
-        self.setpoint_out.publish(interfaces.new(
-            "px4_msgs/msg/TrajectorySetpoint", timestamp=stamp,
-            position=p.astype(np.float32), velocity=v.astype(np.float32),
-            acceleration=a.astype(np.float32), jerk=_NAN3,
-            yaw=float(yaw_enu_to_ned(yaw)) if math.isfinite(yaw) else math.nan,
-            yawspeed=-float(msg.yaw_rate)))
+        setpoint = trajectory_setpoint(
+            [msg.position.x, msg.position.y, msg.position.z],
+            [msg.velocity.x, msg.velocity.y, msg.velocity.z],
+            [msg.acceleration.x, msg.acceleration.y, msg.acceleration.z],
+            float(msg.yaw), float(msg.yaw_rate), timestamp_us=stamp)
+        self.mode_out.publish(offboard_control_mode(setpoint, timestamp_us=stamp))
+        self.setpoint_out.publish(setpoint)
 
     def _on_command(self, msg: Any) -> None:
         self.command_out.publish(interfaces.new(

@@ -5,6 +5,9 @@
   an FLU body and its ROS covariance (6x6 row-major: x, y, z, roll, pitch, yaw).
 - :func:`odometry_enu` reads a px4_msgs/VehicleOdometry back into the ENU/FLU quantities
   the companion publishes on ``/fcu/odometry``.
+- :func:`trajectory_setpoint` builds the ``/fmu/in/trajectory_setpoint`` message (NED) from
+  an ENU reference, and :func:`offboard_control_mode` the heartbeat that says which of its
+  terms PX4 should track. NaN means "not controlled" on both sides and stays NaN.
 
 Variances follow the axes: ENU x is NED y, so the x and y position variances swap. The
 attitude variances are about the body axes; FLU and FRD share the roll axis and flip the
@@ -32,15 +35,18 @@ from flight_control.frames import (
     quat_rotate,
     variance_enu_to_ned,
     variance_ned_to_enu,
+    yaw_enu_to_ned,
+    yaw_rate_enu_to_ned,
 )
-from interfaces.px4 import PoseFrame, VelocityFrame
+from interfaces.px4 import ODOMETRY_QUALITY_BEST, PoseFrame, VelocityFrame
 
-__all__ = ["OdometryEnu", "odometry_enu", "vision_odometry"]
+__all__ = ["OdometryEnu", "odometry_enu", "offboard_control_mode", "trajectory_setpoint",
+           "vision_odometry"]
 
 _POSITION_DIAG = (0, 7, 14)  # x, y, z in a 6x6 row-major ROS covariance
 _ATTITUDE_DIAG = (21, 28, 35)  # roll, pitch, yaw
 _NAN3 = np.full(3, math.nan, dtype=np.float32)
-VISION_QUALITY = 100  # VehicleOdometry.quality: 0 invalid .. 100 best
+VISION_QUALITY = ODOMETRY_QUALITY_BEST  # a simulated vision pose is never degraded
 
 
 def vision_odometry(position_enu: Any, q_enu_flu: Any, covariance: Any, *, timestamp_us: int,
@@ -94,3 +100,31 @@ def odometry_enu(msg: Any) -> OdometryEnu:
         velocity=velocity, body_velocity=quat_rotate(quat_conjugate(q), velocity),
         angular_velocity=frd_to_flu(np.asarray(msg.angular_velocity, dtype=np.float64)),
         pose_covariance=pose_cov, twist_covariance=twist_cov)
+
+
+def trajectory_setpoint(position_enu: Any, velocity_enu: Any, acceleration_enu: Any,
+                        yaw_enu: float, yaw_rate_enu: float, *, timestamp_us: int) -> Any:
+    """px4_msgs/TrajectorySetpoint (NED) for an ENU reference.
+
+    ``position_enu`` [m], ``velocity_enu`` [m/s] and ``acceleration_enu`` [m/s^2] are ENU
+    3-vectors, ``yaw_enu`` [rad] from East counter-clockwise about Up and ``yaw_rate_enu``
+    [rad/s] about Up. A NaN axis or yaw is left uncontrolled and stays NaN; jerk is never
+    set."""
+    yaw = float(yaw_enu)
+    return interfaces.new(
+        "px4_msgs/msg/TrajectorySetpoint", timestamp=int(timestamp_us),
+        position=enu_to_ned(position_enu).astype(np.float32),
+        velocity=enu_to_ned(velocity_enu).astype(np.float32),
+        acceleration=enu_to_ned(acceleration_enu).astype(np.float32), jerk=_NAN3.copy(),
+        yaw=float(yaw_enu_to_ned(yaw)) if math.isfinite(yaw) else math.nan,
+        yawspeed=float(yaw_rate_enu_to_ned(float(yaw_rate_enu))))
+
+
+def offboard_control_mode(setpoint: Any, *, timestamp_us: int) -> Any:
+    """px4_msgs/OffboardControlMode for a TrajectorySetpoint: a term is controlled when
+    any axis of it is finite (PX4 tracks the finite axes and leaves NaN ones free)."""
+    return interfaces.new(
+        "px4_msgs/msg/OffboardControlMode", timestamp=int(timestamp_us),
+        position=bool(np.isfinite(setpoint.position).any()),
+        velocity=bool(np.isfinite(setpoint.velocity).any()),
+        acceleration=bool(np.isfinite(setpoint.acceleration).any()))

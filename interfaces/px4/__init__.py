@@ -11,11 +11,14 @@ from interfaces.px4.constants import (
     PoseFrame,
     TimesyncSource,
     VehicleCmd,
+    VehicleType,
     VelocityFrame,
 )
 from interfaces.px4.modes import (
     FORCE_ARM_DISARM_MAGIC,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_TYPE_QUADROTOR,
+    ODOMETRY_QUALITY_BEST,
     Px4CustomMainMode,
     Px4CustomSubModeAuto,
 )
@@ -26,6 +29,8 @@ __all__ = [
     "FMU_OUT",
     "FORCE_ARM_DISARM_MAGIC",
     "MAV_MODE_FLAG_CUSTOM_MODE_ENABLED",
+    "MAV_TYPE_QUADROTOR",
+    "ODOMETRY_QUALITY_BEST",
     "ArmDisarmReason",
     "ArmingState",
     "BatteryWarning",
@@ -37,5 +42,6 @@ __all__ = [
     "Px4CustomSubModeAuto",
     "TimesyncSource",
     "VehicleCmd",
+    "VehicleType",
     "VelocityFrame",
 ]

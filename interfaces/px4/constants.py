@@ -12,6 +12,7 @@ __all__ = [
     "PoseFrame",
     "TimesyncSource",
     "VehicleCmd",
+    "VehicleType",
     "VelocityFrame",
 ]
 
@@ -77,6 +78,16 @@ class ArmDisarmReason(IntEnum):
     FAILURE_DETECTOR = 11  # ARM_DISARM_REASON_FAILURE_DETECTOR
     SHUTDOWN = 12  # ARM_DISARM_REASON_SHUTDOWN
     UNIT_TEST = 13  # ARM_DISARM_REASON_UNIT_TEST
+
+
+class VehicleType(IntEnum):
+    """``VehicleStatus.VEHICLE_TYPE_*``."""
+
+    UNKNOWN = 0  # VEHICLE_TYPE_UNKNOWN
+    ROTARY_WING = 1  # VEHICLE_TYPE_ROTARY_WING
+    FIXED_WING = 2  # VEHICLE_TYPE_FIXED_WING
+    ROVER = 3  # VEHICLE_TYPE_ROVER
+    AIRSHIP = 4  # VEHICLE_TYPE_AIRSHIP
 
 
 class VehicleCmd(IntEnum):

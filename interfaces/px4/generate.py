@@ -31,6 +31,7 @@ GROUPS: tuple[Group, ...] = (
     Group("VehicleStatus", "ArmingState", ("ARMING_STATE_",)),
     Group("VehicleStatus", "NavigationState", ("NAVIGATION_STATE_",)),
     Group("VehicleStatus", "ArmDisarmReason", ("ARM_DISARM_REASON_",)),
+    Group("VehicleStatus", "VehicleType", ("VEHICLE_TYPE_",)),
     Group("VehicleCommand", "VehicleCmd", ("VEHICLE_CMD_",)),
     Group("VehicleCommandAck", "CommandResult", ("VEHICLE_CMD_RESULT_",)),
     Group("BatteryStatus", "BatteryWarning", ("BATTERY_WARNING_", "WARNING_")),

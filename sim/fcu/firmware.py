@@ -24,7 +24,16 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
-from interfaces.px4 import ArmingState, BatteryWarning, NavigationState
+from interfaces.px4 import (
+    MAV_TYPE_QUADROTOR,
+    ODOMETRY_QUALITY_BEST,
+    ArmingState,
+    BatteryWarning,
+    NavigationState,
+    PoseFrame,
+    VehicleType,
+    VelocityFrame,
+)
 from interfaces.px4.timesync import Px4Timesync, ns_to_us
 from runtime.parameters import load_parameters, param, validate_parameters
 from sim.fcu.agent import Arrival, FcuAgentNode
@@ -585,11 +594,12 @@ class Firmware:
         s = est.state
         return interfaces.new(
             "px4_msgs/msg/VehicleOdometry", timestamp=self._now_us, timestamp_sample=est.time_us,
-            pose_frame=1, position=_arr(s.position_ned), q=_arr(s.q, 4), velocity_frame=1,
-            velocity=_arr(s.velocity_ned), angular_velocity=_arr(s.angular_velocity_frd),
+            pose_frame=int(PoseFrame.NED), position=_arr(s.position_ned), q=_arr(s.q, 4),
+            velocity_frame=int(VelocityFrame.NED), velocity=_arr(s.velocity_ned),
+            angular_velocity=_arr(s.angular_velocity_frd),
             position_variance=_arr(est.position_variance_ned),
             orientation_variance=_arr(np.full(3, 1e-4)),
-            velocity_variance=_arr(est.velocity_variance_ned), quality=100)
+            velocity_variance=_arr(est.velocity_variance_ned), quality=ODOMETRY_QUALITY_BEST)
 
     def _msg_vehicle_local_position(self) -> Any:
         est = self.estimate
@@ -631,7 +641,8 @@ class Firmware:
             latest_disarming_reason=int(st.latest_disarming_reason),
             nav_state_timestamp=st.nav_state_timestamp_us,
             nav_state_user_intention=int(st.nav_state_user_intention),
-            nav_state=int(st.nav_state), failsafe=st.failsafe, vehicle_type=1, system_type=2,
+            nav_state=int(st.nav_state), failsafe=st.failsafe,
+            vehicle_type=int(VehicleType.ROTARY_WING), system_type=MAV_TYPE_QUADROTOR,
             system_id=self.config.commander.system_id if self.config.commander else 1,
             component_id=1, pre_flight_checks_pass=st.pre_flight_checks_pass,
             power_input_valid=True, safety_off=True)

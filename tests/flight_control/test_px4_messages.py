@@ -2,13 +2,27 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
 import interfaces
-from flight_control.frames import quat_angle_between, quat_from_euler
-from flight_control.px4_messages import odometry_enu, vision_odometry
+from flight_control.frames import (
+    ned_to_enu,
+    quat_angle_between,
+    quat_from_euler,
+    wrap_pi,
+    yaw_ned_to_enu,
+    yaw_rate_ned_to_enu,
+)
+from flight_control.px4_messages import (
+    odometry_enu,
+    offboard_control_mode,
+    trajectory_setpoint,
+    vision_odometry,
+)
 from interfaces.px4 import PoseFrame
 
 coord = st.floats(-50.0, 50.0, allow_nan=False)
@@ -72,3 +86,67 @@ def test_odometry_velocity_is_rotated_into_the_body() -> None:
     np.testing.assert_allclose(odo.body_velocity, [1.0, 0.0, 0.0], atol=1e-6)
     np.testing.assert_allclose(odo.twist_covariance.reshape(6, 6).diagonal()[:3],
                                [0.1, 0.5, 0.2], rtol=1e-6)
+
+
+_NAN = [math.nan] * 3
+
+
+def test_setpoint_axes_follow_enu_to_ned() -> None:
+    # 1 m east, 2 m north, 3 m up -> 2 north, 1 east, -3 down; the same for each term
+    msg = trajectory_setpoint([1.0, 2.0, 3.0], [0.1, 0.2, 0.3], [-1.0, -2.0, -3.0], 0.0, 0.5,
+                              timestamp_us=42)
+    np.testing.assert_allclose(msg.position, [2.0, 1.0, -3.0])
+    np.testing.assert_allclose(msg.velocity, [0.2, 0.1, -0.3], rtol=1e-6)
+    np.testing.assert_allclose(msg.acceleration, [-2.0, -1.0, 3.0])
+    assert np.all(np.isnan(msg.jerk))
+    assert msg.timestamp == 42
+
+
+def test_setpoint_yaw_east_is_ned_half_pi_and_yaw_rate_flips() -> None:
+    east = trajectory_setpoint(_NAN, _NAN, _NAN, 0.0, 0.5, timestamp_us=0)
+    north = trajectory_setpoint(_NAN, _NAN, _NAN, math.pi / 2, 0.0, timestamp_us=0)
+    assert math.isclose(east.yaw, math.pi / 2, abs_tol=1e-6)  # ENU 0 faces east
+    assert math.isclose(north.yaw, 0.0, abs_tol=1e-6)  # ENU pi/2 faces north
+    assert math.isclose(east.yawspeed, -0.5, rel_tol=1e-6)  # about Up -> about Down
+
+
+def test_nan_axes_stay_nan_and_leave_their_term_uncontrolled() -> None:
+    msg = trajectory_setpoint([1.0, math.nan, 3.0], _NAN, [0.0, 0.0, math.nan], math.nan,
+                              math.nan, timestamp_us=7)
+    # ENU y (north) NaN -> NED x NaN; ENU z (up) NaN -> NED z NaN
+    assert np.isnan(msg.position[0]) and not np.isnan(msg.position[1:]).any()
+    assert np.all(np.isnan(msg.velocity))
+    assert np.isnan(msg.acceleration[2]) and not np.isnan(msg.acceleration[:2]).any()
+    assert math.isnan(msg.yaw) and math.isnan(msg.yawspeed)
+    mode = offboard_control_mode(msg, timestamp_us=7)
+    assert (mode.position, mode.velocity, mode.acceleration) == (True, False, True)
+    assert mode.timestamp == 7
+
+
+def test_offboard_mode_of_a_horizontal_velocity_setpoint() -> None:
+    # one finite axis is enough to control the term: the vertical speed here is left free
+    msg = trajectory_setpoint(_NAN, [1.0, 0.0, math.nan], _NAN, math.nan, 0.0, timestamp_us=0)
+    mode = offboard_control_mode(msg, timestamp_us=0)
+    assert (mode.position, mode.velocity, mode.acceleration) == (False, True, False)
+
+
+vec = st.lists(st.one_of(coord, st.just(math.nan)), min_size=3, max_size=3)
+
+
+@given(p=vec, v=vec, a=vec, yaw=st.one_of(angle, st.just(math.nan)),
+       yaw_rate=st.floats(-5.0, 5.0, allow_nan=False))
+def test_setpoint_converted_back_gives_the_enu_inputs(p: list[float], v: list[float],
+                                                      a: list[float], yaw: float,
+                                                      yaw_rate: float) -> None:
+    msg = trajectory_setpoint(p, v, a, yaw, yaw_rate, timestamp_us=0)
+    wire = interfaces.deserialize(
+        interfaces.serialize(msg, "px4_msgs/msg/TrajectorySetpoint"),
+        "px4_msgs/msg/TrajectorySetpoint")
+    for sent, got in ((p, wire.position), (v, wire.velocity), (a, wire.acceleration)):
+        np.testing.assert_allclose(ned_to_enu(np.asarray(got, dtype=np.float64)), sent,
+                                   atol=1e-5, equal_nan=True)
+    if math.isnan(yaw):
+        assert math.isnan(wire.yaw)
+    else:
+        assert abs(wrap_pi(yaw_ned_to_enu(float(wire.yaw)) - yaw)) < 1e-5
+    assert math.isclose(yaw_rate_ned_to_enu(float(wire.yawspeed)), yaw_rate, abs_tol=1e-6)
