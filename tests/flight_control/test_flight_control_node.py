@@ -242,7 +242,8 @@ def test_turn_to_a_heading(flight: Flight) -> None:
 
 def test_reach_outside_the_field_is_rejected_with_the_reason(flight: Flight) -> None:
     assert flight.outside_reason == (
-        "target (25.0, 3.0, 1.5) m is outside the field [0, 20] x [0, 14] x [0, 4] m")
+        "target (25.0, 3.0, 1.5) m is outside the flyable volume [0.4, 19.6] x [0.4, 13.6] x "
+        "[0, 3.6] m")
     assert flight.outside_moved < 0.05
 
 

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from interfaces.api import typestore
+from interfaces.generate_px4 import GROUPS, TARGET, render
 from interfaces.px4 import ArmingState, BatteryWarning, CommandResult, NavigationState, VehicleCmd
-from interfaces.px4.generate import GROUPS, TARGET, render
 
 
 def test_committed_constants_match_the_msg_files() -> None:
     assert TARGET.read_text() == render(), (
-        "interfaces/px4/constants.py is stale: run python -m interfaces.px4.generate")
+        "interfaces/px4/constants.py is stale: run python -m interfaces.generate_px4")
 
 
 def test_every_group_member_is_the_msg_constant() -> None:
