@@ -24,13 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
-from runtime.parameters import config_path, load_parameters
-from sim.fcu.link import (
-    LINK_NODE_NAME,
+from interfaces.px4.seed000 import (
     TABLE3_MESSAGE_SIZE_BYTES,
     TABLE3_TO_COMPANION,
     TABLE3_TO_FCU,
     LatencyFigure,
+)
+from runtime.parameters import config_path, load_parameters
+from sim.fcu.link import (
+    LINK_NODE_NAME,
     Link,
     LinkDirection,
     LinkParams,

@@ -85,15 +85,17 @@ from typing import Any
 import numpy as np
 
 from flight_control.latency_node import LatencyTestNode, OffsetLog, ReceivedImu, SentVision
+from interfaces.px4.seed000 import (
+    TABLE3_MESSAGE_SIZE_BYTES,
+    TABLE3_TO_COMPANION,
+    TABLE3_TO_FCU,
+    LatencyFigure,
+)
 from quadmission.errors import ExperimentError
 from runtime.parameters import load_parameters
 from sim.fcu.link import (
     LINK_NODE_NAME,
-    TABLE3_MESSAGE_SIZE_BYTES,
-    TABLE3_TO_COMPANION,
-    TABLE3_TO_FCU,
     AddedDelay,
-    LatencyFigure,
     Link,
     LinkDirection,
     LinkDirectionParams,

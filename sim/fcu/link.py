@@ -55,8 +55,6 @@ import numpy as np
 
 from interfaces.px4.seed000 import (
     TABLE3_MESSAGE_SIZE_BYTES,
-    TABLE3_TO_COMPANION,
-    TABLE3_TO_FCU,
     LatencyFigure,
 )
 from runtime.errors import ParameterError
@@ -66,11 +64,7 @@ from sim.fcu.clock import FcuClock
 
 __all__ = [
     "LINK_NODE_NAME",
-    "TABLE3_MESSAGE_SIZE_BYTES",
-    "TABLE3_TO_COMPANION",
-    "TABLE3_TO_FCU",
     "AddedDelay",
-    "LatencyFigure",
     "Link",
     "LinkCounters",
     "LinkDirection",

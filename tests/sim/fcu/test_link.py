@@ -13,6 +13,12 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from interfaces.px4.seed000 import (
+    TABLE3_MESSAGE_SIZE_BYTES,
+    TABLE3_TO_COMPANION,
+    TABLE3_TO_FCU,
+    LatencyFigure,
+)
 from runtime.errors import ParameterError
 from runtime.parameters import (
     config_path,
@@ -22,11 +28,7 @@ from runtime.parameters import (
 from sim.fcu.clock import FcuClock
 from sim.fcu.link import (
     LINK_NODE_NAME,
-    TABLE3_MESSAGE_SIZE_BYTES,
-    TABLE3_TO_COMPANION,
-    TABLE3_TO_FCU,
     AddedDelay,
-    LatencyFigure,
     Link,
     LinkDirection,
     LinkDirectionParams,
