@@ -125,6 +125,7 @@ def _launch_run(args: argparse.Namespace) -> int:
 # -- sim -------------------------------------------------------------------------------------
 def _sim_args(p: argparse.ArgumentParser) -> None:
     from quadmission.scenarios import DEFAULT_SCENARIO, SCENARIOS
+    from sim.arena import Lighting
 
     p.add_argument("--scenario", default=DEFAULT_SCENARIO, choices=sorted(SCENARIOS),
                    help=f"what to run (default: {DEFAULT_SCENARIO})")
@@ -136,6 +137,8 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                        help="arena YAML (default config/arenas/contest.yaml)")
     arena.add_argument("--random-arena", action="store_true",
                        help="generate a random arena from --seed instead")
+    p.add_argument("--lighting", choices=[preset.value for preset in Lighting], default=None,
+                   help="lighting preset (default: the arena's own)")
 
 
 def _stderr(line: str) -> None:
@@ -146,9 +149,12 @@ def _sim_run(args: argparse.Namespace) -> int:
     from quadmission.errors import ScenarioRefused
     from quadmission.report import REPORT_NAME
     from quadmission.scenarios import SCENARIOS, ScenarioOptions
+    from sim.arena import Lighting
 
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
-                              random_arena=args.random_arena, progress=_stderr)
+                              random_arena=args.random_arena,
+                              lighting=Lighting(args.lighting) if args.lighting else None,
+                              progress=_stderr)
     arena = "random" if args.random_arena else (args.arena or "default")
     _stderr(f"quadmission sim: scenario {args.scenario}, arena {arena}, seed {args.seed}, "
             f"out {args.out}")

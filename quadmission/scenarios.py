@@ -10,7 +10,7 @@ stderr).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +20,7 @@ from quadmission.errors import OptionsError
 from quadmission.report import write_report
 from quadmission.square_flight import square
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
-from sim.arena import ArenaSpec, default_arena, load_arena
+from sim.arena import ArenaSpec, Lighting, default_arena, dump_arena, load_arena
 from sim.arena_generator import generate_arena
 from sim.markers import detect_markers
 from sim.quadrotor import MotorModel
@@ -29,6 +29,7 @@ from sim.scene import place_quadrotor
 from sim.sensors import DOWN_IMAGE_TOPIC, SimSensorsNode, image_from_msg, sensor_parts
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
 
+ARENA_NAME = "arena.yaml"  # every run writes the arena it flew here
 TOUR_HEIGHT = 1.5  # m, camera height above each pad in the arena tour
 
 
@@ -41,6 +42,7 @@ class ScenarioOptions:
     seed: int = 0
     arena: Path | None = None  # None: config/arenas/contest.yaml
     random_arena: bool = False  # generate an arena from the seed instead
+    lighting: Lighting | None = None  # None: the arena file's preset
     progress: Callable[[str], None] = field(default=lambda _line: None, compare=False)
 
     def __post_init__(self) -> None:
@@ -48,9 +50,17 @@ class ScenarioOptions:
             raise OptionsError(f"give an arena file ({self.arena}) or a random arena, not both")
 
     def load_arena(self) -> ArenaSpec:
+        """The arena this run flies, with the lighting option applied. It is also written
+        to ``out/arena.yaml``, so anyone can replay the run or recompute its errors."""
         if self.random_arena:
-            return generate_arena(self.seed)
-        return load_arena(self.arena) if self.arena else default_arena()
+            arena = generate_arena(self.seed)
+        else:
+            arena = load_arena(self.arena) if self.arena else default_arena()
+        if self.lighting is not None:
+            arena = replace(arena, lighting=self.lighting)
+        self.out.mkdir(parents=True, exist_ok=True)
+        (self.out / ARENA_NAME).write_text(dump_arena(arena))
+        return arena
 
 
 Scenario = Callable[[ScenarioOptions], dict[str, Any]]

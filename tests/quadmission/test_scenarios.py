@@ -13,7 +13,7 @@ import io
 import itertools
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +26,7 @@ from quadmission.errors import OptionsError, SquareDoesNotFit
 from quadmission.scenarios import ScenarioOptions
 from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square, square_blockers
 from quadmission.square_flight import fly_square
-from sim.arena import ArenaSpec, arena_from_yaml, default_arena
+from sim.arena import ArenaSpec, Lighting, arena_from_yaml, default_arena
 from sim.arena_generator import generate_arena
 from sim.markers import detect_markers
 
@@ -113,6 +113,19 @@ def test_the_report_is_strict_json_with_host_figures_in_their_own_block(
     host_keys = {"wall_time_s", "real_time_factor", "rtf", "fcu_overruns"}
     assert not host_keys & set(report), "host-dependent figures outside the host block"
     assert report["flight_time_s"] > 20.0 and report["seed"] == 0
+
+
+def test_the_run_writes_the_arena_it_flew(square_run: SquareRun) -> None:
+    written = arena_from_yaml((square_run.out / "arena.yaml").read_text())
+    assert written == default_arena()
+
+
+def test_the_lighting_option_overrides_the_arenas_preset(tmp_path: Path) -> None:
+    options = ScenarioOptions(out=tmp_path, random_arena=True, seed=3, lighting=Lighting.DARK)
+    flown = options.load_arena()
+    assert flown.lighting is Lighting.DARK
+    assert flown == replace(generate_arena(3), lighting=Lighting.DARK)
+    assert arena_from_yaml((tmp_path / "arena.yaml").read_text()) == flown
 
 
 def test_path_png_is_written(square_run: SquareRun) -> None:
