@@ -6,8 +6,11 @@ microseconds on the FCU clock. Above it, ours: ENU ``map`` and FLU ``base_link``
 (:mod:`flight_control.frames`) and clocks (:mod:`flight_control.timesync`, the
 estimator chosen by parameter), so no other node knows PX4 is there:
 
-- it runs the Timesync exchange with the FCU (``/fmu/in/timesync`` ->
-  ``/fmu/out/timesync``) and publishes the filter's state on ``/fcu/timesync_status``;
+- it runs the Timesync exchange with the FCU (``/xrce_session/timesync_request`` ->
+  ``/xrce_session/timesync_reply``, the modelled XRCE-DDS session sync; not PX4 topics),
+  or, with ``timesync_source: fcu_status``, takes the offset PX4 v1.17 itself reports in
+  ``/fmu/out/timesync_status`` (``estimated_offset``), and publishes the filter's state
+  on ``/fcu/timesync_status``;
 - ``/fmu/out`` -> ``/fcu/odometry`` (nav_msgs/Odometry), ``/fcu/imu``, ``/fcu/battery``,
   ``/fcu/status`` (FcuStatus), ``/fcu/command_ack``, each stamped with the FCU's sample
   time converted to the companion clock;
@@ -37,9 +40,10 @@ from flight_control.px4_messages import (
     trajectory_setpoint,
     vision_odometry,
 )
-from flight_control.timesync import make_estimator
+from flight_control.timesync import ReportedOffset, make_estimator
 from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
+from interfaces.px4.topics import XRCE_SESSION
 from runtime import (
     DurabilityPolicy,
     Node,
@@ -70,6 +74,10 @@ class BridgeParams:
                                     description="Timesync exchanges per second")
     timesync_estimator: str = param(choices=("px4", "kalman"),
                                     description="seed 000 / PX4 filter, or ours")
+    timesync_source: str = param(
+        choices=("exchange", "fcu_status"),
+        description="our Timesync exchange (filtered by timesync_estimator), or the "
+                    "offset the FCU reports on /fmu/out/timesync_status (PX4 v1.17)")
     pose_history_s: float = param(unit="s", range=(0.1, 60.0),
                                   description="odometry kept for /fcu/pose_at")
     connection_timeout_s: float = param(unit="s", range=(0.05, 10.0),
@@ -88,7 +96,13 @@ class FcuBridgeNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("fcu_bridge", **kwargs)
         self.params = self.declare_params(BridgeParams)
-        self.timesync: TimesyncEstimator = make_estimator(self.params.timesync_estimator)
+        self.reported: ReportedOffset | None = None
+        self.timesync: TimesyncEstimator
+        if self.params.timesync_source == "fcu_status":
+            self.reported = ReportedOffset()
+            self.timesync = self.reported
+        else:
+            self.timesync = make_estimator(self.params.timesync_estimator)
         self.history = PoseHistory(round(self.params.pose_history_s * 1e9))
         self.exchange = TimesyncExchange(self.timesync)
         self._last_fcu_ns: int | None = None
@@ -121,11 +135,18 @@ class FcuBridgeNode(Node):
         self.setpoint_out = self._fmu_publisher("trajectory_setpoint")
         self.command_out = self._fmu_publisher("vehicle_command")
         self.vision_out = self._fmu_publisher("vehicle_visual_odometry")
-        self.timesync_out = self._fmu_publisher("timesync")
+        request, reply = XRCE_SESSION["request"], XRCE_SESSION["reply"]
+        if self.reported is None:
+            self.timesync_out = self.create_publisher(request.type, request.name, BRIDGE_QOS)
+            self.create_subscription(reply.type, reply.name, self._on_timesync, px4_out)
+            self.create_timer(1.0 / self.params.timesync_rate_hz, self._send_timesync)
+        else:
+            status = FMU_OUT["timesync_status"]
+            self.create_subscription(status.type, status.name, self._on_timesync_status,
+                                     px4_out)
         ack = FMU_OUT["vehicle_command_ack"]
         self.create_subscription(ack.type, ack.name, self._on_ack, ACK_QOS)
         for short, handler in (
-            ("timesync", self._on_timesync),
             ("vehicle_odometry", self._on_odometry),
             ("sensor_combined", self._on_imu),
             ("battery_status", self._on_battery),
@@ -136,7 +157,6 @@ class FcuBridgeNode(Node):
         ):
             topic = FMU_OUT[short]
             self.create_subscription(topic.type, topic.name, handler, px4_out)
-        self.create_timer(1.0 / self.params.timesync_rate_hz, self._send_timesync)
         self.create_timer(1.0 / self.params.status_rate_hz, self._publish_status)
 
     def _fmu_publisher(self, short: str) -> Any:
@@ -173,6 +193,16 @@ class FcuBridgeNode(Node):
         if estimates is None:  # not an answer to one of our requests
             return
         (est,) = estimates
+        self._publish_estimate(est, was_synced)
+
+    def _on_timesync_status(self, msg: Any) -> None:
+        assert self.reported is not None
+        was_synced = self.synced
+        est = self.reported.report(int(msg.estimated_offset), int(msg.observed_offset),
+                                   int(msg.round_trip_time))
+        self._publish_estimate(est, was_synced)
+
+    def _publish_estimate(self, est: Any, was_synced: bool) -> None:
         self._last_fcu_ns = self.now().nanoseconds
         if est.converged and not was_synced:  # stamps move from receive to sample time
             self.history = PoseHistory(self.history.span_ns)

@@ -3,7 +3,8 @@
 :class:`LatencyTestNode` speaks only the px4 topics and the sensor topics, as a node on a
 real companion computer would:
 
-- **time sync**: a Timesync exchange over ``/fmu/in/timesync`` -> ``/fmu/out/timesync``
+- **time sync**: a Timesync exchange over ``/xrce_session/timesync_request`` ->
+  ``/xrce_session/timesync_reply``
   at ``timesync_hz``, half a stream period out of phase with the stream; every reply
   updates *each* estimator in ``estimators`` (by default ``"px4"`` and ``"kalman"``,
   :func:`~flight_control.timesync.make_estimator`), so they run side by side on the same
@@ -32,8 +33,11 @@ from typing import Any
 from flight_control.px4_messages import vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
+from interfaces.px4.topics import XRCE_SESSION
 from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, qos_profile_px4_subscriber, qos_profile_sensor_data
+
+TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 __all__ = ["LatencyTestNode"]
 
@@ -95,7 +99,7 @@ class LatencyTestNode(Node):
         self.converged_us: dict[str, int | None] = dict.fromkeys(self.estimators)
         self._pose: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None = None
         self.exchange = TimesyncExchange(*self.estimators.values())
-        self.create_subscription("px4_msgs/msg/Timesync", "/fmu/out/timesync",
+        self.create_subscription(TIMESYNC_MSG, XRCE_SESSION["reply"].name,
                                  self._on_timesync, qos_profile_px4_subscriber)
         self.create_subscription("px4_msgs/msg/SensorCombined", "/fmu/out/sensor_combined",
                                  self._on_imu, qos_profile_px4_subscriber)
@@ -103,7 +107,7 @@ class LatencyTestNode(Node):
                                  _VISION_POSE_TOPIC, self._on_pose, qos_profile_sensor_data)
         self.vision_pub = self.create_publisher("px4_msgs/msg/VehicleOdometry",
                                                 "/fmu/in/vehicle_visual_odometry", _PX4_IN)
-        self.timesync_pub = self.create_publisher("px4_msgs/msg/Timesync", "/fmu/in/timesync",
+        self.timesync_pub = self.create_publisher(TIMESYNC_MSG, XRCE_SESSION["request"].name,
                                                   _PX4_IN)
         self.create_timer(1.0 / rate_hz, self._send_vision)
         # exchanges half a stream period after the vision samples, so that neither waits

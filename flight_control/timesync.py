@@ -32,7 +32,7 @@ from interfaces.px4.timesync import (
 from runtime.errors import ParameterError
 from runtime.parameters import build_parameters, param, validate_parameters
 
-__all__ = ["ESTIMATORS", "KalmanParams", "KalmanTimesync", "make_estimator"]
+__all__ = ["ESTIMATORS", "KalmanParams", "KalmanTimesync", "ReportedOffset", "make_estimator"]
 
 
 # --- ours: RTT-weighted Kalman filter ---------------------------------------------------
@@ -279,6 +279,51 @@ def _make_kalman(**params: object) -> KalmanTimesync:
         return KalmanTimesync(build_parameters(KalmanParams, params, "kalman"))
     except ParameterError as exc:
         raise TimesyncParameterError(exc.problem, key=exc.key) from None
+
+
+class ReportedOffset:
+    """The offset the FCU itself reports (``TimesyncStatus.estimated_offset``), no filter.
+
+    PX4 v1.17's uXRCE-DDS client syncs inside its session and publishes its estimate
+    (FCU clock minus agent clock [us]) on ``/fmu/out/timesync_status``: this is what a
+    companion of a real PX4 can read. Our sign is the other way round (local = companion),
+    so ``offset_us = -estimated_offset``. Converged once a report with a measured round
+    trip arrives. :meth:`update` takes one exchange's observed offset as is.
+    """
+
+    def __init__(self) -> None:
+        self._estimate = TimesyncEstimate()
+
+    @property
+    def estimate(self) -> TimesyncEstimate:
+        return self._estimate
+
+    def report(self, estimated_offset_us: int, observed_offset_us: int,
+               round_trip_us: int) -> TimesyncEstimate:
+        """Take one ``TimesyncStatus`` (its offsets are FCU minus companion)."""
+        self._estimate = replace(
+            self._estimate, offset_us=-int(estimated_offset_us),
+            observed_offset_us=-int(observed_offset_us), rtt_us=int(round_trip_us),
+            converged=self._estimate.converged or round_trip_us > 0,
+            samples=self._estimate.samples + 1)
+        return self._estimate
+
+    def update(self, ts1_us: int, tc1_us: int, now_us: int) -> TimesyncEstimate:
+        sample = TimesyncSample.from_stamps(ts1_us, tc1_us, now_us)
+        self._estimate = replace(
+            self._estimate, offset_us=sample.observed_offset_us,
+            observed_offset_us=sample.observed_offset_us, rtt_us=sample.rtt_us,
+            converged=True, samples=self._estimate.samples + 1)
+        return self._estimate
+
+    def remote_to_local(self, t_us: int) -> int:
+        return t_us + self._estimate.offset_us
+
+    def local_to_remote(self, t_us: int) -> int:
+        return t_us - self._estimate.offset_us
+
+    def reset(self) -> None:
+        self._estimate = TimesyncEstimate(resets=self._estimate.resets + 1)
 
 
 ESTIMATORS: Mapping[str, Callable[..., TimesyncEstimator]] = MappingProxyType(

@@ -462,13 +462,14 @@ def stream_charges() -> dict[tuple[LinkDirection, int], int]:
     """``(direction, CDR size) -> 115`` for the two streams' message types, after checking
     that no other message crossing that direction has the same CDR size."""
     import interfaces
-    from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_TIMESYNC_BYTES
+    from interfaces.px4.topics import XRCE_TIMESYNC_BYTES
+    from sim.fcu.agent import AGENT_IN, AGENT_OUT
 
     def size(type_name: str) -> int:
         return len(interfaces.serialize(interfaces.new(type_name), type_name))
 
-    streams = {LinkDirection.TO_FCU: ("vehicle_visual_odometry", FMU_IN),
-               LinkDirection.TO_COMPANION: ("sensor_combined", FMU_OUT)}
+    streams = {LinkDirection.TO_FCU: ("vehicle_visual_odometry", AGENT_IN),
+               LinkDirection.TO_COMPANION: ("sensor_combined", AGENT_OUT)}
     charges = {}
     for direction, (topic, topics) in streams.items():
         own = size(topics[topic].type)

@@ -4,8 +4,8 @@ The flight-control layer (``flight_control/``) is what the mission uses; this ha
 the smallest thing that can fly the FCU on its own, for the FCU's tests and the
 ``square`` scenario. It:
 
-- runs the companion side of the Timesync exchange (``/fmu/in/timesync`` ->
-  ``/fmu/out/timesync``) with the PX4 filter, to stamp what it sends in FCU time;
+- runs the companion side of the Timesync exchange (``/xrce_session/timesync_request`` ->
+  ``/xrce_session/timesync_reply``) with the PX4 filter, to stamp what it sends in FCU time;
 - forwards ``/sim/vision/pose`` (ENU/FLU, companion clock) to
   ``/fmu/in/vehicle_visual_odometry`` (NED/FRD, FCU microseconds, sample time kept);
 - streams the offboard heartbeat and a trajectory setpoint at ``rate_hz``, arms, enters
@@ -37,12 +37,15 @@ from interfaces.px4 import (
     VehicleCmd,
 )
 from interfaces.px4.timesync import TimesyncExchange, ns_to_us
+from interfaces.px4.topics import FMU_OUT, XRCE_SESSION
 from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, Time, qos_profile_px4_subscriber, qos_profile_sensor_data
 from sim.fcu.firmware import FirmwareConfig
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.vision import VISION_POSE_TOPIC
 from sim.world import WorldResult
+
+TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 FloatArray = npt.NDArray[np.float64]
 _PX4_IN = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -152,12 +155,12 @@ class OffboardHarness(Node):
         self._reached_ns: int | None = None  # when the climb first reached its target
         out = qos_profile_px4_subscriber
         self.create_subscription("px4_msgs/msg/VehicleLocalPosition",
-                                 "/fmu/out/vehicle_local_position", self._on_position, out)
-        self.create_subscription("px4_msgs/msg/VehicleStatus", "/fmu/out/vehicle_status",
+                                 FMU_OUT["vehicle_local_position"].name, self._on_position, out)
+        self.create_subscription("px4_msgs/msg/VehicleStatus", FMU_OUT["vehicle_status"].name,
                                  self._on_status, out)
         self.create_subscription("px4_msgs/msg/VehicleCommandAck", "/fmu/out/vehicle_command_ack",
                                  self.acks.append, out)
-        self.create_subscription("px4_msgs/msg/Timesync", "/fmu/out/timesync", self._on_timesync,
+        self.create_subscription(TIMESYNC_MSG, XRCE_SESSION["reply"].name, self._on_timesync,
                                  out)
         self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped", VISION_POSE_TOPIC,
                                  self._on_vision, qos_profile_sensor_data)
@@ -169,7 +172,7 @@ class OffboardHarness(Node):
                                                  "/fmu/in/vehicle_command", _PX4_IN)
         self.vision_pub = self.create_publisher("px4_msgs/msg/VehicleOdometry",
                                                 "/fmu/in/vehicle_visual_odometry", _PX4_IN)
-        self.timesync_pub = self.create_publisher("px4_msgs/msg/Timesync", "/fmu/in/timesync",
+        self.timesync_pub = self.create_publisher(TIMESYNC_MSG, XRCE_SESSION["request"].name,
                                                   _PX4_IN)
         self.create_timer(0.02, self._send_timesync)  # 50 Hz: converged in ~2 s
         self.create_timer(1.0 / rate_hz, self._step)

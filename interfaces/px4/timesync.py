@@ -36,6 +36,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import interfaces
 
+TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
+
 __all__ = [
     "ALPHA_GAIN_FINAL",
     "ALPHA_GAIN_INITIAL",
@@ -366,7 +368,7 @@ class TimesyncExchange:
         self._seq = (self._seq + 1) % _SEQ_MODULO
         self._outstanding[self._seq] = now_ns
         stamp = ns_to_us(now_ns) if fcu_stamp_us is None else fcu_stamp_us
-        return interfaces.new("px4_msgs/msg/Timesync", timestamp=stamp, seq=self._seq, tc1=0,
+        return interfaces.new(TIMESYNC_MSG, timestamp=stamp, seq=self._seq, tc1=0,
                               ts1=now_ns)
 
     def reply(self, msg: Any, now_ns: int) -> tuple[TimesyncEstimate, ...] | None:

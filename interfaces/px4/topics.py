@@ -1,5 +1,14 @@
 """The /fmu topics of the PX4 contract: names, px4_msgs types and QoS, written once.
 
+Names are PX4 v1.17.0's (``src/modules/uxrce_dds_client/dds_topics.yaml``), and, as the
+uXRCE-DDS client does it, a message whose ``MESSAGE_VERSION`` is above 0 gets the suffix
+``_v<MESSAGE_VERSION>`` (``/fmu/out/vehicle_status_v1``); the version is read from the .msg
+file, never retyped. The tables are keyed by the unversioned short name.
+
+The Timesync exchange is not a PX4 topic (PX4 has had none since v1.14: the XRCE-DDS
+session syncs the clocks itself and reports on ``/fmu/out/timesync_status``). It models
+that session exchange under :data:`XRCE_SESSION`, on names outside ``/fmu``.
+
 The simulated firmware's uXRCE-DDS agent publishes :data:`FMU_OUT` and subscribes to
 :data:`FMU_IN` with the PX4 side's QoS; the companion bridge does the opposite with
 :data:`COMPANION_PUBLISHER_QOS` and :data:`COMPANION_SUBSCRIBER_QOS` (seed 000's list:
@@ -12,6 +21,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
 
+import interfaces
 from interfaces.qos import (
     QoSProfile,
     qos_profile_px4_in,
@@ -24,8 +34,10 @@ __all__ = [
     "COMPANION_SUBSCRIBER_QOS",
     "FMU_IN",
     "FMU_OUT",
+    "XRCE_SESSION",
     "XRCE_TIMESYNC_BYTES",
     "FmuTopic",
+    "versioned_name",
 ]
 
 
@@ -37,15 +49,19 @@ class FmuTopic:
     type: str
     qos: QoSProfile
 
-    @property
-    def short(self) -> str:
-        """The name without ``/fmu/in/`` or ``/fmu/out/``."""
-        return self.name.rsplit("/", 1)[1]
+
+def versioned_name(name: str, type_name: str) -> str:
+    """``name`` with PX4's ``_v<N>`` suffix when the type's MESSAGE_VERSION N is above 0."""
+    version = int(getattr(interfaces.get_message(type_name), "MESSAGE_VERSION", 0))
+    return f"{name}_v{version}" if version > 0 else name
 
 
 def _table(prefix: str, qos: QoSProfile, types: dict[str, str]) -> Mapping[str, FmuTopic]:
-    return MappingProxyType({short: FmuTopic(f"{prefix}/{short}", f"px4_msgs/msg/{t}", qos)
-                             for short, t in types.items()})
+    out = {}
+    for short, t in types.items():
+        type_name = f"px4_msgs/msg/{t}"
+        out[short] = FmuTopic(versioned_name(f"{prefix}/{short}", type_name), type_name, qos)
+    return MappingProxyType(out)
 
 
 #: FCU -> companion, keyed by short name (rates are the firmware's module table).
@@ -60,7 +76,6 @@ FMU_OUT: Mapping[str, FmuTopic] = _table("/fmu/out", qos_profile_px4_out, {
     "vehicle_land_detected": "VehicleLandDetected",
     "failsafe_flags": "FailsafeFlags",
     "sensor_combined": "SensorCombined",
-    "timesync": "Timesync",
 })
 #: companion -> FCU, keyed by short name.
 FMU_IN: Mapping[str, FmuTopic] = _table("/fmu/in", qos_profile_px4_in, {
@@ -68,7 +83,13 @@ FMU_IN: Mapping[str, FmuTopic] = _table("/fmu/in", qos_profile_px4_in, {
     "trajectory_setpoint": "TrajectorySetpoint",
     "vehicle_command": "VehicleCommand",
     "vehicle_visual_odometry": "VehicleOdometry",
-    "timesync": "Timesync",
+})
+_TIMESYNC = "quadmission_interfaces/msg/Timesync"
+#: The modelled XRCE-DDS session time sync (not PX4 topics): "request" companion -> FCU
+#: (the FCU side subscribes with PX4's /fmu/in QoS), "reply" FCU -> companion.
+XRCE_SESSION: Mapping[str, FmuTopic] = MappingProxyType({
+    "request": FmuTopic("/xrce_session/timesync_request", _TIMESYNC, qos_profile_px4_in),
+    "reply": FmuTopic("/xrce_session/timesync_reply", _TIMESYNC, qos_profile_px4_out),
 })
 #: What a companion node publishes /fmu/in with.
 COMPANION_PUBLISHER_QOS = qos_profile_px4_in

@@ -29,10 +29,15 @@ from dataclasses import dataclass
 from typing import Any
 
 import interfaces
-from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_TIMESYNC_BYTES
+from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION, XRCE_TIMESYNC_BYTES, FmuTopic
 from runtime import Node
 from runtime.errors import ParameterError
 from sim.fcu.link import Link, LinkDirection
+
+#: What the agent carries, keyed by short name: the /fmu topics plus the modelled XRCE
+#: session's Timesync exchange ("timesync": request in, reply out; not PX4 topics).
+AGENT_OUT: dict[str, FmuTopic] = {**FMU_OUT, "timesync": XRCE_SESSION["reply"]}
+AGENT_IN: dict[str, FmuTopic] = {**FMU_IN, "timesync": XRCE_SESSION["request"]}
 
 
 @dataclass(frozen=True)
@@ -91,15 +96,15 @@ class FcuAgentNode(Node):
         self.inbox = FcuInbox()
         self._publishers = {
             short: self.create_publisher(topic.type, topic.name, topic.qos)
-            for short, topic in FMU_OUT.items()
+            for short, topic in AGENT_OUT.items()
         }
-        for short, topic in FMU_IN.items():
+        for short, topic in AGENT_IN.items():
             self.create_subscription(topic.type, topic.name,
                                      self._receiver(short, topic.type), topic.qos, raw=True)
         self.malformed = 0
         self._consumers: dict[str, Callable[[Arrival], None]] = {}
-        self.sent = dict.fromkeys(FMU_OUT, 0)
-        self.lost = dict.fromkeys(FMU_OUT, 0)
+        self.sent = dict.fromkeys(AGENT_OUT, 0)
+        self.lost = dict.fromkeys(AGENT_OUT, 0)
 
     def _receiver(self, topic: str, type_name: str) -> Any:
         def receive(data: bytes) -> None:
@@ -110,7 +115,7 @@ class FcuAgentNode(Node):
                 msg = interfaces.deserialize(data, type_name)
             except interfaces.MessageError as exc:  # the FCU drops what it cannot parse
                 self.malformed += 1
-                self.get_logger().error(f"/fmu/in/{topic}: {exc}")
+                self.get_logger().error(f"{AGENT_IN[topic].name}: {exc}")
                 return
             arrival = Arrival(delivery, topic, msg)
             consumer = self._consumers.get(topic)
@@ -125,9 +130,9 @@ class FcuAgentNode(Node):
     def on_arrival(self, topic: str, consumer: Callable[[Arrival], None]) -> None:
         """Hand every ``/fmu/in/<topic>`` message to ``consumer`` at its delivery time
         instead of queueing it in :attr:`inbox` (an event-driven consumer on the FCU)."""
-        if topic not in FMU_IN:
+        if topic not in AGENT_IN:
             raise ParameterError(f"{topic!r} is not an /fmu/in topic; choose from "
-                                 f"{sorted(FMU_IN)}", key="event_driven_inputs")
+                                 f"{sorted(AGENT_IN)}", key="event_driven_inputs")
         self._consumers[topic] = consumer
 
     def send(self, topic: str, msg: Any, t_ns: int) -> None:

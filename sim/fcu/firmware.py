@@ -85,6 +85,8 @@ from sim.fcu.scheduler import DEFAULT_MAIN_FREQ_HZ, ResolvedSchedule, Scheduler,
 from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams
 from sim.world import Imu, Scene
 
+TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
+
 FloatArray = npt.NDArray[np.float64]
 
 FIRMWARE_NODE_NAME = "fcu_firmware"
@@ -572,7 +574,7 @@ class Firmware:
         """Answer a companion's Timesync request: tc1 = our clock [ns], ts1 echoed."""
         if int(msg.tc1) != 0:
             return
-        reply = interfaces.new("px4_msgs/msg/Timesync", timestamp=self._now_us, seq=int(msg.seq),
+        reply = interfaces.new(TIMESYNC_MSG, timestamp=self._now_us, seq=int(msg.seq),
                                tc1=self._now_us * 1000, ts1=int(msg.ts1))
         self.agent.send("timesync", reply, self._now_ns)
 

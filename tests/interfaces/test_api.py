@@ -15,6 +15,8 @@ import interfaces
 from interfaces import InterfaceError, MessageError, UnknownTypeError
 from interfaces.registry import INTERFACE_ROOT, iter_interface_files
 
+TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
+
 QM = "quadmission_interfaces"
 ACTIONS = sorted(f.name for f in iter_interface_files() if f.package == QM and f.kind == "action")
 SERVICES = sorted(f.name for f in iter_interface_files() if f.package == QM and f.kind == "srv")
@@ -169,19 +171,22 @@ def test_new_rejects_an_unknown_field_naming_it() -> None:
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "path", "what"),
+    ("type_name", "kwargs", "path", "what"),
     [
-        ({"serial_number": [300] * 32}, "BatteryStatus.serial_number[0]", "range"),
-        ({"serial_number": [1.5] * 32}, "BatteryStatus.serial_number[0]", "integer"),
-        ({"voltage_cell_v": [1.0] * 13 + ["x"]}, "BatteryStatus.voltage_cell_v[13]", "number"),
+        ("std_msgs/msg/UInt8MultiArray", {"data": [300] * 4}, "UInt8MultiArray.data[0]",
+         "range"),
+        ("std_msgs/msg/UInt8MultiArray", {"data": [1.5] * 4}, "UInt8MultiArray.data[0]",
+         "integer"),
+        ("px4_msgs/BatteryStatus", {"voltage_cell_v": [1.0] * 13 + ["x"]},
+         "BatteryStatus.voltage_cell_v[13]", "number"),
     ],
 )
 def test_new_rejects_bad_list_elements_naming_them(
-    kwargs: dict[str, Any], path: str, what: str
+    type_name: str, kwargs: dict[str, Any], path: str, what: str
 ) -> None:
     # A float must not be truncated into an integer array, nor overflow wrap around.
     with pytest.raises(MessageError) as info:
-        interfaces.new("px4_msgs/BatteryStatus", **kwargs)
+        interfaces.new(type_name, **kwargs)
     assert path in str(info.value)
     assert what in str(info.value)
 
@@ -203,7 +208,7 @@ BAD_MESSAGES = [
     (_bad("px4_msgs/VehicleOdometry", quality=-129), "VehicleOdometry.quality", "range"),
     (_bad("px4_msgs/VehicleOdometry", timestamp=2**64), "VehicleOdometry.timestamp", "range"),
     (_bad("px4_msgs/VehicleOdometry", timestamp=-1), "VehicleOdometry.timestamp", "range"),
-    (_bad("px4_msgs/Timesync", tc1=2**63), "Timesync.tc1", "range"),
+    (_bad(TIMESYNC_MSG, tc1=2**63), "Timesync.tc1", "range"),
     (_bad("px4_msgs/VehicleCommand", command=2**32), "VehicleCommand.command", "range"),
     # wrong fixed-array length
     (
@@ -281,7 +286,7 @@ def test_integer_limits_and_special_floats_are_accepted() -> None:
     assert back.xy_reset_counter == 255
     assert back.vxy_max == float("inf")
     assert np.isnan(back.x)
-    sync = interfaces.new("px4_msgs/Timesync", tc1=-(2**63), ts1=2**63 - 1)
+    sync = interfaces.new(TIMESYNC_MSG, tc1=-(2**63), ts1=2**63 - 1)
     interfaces.validate(sync)
 
 
@@ -289,7 +294,7 @@ def test_integer_limits_and_special_floats_are_accepted() -> None:
 
 
 @pytest.mark.parametrize(
-    "typename", ["px4_msgs/msg/VehicleOdometry", f"{QM}/msg/MissionEvent", "px4_msgs/Timesync"]
+    "typename", ["px4_msgs/msg/VehicleOdometry", f"{QM}/msg/MissionEvent", TIMESYNC_MSG]
 )
 def test_deserialize_rejects_every_truncation(typename: str) -> None:
     msg = interfaces.new(typename)
@@ -302,18 +307,18 @@ def test_deserialize_rejects_every_truncation(typename: str) -> None:
 
 
 def test_deserialize_rejects_trailing_garbage_and_bad_lengths() -> None:
-    data = interfaces.serialize(interfaces.new("px4_msgs/Timesync", seq=1))
+    data = interfaces.serialize(interfaces.new(TIMESYNC_MSG, seq=1))
     with pytest.raises(MessageError):
-        interfaces.deserialize(data + bytes(8), "px4_msgs/Timesync")
+        interfaces.deserialize(data + bytes(8), TIMESYNC_MSG)
     with pytest.raises(MessageError):
         interfaces.deserialize(b"\x00\x01\x00\x00\xff\xff\xff\x7f", "std_msgs/String")
 
 
 def test_deserialize_accepts_bytearray_and_memoryview() -> None:
-    msg = interfaces.new("px4_msgs/Timesync", seq=9, tc1=5, ts1=6)
+    msg = interfaces.new(TIMESYNC_MSG, seq=9, tc1=5, ts1=6)
     data = interfaces.serialize(msg)
     for view in (bytearray(data), memoryview(data)):
-        assert interfaces.messages_equal(interfaces.deserialize(view, "px4_msgs/Timesync"), msg)
+        assert interfaces.messages_equal(interfaces.deserialize(view, TIMESYNC_MSG), msg)
 
 
 # --- composed action and service types ---------------------------------------------

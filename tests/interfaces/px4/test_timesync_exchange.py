@@ -8,9 +8,11 @@ import interfaces
 from flight_control.timesync import make_estimator
 from interfaces.px4.timesync import Px4Timesync, TimesyncExchange
 
+TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
+
 
 def _answer(request: object, fcu_ns: int) -> object:
-    return interfaces.new("px4_msgs/msg/Timesync", seq=request.seq,  # type: ignore[attr-defined]
+    return interfaces.new(TIMESYNC_MSG, seq=request.seq,  # type: ignore[attr-defined]
                           tc1=fcu_ns, ts1=request.ts1)  # type: ignore[attr-defined]
 
 
@@ -23,7 +25,7 @@ def test_matched_replies_feed_every_estimator_and_others_are_ignored() -> None:
     assert px4.estimate.samples == 1 and kalman.estimate.samples == 1
     # the same reply again, someone else's, and a request echoed back: all ignored
     assert exchange.reply(_answer(request, 5_000_500_000), now_ns=1_002_000_000) is None
-    foreign = interfaces.new("px4_msgs/msg/Timesync", seq=request.seq, tc1=7, ts1=123)
+    foreign = interfaces.new(TIMESYNC_MSG, seq=request.seq, tc1=7, ts1=123)
     assert exchange.reply(foreign, now_ns=1_003_000_000) is None
     assert exchange.reply(request, now_ns=1_003_000_000) is None
     assert exchange.unmatched == 2
@@ -71,10 +73,10 @@ def test_each_outstanding_request_is_matched_once_in_any_order() -> None:
 def test_an_unanswered_echo_is_not_counted_but_the_smallest_remote_stamp_is() -> None:
     exchange = TimesyncExchange(Px4Timesync())
     request = exchange.request(now_ns=1_000_000_000)
-    stale = interfaces.new("px4_msgs/msg/Timesync", seq=request.seq, tc1=1, ts1=5)
+    stale = interfaces.new(TIMESYNC_MSG, seq=request.seq, tc1=1, ts1=5)
     assert exchange.reply(stale, now_ns=1_001_000_000) is None
     assert exchange.unmatched == 1  # tc1 = 1 ns is an answer, to someone else
     assert exchange.reply(request, now_ns=1_001_000_000) is None
     assert exchange.unmatched == 1  # tc1 = 0: our own request echoed, not an answer
-    answer = interfaces.new("px4_msgs/msg/Timesync", seq=request.seq, tc1=1, ts1=request.ts1)
+    answer = interfaces.new(TIMESYNC_MSG, seq=request.seq, tc1=1, ts1=request.ts1)
     assert exchange.reply(answer, now_ns=1_001_000_000) is not None, "FCU time 1 ns is a time"

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from interfaces.px4 import CommandResult, NavigationState, VehicleCmd
+from interfaces.px4 import FMU_OUT, CommandResult, NavigationState, VehicleCmd
 from quadmission.offboard_harness import HarnessPhase, OffboardHarness, hover_flight
 from runtime import Node, qos_profile_px4_subscriber
 from sim.fcu.link import LinkDirection
@@ -27,7 +27,7 @@ class _Watcher(Node):
         super().__init__("watcher", **kwargs)
         self.status: list[tuple[int, int, int, int]] = []  # (t_ns, nav, arming, fcu stamp)
         self.acks: list[Any] = []
-        self.create_subscription("px4_msgs/msg/VehicleStatus", "/fmu/out/vehicle_status",
+        self.create_subscription("px4_msgs/msg/VehicleStatus", FMU_OUT["vehicle_status"].name,
                                  self._on_status, qos_profile_px4_subscriber)
         self.create_subscription("px4_msgs/msg/VehicleCommandAck",
                                  "/fmu/out/vehicle_command_ack", self.acks.append,
