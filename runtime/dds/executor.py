@@ -1,0 +1,98 @@
+"""The executor of a node process on DDS: the same event loop, in real time.
+
+:class:`ClockedExecutor` is the deterministic executor's loop driven from outside: samples
+come from the DDS transport (taken in this thread, handed to the nodes' queues), and time
+comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a simulation: timers fire when
+the simulator's clock passes them) or from the host's clock. Node code is the same as in
+process; only who moves the clock differs.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import interfaces
+from interfaces.qos import QoSProfile, ReliabilityPolicy
+from runtime.clock import Time
+from runtime.dds.transport import DdsTransport
+from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
+from runtime.transport import Endpoint, RequestId
+
+__all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CLOCK_TYPE", "ClockedExecutor"]
+
+CLOCK_TOPIC = "/clock"
+CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
+#: What rclcpp's TimeSource subscribes /clock with: best effort, keep last 1.
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+_POLL_S = 0.05  # longest wait before looking at the stop condition again [s]
+
+
+class ClockedExecutor(DeterministicExecutor):
+    """Runs one process's nodes on a :class:`DdsTransport`, following ``/clock`` or the
+    host's clock. ``spin(until=...)`` returns when ``until()`` holds or :meth:`stop` is
+    called (from a signal handler too)."""
+
+    def __init__(self, transport: DdsTransport, *, use_sim_time: bool = True,
+                 config_dir: Path | _Default | None = DEFAULT_CONFIG_DIR) -> None:
+        super().__init__(start_ns=0 if use_sim_time else time.time_ns(),
+                         config_dir=config_dir, transport=transport)
+        self.dds = transport
+        self.use_sim_time = use_sim_time
+        self._clock_ns: int | None = None
+        self._stopping = False
+        if use_sim_time:
+            self._clock_reader = transport.create_reader(
+                Endpoint(CLOCK_TOPIC, CLOCK_TYPE, CLOCK_QOS), self._on_clock)
+
+    def _on_clock(self, data: bytes, _request_id: RequestId | None) -> None:
+        t_ns = Time.from_msg(interfaces.deserialize(data, CLOCK_TYPE).clock).nanoseconds
+        if self._clock_ns is None or t_ns > self._clock_ns:
+            self._clock_ns = t_ns
+
+    def _target_ns(self) -> int:
+        if not self.use_sim_time:
+            return time.time_ns()
+        return self.now().nanoseconds if self._clock_ns is None else self._clock_ns
+
+    def wait_for_clock(self, timeout_s: float) -> bool:
+        """Wait for the first ``/clock`` and start the clock there (call before creating
+        nodes, so their timers start at the simulator's time). False on timeout."""
+        if not self.use_sim_time:
+            return True
+        deadline = time.monotonic() + timeout_s
+        while self._clock_ns is None and not self._stopping:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            self.dds.wait(min(left, _POLL_S))
+            self.dds.dispatch()
+        if self._clock_ns is not None:
+            self.spin_until(self._clock_ns)
+        return self._clock_ns is not None
+
+    def stop(self) -> None:
+        """Make :meth:`spin` return soon (safe from a signal handler)."""
+        self._stopping = True
+        self.dds.wake()
+
+    @property
+    def stopping(self) -> bool:
+        return self._stopping
+
+    def spin_once_realtime(self) -> None:
+        """Wait for data or the next due callback, take what arrived, run what is due."""
+        timeout = _POLL_S
+        if not self.use_sim_time:
+            t_next = self.next_event_ns()
+            if t_next is not None:
+                timeout = min(timeout, max(0.0, (t_next - time.time_ns()) / 1e9))
+        self.dds.wait(timeout)
+        self.dds.dispatch()
+        self.spin_until(max(self._target_ns(), self.now().nanoseconds))
+
+    def spin(self, until: Callable[[], bool] | None = None) -> None:
+        """Run until ``until()`` holds or :meth:`stop` is called."""
+        while not self._stopping and not (until is not None and until()):
+            self.spin_once_realtime()
