@@ -16,6 +16,7 @@ import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -100,18 +101,60 @@ def _interfaces_run(args: argparse.Namespace) -> int:
 def _launch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", type=Path, help="launch YAML: nodes: [{factory, name, ...}], "
                    "e.g. config/launch/example.yaml")
-    p.add_argument("--duration", type=_positive_seconds, default=10.0,
-                   help="simulated seconds to run")
+    p.add_argument("--duration", type=_positive_seconds, default=None,
+                   help="simulated seconds to run (default 10; with a simulator: the "
+                        "time limit, default 600)")
     p.add_argument("--config-dir", type=Path, default=None,
                    help="node YAMLs (default: config/, or $QUADMISSION_CONFIG_DIR)")
+    p.add_argument("--transport", choices=("inproc", "dds"), default="inproc",
+                   help="inproc: every node in this process, in simulated time (default); "
+                        "dds: each process group in its own process on Cyclone DDS")
+    p.add_argument("--rtf", type=_non_negative, default=1.0,
+                   help="dds: simulated seconds per wall second the simulator paces to "
+                        "(default 1: real time; 0: as fast as it can)")
+    p.add_argument("--domain-id", type=int, default=0, help="dds: the DDS domain id")
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"{text} must be >= 0")
+    return value
+
+
+def _launch_dds(args: argparse.Namespace, description: Any) -> int:
+    from runtime.dds.launcher import process_specs, run_launch
+
+    specs = process_specs(
+        description, domain_id=args.domain_id, rtf=args.rtf,
+        duration_s=args.duration or 600.0,
+        config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
+    result = run_launch(specs)
+    print(f"launch: {result.reason}", file=sys.stderr)
+    print(json.dumps({"exit_code": result.exit_code, "reason": result.reason}))
+    return result.exit_code
 
 
 def _launch_run(args: argparse.Namespace) -> int:
     from runtime import DeterministicExecutor, LaunchDescription, launch
+    from runtime.launch import run_in_process
 
+    description = LaunchDescription.from_yaml(args.file)
+    if args.transport == "dds":
+        return _launch_dds(args, description)
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))
-    nodes = launch(LaunchDescription.from_yaml(args.file), ex)
+    if description.simulator is not None:
+        outcome = run_in_process(description, ex, args.duration or 600.0)
+        print(f"launch: {outcome.reason} at {outcome.sim_time_s:.1f} s", file=sys.stderr)
+        print(json.dumps({"exit_code": outcome.exit_code, "reason": outcome.reason,
+                          "sim_time_s": outcome.sim_time_s}))
+        return outcome.exit_code
+    args.duration = args.duration or 10.0
+    nodes = launch(description, ex)
     print(f"launched {len(nodes)} node(s): "
           + ", ".join(n.get_fully_qualified_name() for n in nodes), file=sys.stderr)
     steps = max(1, int(args.duration))

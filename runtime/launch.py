@@ -1,4 +1,11 @@
-"""Launch descriptions: which nodes to start, with what parameters and remappings."""
+"""Launch descriptions: which nodes to start, with what parameters and remappings.
+
+A launch file lists ``nodes:``; it may add a ``simulator:`` (a factory that builds the
+simulated world around an executor, see :class:`Simulation`) and put nodes in named
+``process:`` groups (used when each group runs in its own process over DDS; in process,
+groups are ignored). A node that has an ``exit_code`` attribute (:class:`Finishing`)
+ends the launch when it sets it: the mission script says when the mission is over.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +13,7 @@ import importlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import yaml
 
@@ -18,6 +25,64 @@ from runtime.parameters import load_yaml, yaml_syntax_problem
 NodeFactory = Callable[..., Node]
 
 
+@runtime_checkable
+class Finishing(Protocol):
+    """A node that ends the launch: ``exit_code`` is None while it runs, then the code
+    (0: done and succeeded) with ``exit_reason`` saying why, in one line."""
+
+    exit_code: int | None
+    exit_reason: str
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """How a simulation ended: an exit code (0 fine, 1 failed: a crash) and why."""
+
+    exit_code: int
+    reason: str
+
+
+class Simulation(Protocol):
+    """The simulated world a launch runs in: it steps the executor in lockstep.
+
+    ``run`` steps until ``stop()`` holds or ``limit_s`` of simulated time passed, and
+    calls ``tick(t_ns)`` at ``tick_hz`` of simulated time when given (the DDS simulator
+    process publishes /clock, takes incoming samples and paces to real time there)."""
+
+    def run(self, limit_s: float, stop: Callable[[], bool],
+            tick: Callable[[int], None] | None = None,
+            tick_hz: float = 1000.0) -> SimulationResult: ...
+
+
+SimulationFactory = Callable[..., Simulation]
+
+
+def _resolve(factory: str, what: str) -> Any:
+    module_name, sep, attr = factory.partition(":")
+    if not sep or not module_name or not attr:
+        raise LaunchError(f"{what} {factory!r}: expected 'package.module:Class'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise LaunchError(f"{what} {factory!r}: cannot import {module_name}: {exc}") from None
+    try:
+        return getattr(module, attr)
+    except AttributeError:
+        raise LaunchError(f"{what} {factory!r}: {module_name} has no {attr}") from None
+
+
+@dataclass(frozen=True)
+class SimulatorSpec:
+    """The simulator: ``factory(executor, **parameters)`` returns a :class:`Simulation`."""
+
+    factory: str
+    parameters: Mapping[str, Any] = field(default_factory=dict)
+
+    def build(self, executor: DeterministicExecutor) -> Simulation:
+        factory: SimulationFactory = _resolve(self.factory, "simulator")
+        return factory(executor, **dict(self.parameters))
+
+
 @dataclass(frozen=True)
 class NodeSpec:
     """One node to start: ``factory`` is a Node subclass or ``"package.module:Class"``."""
@@ -27,23 +92,20 @@ class NodeSpec:
     namespace: str = ""
     parameters: Mapping[str, Any] = field(default_factory=dict)
     remappings: Mapping[str, str] = field(default_factory=dict)
+    process: str | None = None  # the process group over DDS (default: its own)
+
+    def process_name(self) -> str:
+        """The group this node runs in over DDS: ``process``, else its own name."""
+        if self.process:
+            return self.process
+        if self.name:
+            return self.name
+        return str(self.factory).rsplit(":", 1)[-1].lower()
 
     def resolve_factory(self) -> NodeFactory:
         if not isinstance(self.factory, str):
             return self.factory
-        module_name, sep, attr = self.factory.partition(":")
-        if not sep or not module_name or not attr:
-            raise LaunchError(f"factory {self.factory!r}: expected 'package.module:Class'")
-        try:
-            module = importlib.import_module(module_name)
-        except ImportError as exc:
-            raise LaunchError(
-                f"factory {self.factory!r}: cannot import {module_name}: {exc}"
-            ) from None
-        try:
-            factory: NodeFactory = getattr(module, attr)
-        except AttributeError:
-            raise LaunchError(f"factory {self.factory!r}: {module_name} has no {attr}") from None
+        factory: NodeFactory = _resolve(self.factory, "factory")
         return factory
 
 
@@ -52,19 +114,30 @@ class LaunchDescription:
     """An ordered list of nodes; they are created, and so run, in this order."""
 
     nodes: Sequence[NodeSpec]
+    simulator: SimulatorSpec | None = None
 
     @classmethod
     def from_yaml(cls, path: Path) -> LaunchDescription:
-        """Read ``nodes: [{factory, name, namespace, parameters, remappings}, ...]``."""
+        """Read ``nodes: [{factory, name, namespace, parameters, remappings, process}, ...]``
+        and an optional ``simulator: {factory, parameters}``."""
         try:
             doc = load_yaml(Path(path).read_text(encoding="utf-8")) or {}
         except OSError as exc:
             raise LaunchError(f"{path}: cannot read: {exc.strerror or exc}") from None
         except yaml.YAMLError as exc:
             raise LaunchError(f"{path}: {yaml_syntax_problem(exc)}") from None
-        if not isinstance(doc, Mapping) or set(doc) != {"nodes"}:
-            raise LaunchError(f"{path}: expected exactly one top-level key 'nodes'")
-        allowed = {"factory", "name", "namespace", "parameters", "remappings"}
+        if not isinstance(doc, Mapping) or "nodes" not in doc or set(doc) - {"nodes",
+                                                                              "simulator"}:
+            raise LaunchError(f"{path}: expected the top-level key 'nodes' "
+                              "(and optionally 'simulator'), nothing else")
+        simulator = None
+        if doc.get("simulator") is not None:
+            sim = doc["simulator"]
+            if not isinstance(sim, Mapping) or "factory" not in sim or set(sim) - {
+                    "factory", "parameters"}:
+                raise LaunchError(f"{path}: simulator: expected {{factory, parameters}}")
+            simulator = SimulatorSpec(str(sim["factory"]), dict(sim.get("parameters") or {}))
+        allowed = {"factory", "name", "namespace", "parameters", "remappings", "process"}
         specs = []
         for i, entry in enumerate(doc["nodes"] or []):
             if not isinstance(entry, Mapping):
@@ -75,7 +148,7 @@ class LaunchDescription:
             if "factory" not in entry:
                 raise LaunchError(f"{path}: nodes[{i}]: missing 'factory'")
             specs.append(NodeSpec(**entry))
-        return cls(tuple(specs))
+        return cls(tuple(specs), simulator)
 
 
 def launch(description: LaunchDescription, executor: DeterministicExecutor) -> list[Node]:
@@ -95,3 +168,41 @@ def launch(description: LaunchDescription, executor: DeterministicExecutor) -> l
         executor.add_node(node)
         nodes.append(node)
     return nodes
+
+
+def finished(nodes: Sequence[Node]) -> Finishing | None:
+    """The first node that has finished (set its ``exit_code``), or None."""
+    for node in nodes:
+        if isinstance(node, Finishing) and node.exit_code is not None:
+            return node
+    return None
+
+
+@dataclass(frozen=True)
+class LaunchOutcome:
+    """How an in-process launch ended."""
+
+    exit_code: int
+    reason: str
+    sim_time_s: float
+
+
+def run_in_process(description: LaunchDescription, executor: DeterministicExecutor,
+                   duration_s: float) -> LaunchOutcome:
+    """Everything in one executor: the simulator (if any) steps it in lockstep with every
+    node of the description, until a finishing node finishes, the simulation fails or
+    ``duration_s`` of simulated time passes (exit code 0 then, reason ``time limit``)."""
+    simulation = description.simulator.build(executor) if description.simulator else None
+    nodes = launch(description, executor)
+    if simulation is None:
+        executor.spin_until(executor.now().nanoseconds + round(duration_s * 1e9))
+        done = finished(nodes)
+    else:
+        result = simulation.run(duration_s, stop=lambda: finished(nodes) is not None)
+        done = finished(nodes)
+        if done is None and result.exit_code != 0:
+            return LaunchOutcome(result.exit_code, result.reason, executor.now().seconds)
+    if done is not None:
+        assert done.exit_code is not None
+        return LaunchOutcome(done.exit_code, done.exit_reason, executor.now().seconds)
+    return LaunchOutcome(0, "time limit", executor.now().seconds)

@@ -18,7 +18,7 @@ from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime.clock import Time
 from runtime.dds.transport import DdsTransport
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
-from runtime.transport import Endpoint, RequestId
+from runtime.transport import Endpoint, Reader, RequestId
 
 __all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CLOCK_TYPE", "ClockedExecutor"]
 
@@ -42,8 +42,14 @@ class ClockedExecutor(DeterministicExecutor):
         self.use_sim_time = use_sim_time
         self._clock_ns: int | None = None
         self._stopping = False
-        if use_sim_time:
-            self._clock_reader = transport.create_reader(
+        self._clock_reader: Reader | None = None
+
+    def follow_clock(self) -> None:
+        """Subscribe to ``/clock`` (with ``use_sim_time``). The simulator starts its clock
+        once every node process has subscribed, so a process calls this when its nodes
+        exist: no simulated time passes while it boots."""
+        if self.use_sim_time and self._clock_reader is None:
+            self._clock_reader = self.dds.create_reader(
                 Endpoint(CLOCK_TOPIC, CLOCK_TYPE, CLOCK_QOS), self._on_clock)
 
     def _on_clock(self, data: bytes, _request_id: RequestId | None) -> None:
@@ -57,10 +63,11 @@ class ClockedExecutor(DeterministicExecutor):
         return self.now().nanoseconds if self._clock_ns is None else self._clock_ns
 
     def wait_for_clock(self, timeout_s: float) -> bool:
-        """Wait for the first ``/clock`` and start the clock there (call before creating
-        nodes, so their timers start at the simulator's time). False on timeout."""
+        """Follow ``/clock``, wait for its first sample and move the clock there. False on
+        timeout."""
         if not self.use_sim_time:
             return True
+        self.follow_clock()
         deadline = time.monotonic() + timeout_s
         while self._clock_ns is None and not self._stopping:
             left = deadline - time.monotonic()

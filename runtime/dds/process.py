@@ -1,0 +1,166 @@
+"""One process of a DDS launch: a group of nodes, or the simulator.
+
+Started by :mod:`runtime.dds.launcher` as ``python -m runtime.dds.process SPEC_JSON``
+(:class:`ProcessSpec`). A node process waits for the first ``/clock`` (``use_sim_time``),
+creates its nodes and spins them until one of them finishes (its exit code is the
+process's) or SIGINT/SIGTERM. The simulator process builds the simulation around an
+executor on the same transport and, every millisecond of simulated time, publishes
+``/clock``, takes the samples that arrived and paces to ``rtf`` times real time. It waits
+for the node processes' ``/clock`` subscriptions before it starts, so no simulated time
+passes while they boot. A last line on stderr says why the process ended.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import signal
+import sys
+import time
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import interfaces
+from interfaces.qos import QoSProfile
+from runtime.dds.config import DdsConfig
+from runtime.dds.executor import CLOCK_TOPIC, CLOCK_TYPE, ClockedExecutor
+from runtime.dds.transport import DdsTransport
+from runtime.executor import DeterministicExecutor
+from runtime.launch import LaunchDescription, NodeSpec, SimulatorSpec, finished, launch
+from runtime.node import Node
+
+__all__ = ["ProcessSpec", "main"]
+
+#: exit codes of a process besides its nodes' own
+EXIT_NO_CLOCK = 3  # no /clock arrived in time
+EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
+_TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
+_CLOCK_PUB_QOS = QoSProfile(depth=1)  # reliable, volatile, keep last 1
+
+
+@dataclass(frozen=True)
+class ProcessSpec:
+    """What one child process runs; passed as JSON on its command line."""
+
+    name: str
+    nodes: tuple[Mapping[str, Any], ...] = ()
+    simulator: Mapping[str, Any] | None = None
+    domain_id: int = 0
+    loopback_only: bool = True
+    use_sim_time: bool = True
+    config_dir: str | None = None
+    rtf: float = 1.0  # simulator: simulated seconds per wall second (0: as fast as it can)
+    duration_s: float = 600.0  # simulator: simulated time limit
+    clock_subscribers: int = 0  # simulator: wait for this many /clock readers first
+    startup_timeout_s: float = 120.0
+    log_level: str = "INFO"
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self))
+
+    @classmethod
+    def from_json(cls, text: str) -> ProcessSpec:
+        raw = json.loads(text)
+        raw["nodes"] = tuple(raw.get("nodes") or ())
+        return cls(**raw)
+
+    def dds_config(self) -> DdsConfig:
+        return DdsConfig(self.domain_id, self.loopback_only)
+
+
+def _say(name: str, text: str) -> None:
+    print(f"[{name}] {text}", file=sys.stderr, flush=True)
+
+
+def _config_dir(spec: ProcessSpec) -> Any:
+    from runtime.executor import DEFAULT_CONFIG_DIR
+    return Path(spec.config_dir) if spec.config_dir else DEFAULT_CONFIG_DIR
+
+
+def run_nodes(spec: ProcessSpec) -> int:
+    """A node group: follow /clock, spin until a node finishes or a signal comes."""
+    ex = ClockedExecutor(DdsTransport(spec.dds_config(), name=spec.name),
+                         use_sim_time=spec.use_sim_time, config_dir=_config_dir(spec))
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: ex.stop())
+    description = LaunchDescription(tuple(NodeSpec(**dict(n)) for n in spec.nodes))
+    nodes = launch(description, ex)  # at time 0; the simulator waits for us
+    if not ex.wait_for_clock(spec.startup_timeout_s):
+        if ex.stopping:
+            return 0
+        _say(spec.name, f"no {CLOCK_TOPIC} after {spec.startup_timeout_s:g} s; is the "
+                        "simulator running on this domain?")
+        return EXIT_NO_CLOCK
+    ex.spin(until=lambda: finished(nodes) is not None)
+    done = finished(nodes)
+    if done is None:
+        return 0
+    assert done.exit_code is not None
+    _say(spec.name, done.exit_reason)
+    return done.exit_code
+
+
+def run_simulator(spec: ProcessSpec) -> int:
+    """The simulated world: publishes /clock, paced to ``rtf``."""
+    assert spec.simulator is not None
+    transport = DdsTransport(spec.dds_config(), name=spec.name)
+    ex = DeterministicExecutor(transport=transport, config_dir=_config_dir(spec))
+    stop = {"now": False}
+
+    def on_signal(*_: Any) -> None:
+        stop["now"] = True
+        transport.wake()
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, on_signal)
+    simulation = SimulatorSpec(str(spec.simulator["factory"]),
+                               dict(spec.simulator.get("parameters") or {})).build(ex)
+    clock_node = Node("simulator_clock", context=ex.context)
+    clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, _CLOCK_PUB_QOS)
+    deadline = time.monotonic() + spec.startup_timeout_s
+    while clock_pub.get_subscription_count() < spec.clock_subscribers and not stop["now"]:
+        if time.monotonic() > deadline:
+            _say(spec.name, f"only {clock_pub.get_subscription_count()} of "
+                            f"{spec.clock_subscribers} node processes subscribed to "
+                            f"{CLOCK_TOPIC} after {spec.startup_timeout_s:g} s")
+            return EXIT_NO_PEERS
+        transport.wait(0.05)
+        transport.dispatch()
+    if stop["now"]:
+        return 0
+    wall0 = time.perf_counter()
+    sim0 = ex.now().nanoseconds
+
+    def tick(t_ns: int) -> None:
+        sec, nsec = divmod(t_ns, 1_000_000_000)
+        clock_pub.publish(interfaces.new(CLOCK_TYPE, clock=interfaces.new(
+            "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)))
+        transport.dispatch()
+        if spec.rtf > 0:
+            ahead = (t_ns - sim0) / 1e9 / spec.rtf - (time.perf_counter() - wall0)
+            if ahead > 0:
+                time.sleep(ahead)
+
+    result = simulation.run(spec.duration_s, stop=lambda: stop["now"], tick=tick,
+                            tick_hz=_TICK_HZ)
+    if stop["now"]:
+        return 0
+    _say(spec.name, result.reason)
+    return result.exit_code
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 1:
+        print("usage: python -m runtime.dds.process SPEC_JSON", file=sys.stderr)
+        return 2
+    spec = ProcessSpec.from_json(args[0])
+    logging.basicConfig(level=spec.log_level, stream=sys.stderr,
+                        format=f"[{spec.name}] %(levelname)s %(message)s")
+    return run_simulator(spec) if spec.simulator is not None else run_nodes(spec)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
