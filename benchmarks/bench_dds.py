@@ -114,7 +114,7 @@ def ours_ping(domain: int, duration_s: float) -> dict[str, Any]:
 
 # -- bare cyclonedds ------------------------------------------------------------------------
 def _bare_endpoints(domain: int, out_topic: str, in_topic: str) -> Any:
-    from cyclonedds.core import ReadCondition, SampleState, ViewState, InstanceState, WaitSet
+    from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
     from cyclonedds.domain import Domain, DomainParticipant
     from cyclonedds.pub import DataWriter
     from cyclonedds.sub import DataReader
