@@ -30,6 +30,12 @@ from sim.world import Scene, StopWhen, WorldStatus
 __all__ = ["LaunchedSquarePilot", "SitlSimulation", "flight_control", "sitl", "square_pilot"]
 
 
+#: How long the pilot waits for the flight-control layer to report ready [s of simulated
+#: time]. Over DDS the bridge's time sync sees real round trips (a few ms), so it
+#: converges later than in process (about 15 s against 5 s).
+READY_TIMEOUT_S = 60.0
+
+
 def _arena(arena: str | None) -> ArenaSpec:
     return load_arena(arena) if arena else default_arena()
 
@@ -112,4 +118,5 @@ def square_pilot(*, parameter_overrides: dict[str, Any] | None = None,
         raise ValueError(f"square_pilot takes only 'arena', got {sorted(rest)}")
     plan = fit_square(arena)
     return LaunchedSquarePilot(plan.corners(), altitude=plan.altitude, speed=SQUARE_SPEED,
-                               land_speed=LAND_SPEED, **kwargs)
+                               land_speed=LAND_SPEED, ready_timeout_s=READY_TIMEOUT_S,
+                               **kwargs)

@@ -5,6 +5,11 @@ come from the DDS transport (taken in this thread, handed to the nodes' queues),
 comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a simulation: timers fire when
 the simulator's clock passes them) or from the host's clock. Node code is the same as in
 process; only who moves the clock differs.
+
+Between two ``/clock`` samples the time is interpolated at the rate the clock has been
+running (simulated over wall time), at most one ``/clock`` interval ahead of the last
+sample, so it never passes the next one: a message is stamped when it arrives, not up
+to a whole tick earlier (the time-sync exchange needs that resolution).
 """
 
 from __future__ import annotations
@@ -41,6 +46,9 @@ class ClockedExecutor(DeterministicExecutor):
         self.dds = transport
         self.use_sim_time = use_sim_time
         self._clock_ns: int | None = None
+        self._clock_wall_ns = 0  # host monotonic time the last /clock arrived
+        self._clock_step_ns = 0  # simulated time between the last two /clock samples
+        self._clock_rate = 0.0  # simulated ns per wall ns, smoothed
         self._stopping = False
         self._clock_reader: Reader | None = None
 
@@ -54,13 +62,24 @@ class ClockedExecutor(DeterministicExecutor):
 
     def _on_clock(self, data: bytes, _request_id: RequestId | None) -> None:
         t_ns = Time.from_msg(interfaces.deserialize(data, CLOCK_TYPE).clock).nanoseconds
-        if self._clock_ns is None or t_ns > self._clock_ns:
-            self._clock_ns = t_ns
+        wall_ns = time.monotonic_ns()
+        if self._clock_ns is None:
+            self._clock_ns, self._clock_wall_ns = t_ns, wall_ns
+        elif t_ns > self._clock_ns:
+            step, wall_step = t_ns - self._clock_ns, wall_ns - self._clock_wall_ns
+            if wall_step > 0:
+                rate = step / wall_step
+                self._clock_rate = rate if self._clock_rate == 0.0 else (
+                    0.9 * self._clock_rate + 0.1 * rate)
+            self._clock_ns, self._clock_wall_ns, self._clock_step_ns = t_ns, wall_ns, step
 
     def _target_ns(self) -> int:
         if not self.use_sim_time:
             return time.time_ns()
-        return self.now().nanoseconds if self._clock_ns is None else self._clock_ns
+        if self._clock_ns is None:
+            return self.now().nanoseconds
+        ahead = (time.monotonic_ns() - self._clock_wall_ns) * self._clock_rate
+        return self._clock_ns + min(self._clock_step_ns, round(ahead))
 
     def wait_for_clock(self, timeout_s: float) -> bool:
         """Follow ``/clock``, wait for its first sample and move the clock there. False on
@@ -96,6 +115,7 @@ class ClockedExecutor(DeterministicExecutor):
             if t_next is not None:
                 timeout = min(timeout, max(0.0, (t_next - time.time_ns()) / 1e9))
         self.dds.wait(timeout)
+        self.spin_until(max(self._target_ns(), self.now().nanoseconds))  # arrival time
         self.dds.dispatch()
         self.spin_until(max(self._target_ns(), self.now().nanoseconds))
 

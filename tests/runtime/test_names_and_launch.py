@@ -92,7 +92,8 @@ nodes:
         ("nodes:\n  - factory: runtime:Nope\n", "runtime has no Nope"),
         ("nodes:\n  - name: x\n", r"nodes\[0\]: missing 'factory'"),
         ("nodes:\n  - factory: a:b\n    params: {}\n", r"nodes\[0\]: unknown key 'params'"),
-        ("launch: []\n", "exactly one top-level key 'nodes'"),
+        ("launch: []\n", "the top-level key 'nodes'"),
+        ("simulator: {seed: 1}\nnodes: []\n", r"simulator: expected \{factory, parameters\}"),
     ],
 )
 def test_bad_launch_files_name_the_problem(tmp_path: Path, text: str, match: str) -> None:
@@ -100,6 +101,18 @@ def test_bad_launch_files_name_the_problem(tmp_path: Path, text: str, match: str
     path.write_text(text)
     with pytest.raises(LaunchError, match=match):
         launch(LaunchDescription.from_yaml(path), DeterministicExecutor(config_dir=None))
+
+
+def test_launch_file_with_simulator_and_process_groups(tmp_path: Path) -> None:
+    path = tmp_path / "groups.yaml"
+    path.write_text("simulator:\n  factory: a.b:sim\n  parameters: {seed: 3}\n"
+                    "nodes:\n  - factory: a.b:One\n    process: grp\n"
+                    "  - factory: a.b:Two\n    name: two\n")
+    description = LaunchDescription.from_yaml(path)
+    assert description.simulator is not None
+    assert (description.simulator.factory, dict(description.simulator.parameters)) == (
+        "a.b:sim", {"seed": 3})
+    assert [n.process_name() for n in description.nodes] == ["grp", "two"]
 
 
 def test_node_spec_accepts_a_class() -> None:
