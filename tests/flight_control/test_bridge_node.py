@@ -9,8 +9,15 @@ import numpy as np
 import pytest
 
 import interfaces
+from interfaces.px4.topics import FMU_OUT, XRCE_SESSION
 from quadmission.assembly import Companion, start_companion
-from runtime import Node, Time, qos_profile_default, qos_profile_sensor_data
+from runtime import (
+    Node,
+    Time,
+    qos_profile_default,
+    qos_profile_px4_subscriber,
+    qos_profile_sensor_data,
+)
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.scene import quad_state
 from sim.world import Scene, StopWhen
@@ -153,3 +160,26 @@ def test_cutting_the_vio_stream_invalidates_the_fcu_position() -> None:
     companion.vio.set_tracking(True)
     sitl.run(1.0)
     assert pilot.status.position_valid
+
+
+def test_fcu_status_time_source_uses_the_offset_px4_reports() -> None:
+    # timesync_source: fcu_status: no exchange of ours; the bridge takes
+    # /fmu/out/timesync_status's estimated_offset (FCU minus companion clock) as it is.
+    sitl = build_sitl(seed=5)
+    companion = start_companion(sitl, flight_control=False, timesync_source="fcu_status")
+    bridge = companion.bridge
+    statuses: list[Any] = []
+    requests: list[Any] = []
+    listener = Node("status_listener", context=sitl.executor.context)
+    for topic, sink in ((FMU_OUT["timesync_status"], statuses),
+                        (XRCE_SESSION["request"], requests)):
+        listener.create_subscription(topic.type, topic.name, sink.append,
+                                     qos_profile_px4_subscriber)
+    sitl.run(8.0)
+    assert statuses, "the FCU published no timesync_status"
+    assert bridge.synced
+    assert bridge.timesync.estimate.offset_us == -int(statuses[-1].estimated_offset)
+    assert requests == [], "the bridge should not run the exchange with fcu_status"
+    now_ns = sitl.executor.now().nanoseconds
+    true_fcu_us = sitl.link.clock.fcu_time_us(now_ns)
+    assert abs(bridge.to_fcu_us(now_ns) - true_fcu_us) < 3_000  # within the link's latency
