@@ -3,7 +3,7 @@
 :func:`run_launch` starts the children (:mod:`runtime.dds.process`), then watches them:
 the first to exit ends the launch (a finishing node's process exiting 0 after the
 mission, or any process dying), the others get SIGINT, then SIGKILL if they do not stop
-within a grace period. Ctrl-C does the same and returns 130. What ended the launch is
+within a grace period. Ctrl-C (or SIGTERM) does the same and returns 130. What ended the launch is
 said in one line, naming the process.
 """
 
@@ -49,7 +49,7 @@ def process_specs(description: LaunchDescription, **common: Any) -> list[Process
         sim = description.simulator
         specs.append(ProcessSpec("simulator", simulator={
             "factory": sim.factory, "parameters": dict(sim.parameters)},
-            clock_subscribers=len(groups), **common))
+            clock_subscribers=len(groups), followers=tuple(groups), **common))
     specs += [ProcessSpec(name, nodes=tuple(nodes), **common) for name, nodes in groups.items()]
     return specs
 
@@ -74,7 +74,8 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr) -> LaunchR
         p for p in (str(_PROJECT_ROOT), env.get("PYTHONPATH", "")) if p)
     procs: dict[str, subprocess.Popen[bytes]] = {}
     interrupted = {"yes": False}
-    previous = signal.signal(signal.SIGINT, lambda *_: interrupted.update(yes=True))
+    previous = {sig: signal.signal(sig, lambda *_: interrupted.update(yes=True))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         for spec in specs:
             procs[spec.name] = subprocess.Popen(
@@ -97,4 +98,5 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr) -> LaunchR
             time.sleep(0.1)
     finally:
         _stop_all(procs)
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

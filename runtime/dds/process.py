@@ -17,13 +17,14 @@ import logging
 import signal
 import sys
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import interfaces
 from interfaces.qos import QoSProfile
+from runtime.clock import Time
 from runtime.dds.config import DdsConfig
 from runtime.dds.executor import CLOCK_TOPIC, CLOCK_TYPE, ClockedExecutor
 from runtime.dds.transport import DdsTransport
@@ -38,6 +39,12 @@ EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
 _CLOCK_PUB_QOS = QoSProfile(depth=1)  # reliable, volatile, keep last 1
+_ACK_PERIOD_S = 0.01  # a node process reports its time this often [s of simulated time]
+
+
+def ack_topic(process: str) -> str:
+    """Where node process ``process`` reports the simulated time it has reached."""
+    return f"/launch/{process}/clock"
 
 
 @dataclass(frozen=True)
@@ -54,6 +61,8 @@ class ProcessSpec:
     rtf: float = 1.0  # simulator: simulated seconds per wall second (0: as fast as it can)
     duration_s: float = 600.0  # simulator: simulated time limit
     clock_subscribers: int = 0  # simulator: wait for this many /clock readers first
+    followers: tuple[str, ...] = ()  # simulator: the node processes it must not outrun
+    max_lead_s: float = 0.25  # simulator: how far it may run ahead of them [s simulated]
     startup_timeout_s: float = 120.0
     log_level: str = "INFO"
 
@@ -64,6 +73,7 @@ class ProcessSpec:
     def from_json(cls, text: str) -> ProcessSpec:
         raw = json.loads(text)
         raw["nodes"] = tuple(raw.get("nodes") or ())
+        raw["followers"] = tuple(raw.get("followers") or ())
         return cls(**raw)
 
     def dds_config(self) -> DdsConfig:
@@ -87,6 +97,11 @@ def run_nodes(spec: ProcessSpec) -> int:
         signal.signal(sig, lambda *_: ex.stop())
     description = LaunchDescription(tuple(NodeSpec(**dict(n)) for n in spec.nodes))
     nodes = launch(description, ex)  # at time 0; the simulator waits for us
+    if spec.use_sim_time:
+        reporter = Node("launch_clock_ack", context=ex.context)
+        ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _CLOCK_PUB_QOS)
+        reporter.create_timer(_ACK_PERIOD_S, lambda: ack.publish(
+            interfaces.new(CLOCK_TYPE, clock=reporter.now().to_msg())))
     if not ex.wait_for_clock(spec.startup_timeout_s):
         if ex.stopping:
             return 0
@@ -119,6 +134,17 @@ def run_simulator(spec: ProcessSpec) -> int:
                                dict(spec.simulator.get("parameters") or {})).build(ex)
     clock_node = Node("simulator_clock", context=ex.context)
     clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, _CLOCK_PUB_QOS)
+    reached = dict.fromkeys(spec.followers, 0)
+
+    def on_ack(who: str) -> Callable[[Any], None]:
+        def note(msg: Any) -> None:
+            reached[who] = max(reached[who], Time.from_msg(msg.clock).nanoseconds)
+        return note
+
+    for follower in spec.followers:
+        clock_node.create_subscription(CLOCK_TYPE, ack_topic(follower), on_ack(follower),
+                                       _CLOCK_PUB_QOS)
+    max_lead_ns = round(spec.max_lead_s * 1e9)
     deadline = time.monotonic() + spec.startup_timeout_s
     while clock_pub.get_subscription_count() < spec.clock_subscribers and not stop["now"]:
         if time.monotonic() > deadline:
@@ -138,6 +164,10 @@ def run_simulator(spec: ProcessSpec) -> int:
         clock_pub.publish(interfaces.new(CLOCK_TYPE, clock=interfaces.new(
             "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)))
         transport.dispatch()
+        while reached and min(reached.values()) < t_ns - max_lead_ns and not stop["now"]:
+            transport.wait(0.01)  # a node process lags: let it catch up
+            transport.dispatch()
+            ex.spin_until(ex.now().nanoseconds)  # its reports, taken at this time
         if spec.rtf > 0:
             ahead = (t_ns - sim0) / 1e9 / spec.rtf - (time.perf_counter() - wall0)
             if ahead > 0:
