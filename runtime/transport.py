@@ -194,6 +194,14 @@ class InProcessTransport:
                     on_sample(data, request_id)
         return reader
 
+    def samples_written(self) -> dict[tuple[str, str], int]:
+        """Samples written so far per (name, type), services' halves included (benchmarks)."""
+        counts: dict[tuple[str, str], int] = {}
+        for channel in self._channels.values():
+            key = (channel.name, channel.type_name)
+            counts[key] = counts.get(key, 0) + sum(w.samples_written for w in channel.writers)
+        return counts
+
     def topic_names_and_types(self) -> list[tuple[str, str]]:
         """Like ``ros2 topic list -t``: every topic with its type, sorted."""
         return sorted(
