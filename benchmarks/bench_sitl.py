@@ -211,6 +211,8 @@ _AREAS: list[tuple[str, str]] = [
 
 
 def _area_of_file(filename: str) -> str | None:
+    if filename == "~" or filename.startswith("<"):
+        return None  # a builtin or generated code: charged to its caller
     try:
         rel = Path(filename).resolve().relative_to(REPO).as_posix()
     except ValueError:
