@@ -57,7 +57,7 @@ from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world, world_params
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_sim import bench_camera  # noqa: E402  (a sibling benchmark script)
+from bench_sim import bench_camera
 
 REPO = Path(__file__).resolve().parents[1]
 TRACE_HZ = 100.0  # ground-truth samples for the physics-rate comparison; divides every rate

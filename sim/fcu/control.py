@@ -642,8 +642,10 @@ class AttitudeController:
         self, q: FloatArray, q_setpoint: FloatArray, yawspeed_feedforward: float = math.nan
     ) -> FloatArray:
         """Body-rate setpoint [rad/s, FRD] driving ``q`` (q_ned_frd) to ``q_setpoint``."""
-        qn: Quat = _fq_normalise(tuple(q.tolist()))  # type: ignore[arg-type]
-        qd: Quat = _fq_normalise(tuple(q_setpoint.tolist()))  # type: ignore[arg-type]
+        w, x, y, z = q.tolist()
+        qn = _fq_normalise((w, x, y, z))
+        w, x, y, z = q_setpoint.tolist()
+        qd = _fq_normalise((w, x, y, z))
         qd_red = _fq_between(_fq_dcm_column_z(qn), _fq_dcm_column_z(qd))
         if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
             qd_red = qd
