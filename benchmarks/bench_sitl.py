@@ -10,7 +10,9 @@ is judged against, in the same run (so the ratios hold on a loaded machine):
   one subscriber), against ``rtf_bare_world`` (the world loop alone, constant hover thrust,
   same physics rate and simulated time);
 - ``fcu_tick_mean_us``: the scheduler's duty measurement of one firmware main-loop tick,
-  against its budget (2000 us at 500 Hz);
+  against its budget (2000 us at 500 Hz); ``scheduler_bookkeeping_us_per_tick``: the same
+  schedule ticked with no-op functions (meters + dispatch: what the measuring costs),
+  and its share of the measured tick;
 - ``messages_per_sim_s`` (every sample written on the in-process transport, per simulated
   second) and ``us_per_message`` (publish -> deliver -> callback of the flight's topic mix,
   weighted by how often each was written);
@@ -18,7 +20,10 @@ is judged against, in the same run (so the ratios hold on a loaded machine):
 - ``physics_rate``: the same flight at 3 kHz and at lower rates: the true trajectory's
   largest and RMS difference against the 3 kHz one, and each rate's RMSE;
 - ``camera``: one downward frame rendered, published and delivered at 640x480 and
-  320x240 against a bare ``mujoco.Renderer`` render of the same view;
+  320x240 against a bare ``mujoco.Renderer`` render of the same view (the model's
+  buffer and 4x anti-aliasing, MuJoCo's defaults);
+- ``antialiasing``: pad markers decoded and frame cost with 0 and 4 samples, both sizes
+  (the evidence for :data:`sim.render.ONBOARD_MULTISAMPLES`);
 - ``profile``: host time by area (cProfile of the no-camera flight; time spent in library
   code is charged to the project code that called it).
 """
@@ -31,11 +36,12 @@ import json
 import math
 import os
 import pstats
+import statistics
 import sys
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -50,9 +56,12 @@ from quadmission.square_flight import fly_square
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from runtime.transport import InProcessTransport
 from sim.arena import default_arena
+from sim.fcu.scheduler import Scheduler
 from sim.fcu.sitl import Sitl
-from sim.quadrotor import MotorModel
+from sim.markers import detect_markers
+from sim.quadrotor import MotorModel, QuadrotorParams
 from sim.render import CameraIntrinsics, SceneRenderer
+from sim.scene import place_quadrotor
 from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world, world_params
 
@@ -277,6 +286,55 @@ def profiled_flight() -> tuple[dict[str, float], float]:
             sorted(areas.items(), key=lambda kv: -kv[1])}, flight.sim_s
 
 
+# -- scheduler bookkeeping -------------------------------------------------------------
+
+def scheduler_bookkeeping_us(sitl: Sitl, ticks: int = 20000) -> float:
+    """Host time of one main-loop tick of the firmware's own schedule with every function
+    a no-op: the duty and rate meters plus dispatch, i.e. what measuring costs a tick."""
+    schedule = sitl.firmware.schedule
+    names = [c.fun for c in schedule.inits] + [p.fun for p in schedule.periodics]
+    names += [e.fun for e in schedule.events]
+    scheduler = Scheduler(schedule, dict.fromkeys(names, lambda: None))
+    scheduler.init()
+    start = time.perf_counter()
+    for _ in range(ticks):
+        scheduler.tick()
+    return (time.perf_counter() - start) / ticks * 1e6
+
+
+# -- anti-aliasing -----------------------------------------------------------------------
+
+AA_HEIGHTS_M = (1.0, 1.5, 2.5)  # camera above each pad
+AA_YAWS = (0.0, 0.7)
+
+
+def antialiasing(width: int, height: int, samples: int) -> dict[str, Any]:
+    """How many pad markers the down camera decodes, and the frame cost, with ``samples``
+    anti-aliasing samples: every pad, from each height and yaw."""
+    default = QuadrotorParams()
+    quad = replace(default, down_camera=replace(default.down_camera, width=width,
+                                                height=height))
+    arena = default_arena()
+    scene = Scene.build(arena, quad)
+    decoded = total = 0
+    times = []
+    with SceneRenderer(scene.model, multisamples=samples) as renderer:
+        renderer.down_image(scene.data)  # warm up the GL context
+        for pad in arena.pads:
+            for h in AA_HEIGHTS_M:
+                for yaw in AA_YAWS:
+                    place_quadrotor(scene.model, scene.data, scene.index,
+                                    (*pad.center, h - quad.down_camera.position[2]), yaw=yaw)
+                    start = time.perf_counter()
+                    image = renderer.down_image(scene.data)
+                    times.append(time.perf_counter() - start)
+                    decoded += pad.id in detect_markers(image)
+                    total += 1
+    return {"size": f"{width}x{height}", "multisamples": samples,
+            "pads_decoded": f"{decoded}/{total}",
+            "frame_ms": round(statistics.median(times) * 1e3, 2)}
+
+
 # -- physics rate ------------------------------------------------------------------------
 
 def trajectory_difference(a: list[tuple[float, float, float]],
@@ -315,6 +373,7 @@ def main(argv: list[str] | None = None) -> int:
     mix = message_mix(flight.sitl)
     messages = sum(mix.values())
     tick = flight.sitl.firmware.scheduler.report()
+    bookkeeping = scheduler_bookkeeping_us(flight.sitl)
     report: dict[str, Any] = {
         "scenario": "square, default arena, seed 0, through bridge + flight-control node",
         "load_average_1min": round(os.getloadavg()[0], 2),
@@ -329,6 +388,8 @@ def main(argv: list[str] | None = None) -> int:
         "fcu_tick_mean_us": round(tick.tick_duty.avg_us, 1),
         "fcu_tick_budget_us": 1e6 / tick.main_freq_hz,
         "fcu_overruns": tick.overruns,
+        "scheduler_bookkeeping_us_per_tick": round(bookkeeping, 2),
+        "scheduler_bookkeeping_over_tick": round(bookkeeping / tick.tick_duty.avg_us, 3),
         "messages_per_sim_s": round(messages / flight.sim_s, 1),
         "us_per_message": round(us_per_message(mix), 2),
         "tracking_rmse_m": flight.rmse_xy,
@@ -339,6 +400,8 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_rates:
         report["physics_rate"] = physics_rates(flight, physics_hz)
     report["camera"] = [bench_camera(640, 480, args.frames), bench_camera(320, 240, args.frames)]
+    report["antialiasing"] = [antialiasing(w, h, n) for w, h in ((640, 480), (320, 240))
+                              for n in (0, 4)]
     if not args.no_profile:
         areas, _ = profiled_flight()
         report["profile_percent"] = areas
