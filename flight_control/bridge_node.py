@@ -22,6 +22,7 @@ estimator chosen by parameter), so no other node knows PX4 is there:
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -206,6 +207,8 @@ class FcuBridgeNode(Node):
         self._last_fcu_ns = self.now().nanoseconds
         if est.converged and not was_synced:  # stamps move from receive to sample time
             self.history = PoseHistory(self.history.span_ns)
+        if not self.timesync_pub.get_subscription_count():
+            return  # diagnostics nobody reads are not built
         self.timesync_pub.publish(interfaces.new(
             "quadmission_interfaces/msg/TimesyncDiagnostics",
             header=interfaces.new("std_msgs/msg/Header", stamp=self.now().to_msg()),
@@ -221,6 +224,8 @@ class FcuBridgeNode(Node):
         if np.all(np.isfinite(odo.position)) and np.all(np.isfinite(odo.q)):
             self.history.add(PoseSample(stamp_ns, odo.position, odo.q,
                                         np.nan_to_num(odo.velocity)))
+        if not self.odometry_pub.get_subscription_count():
+            return  # the history above answers /fcu/pose_at; nobody reads the topic
         x, y, z, w = quat_to_xyzw(odo.q)
         self.odometry_pub.publish(interfaces.new(
             "nav_msgs/msg/Odometry",
@@ -245,6 +250,8 @@ class FcuBridgeNode(Node):
         ))
 
     def _on_imu(self, msg: Any) -> None:
+        if not self.imu_pub.get_subscription_count():
+            return  # not built for nobody
         gyro = frd_to_flu(np.asarray(msg.gyro_rad, dtype=np.float64))
         accel = frd_to_flu(np.asarray(msg.accelerometer_m_s2, dtype=np.float64))
         self.imu_pub.publish(interfaces.new(
@@ -297,7 +304,9 @@ class FcuBridgeNode(Node):
         last = self._last_fcu_ns
         timeout_ns = self.params.connection_timeout_s * 1e9
         self._status.connected = last is not None and self.now().nanoseconds - last < timeout_ns
-        self.status_pub.publish(self._status)
+        # a snapshot: in one process subscribers share what is published, and the
+        # handlers above keep updating self._status
+        self.status_pub.publish(copy.copy(self._status))
 
     # -- companion -> FCU -----------------------------------------------------------------
     def _on_setpoint(self, msg: Any) -> None:

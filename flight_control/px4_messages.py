@@ -25,16 +25,12 @@ import numpy as np
 
 import interfaces
 from flight_control.frames import (
+    Q_ENU_NED,
+    Q_FRD_FLU,
     FloatArray,
     enu_to_ned,
-    frd_to_flu,
-    ned_to_enu,
-    quat_conjugate,
     quat_enu_flu_to_ned_frd,
-    quat_ned_frd_to_enu_flu,
-    quat_rotate,
     variance_enu_to_ned,
-    variance_ned_to_enu,
     yaw_enu_to_ned,
     yaw_rate_enu_to_ned,
 )
@@ -86,20 +82,53 @@ class OdometryEnu:
     twist_covariance: FloatArray
 
 
+def _f_quat_multiply(p: tuple[float, ...], q: tuple[float, ...]) -> tuple[float, ...]:
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return (pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw)
+
+
+_Q_ENU_NED = tuple(Q_ENU_NED.tolist())
+_Q_FRD_FLU = tuple(Q_FRD_FLU.tolist())
+
+
 def odometry_enu(msg: Any) -> OdometryEnu:
-    """Read a px4_msgs/VehicleOdometry (NED/FRD, velocity in NED) into ENU/FLU."""
-    q = np.asarray(quat_ned_frd_to_enu_flu(np.asarray(msg.q, dtype=np.float64)))
-    velocity = ned_to_enu(np.asarray(msg.velocity, dtype=np.float64))
-    pose_cov = np.zeros(36)
-    pose_cov[list(_POSITION_DIAG)] = variance_ned_to_enu(np.asarray(msg.position_variance))
-    pose_cov[list(_ATTITUDE_DIAG)] = np.asarray(msg.orientation_variance)
-    twist_cov = np.zeros(36)
-    twist_cov[list(_POSITION_DIAG)] = variance_ned_to_enu(np.asarray(msg.velocity_variance))
+    """Read a px4_msgs/VehicleOdometry (NED/FRD, velocity in NED) into ENU/FLU.
+
+    The same conversions as :mod:`flight_control.frames` (``quat_ned_frd_to_enu_flu``,
+    ``ned_to_enu``, ``frd_to_flu``, ``quat_rotate``), on Python floats: the bridge calls
+    this at 100 Hz, and numpy's broadcasting helpers cost more than the arithmetic on one
+    vector (``tests/flight_control/test_px4_messages.py`` checks it against them)."""
+    q = _f_quat_multiply(_f_quat_multiply(_Q_ENU_NED, tuple(msg.q.tolist())), _Q_FRD_FLU)
+    vn, ve, vd = msg.velocity.tolist()
+    velocity = (ve, vn, -vd)
+    n, e, d = msg.position.tolist()
+    wx, wy, wz = msg.angular_velocity.tolist()
+    pv = msg.position_variance.tolist()
+    ov = msg.orientation_variance.tolist()
+    vv = msg.velocity_variance.tolist()
+    pose_cov = [0.0] * 36
+    twist_cov = [0.0] * 36
+    for k, (i, j) in enumerate(zip(_POSITION_DIAG, _ATTITUDE_DIAG, strict=True)):
+        pose_cov[i] = pv[(1, 0, 2)[k]]
+        pose_cov[j] = ov[k]
+        twist_cov[i] = vv[(1, 0, 2)[k]]
+    # the body velocity: the ENU velocity rotated by the inverse of the normalised q
+    w, x, y, z = q
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    if norm > 0.0 and math.isfinite(norm):
+        w, ux, uy, uz = w / norm, -x / norm, -y / norm, -z / norm
+    else:
+        w = ux = uy = uz = math.nan
+    vx, vy, vz = velocity
+    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+    body = (vx + w * tx + (uy * tz - uz * ty), vy + w * ty + (uz * tx - ux * tz),
+            vz + w * tz + (ux * ty - uy * tx))
     return OdometryEnu(
-        position=ned_to_enu(np.asarray(msg.position, dtype=np.float64)), q=q,
-        velocity=velocity, body_velocity=quat_rotate(quat_conjugate(q), velocity),
-        angular_velocity=frd_to_flu(np.asarray(msg.angular_velocity, dtype=np.float64)),
-        pose_covariance=pose_cov, twist_covariance=twist_cov)
+        position=np.array((e, n, -d)), q=np.array(q), velocity=np.array(velocity),
+        body_velocity=np.array(body), angular_velocity=np.array((wx, -wy, -wz)),
+        pose_covariance=np.array(pose_cov), twist_covariance=np.array(twist_cov))
 
 
 def trajectory_setpoint(position_enu: Any, velocity_enu: Any, acceleration_enu: Any,

@@ -172,27 +172,97 @@ def _coerce(path: str, node: tuple[Any, Any], value: Any) -> Any:
     return value
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """A message type's cached field table: what :func:`new` and :func:`validate` walk."""
+
+    cls: type
+    known: frozenset[str]
+    fields: tuple[tuple[str, Any, Any], ...]  # (name, rosbags node, default maker)
+    checks: tuple[tuple[str, Any, Any], ...]  # (name, rosbags node, fast check or None)
+
+
+def _default_maker(node: tuple[Any, Any]) -> Any:
+    """A no-argument function returning a fresh default for ``node``."""
+    kind, arg = node
+    if kind == Nodetype.BASE:
+        value = _default(node)
+        return lambda: value
+    if kind == Nodetype.NAME:
+        return lambda: new(arg)
+    sub, length = arg
+    if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES:
+        dtype, size = NUMPY_DTYPES[sub[1][0]], length if kind == Nodetype.ARRAY else 0
+        return lambda: np.zeros(size, dtype=dtype)
+    return lambda: _default(node)
+
+
+def _fast_check(node: tuple[Any, Any]) -> Any:
+    """A predicate that accepts the common, valid values of ``node`` quickly; anything it
+    refuses goes through :func:`_check`, which raises the precise error (or accepts)."""
+    kind, arg = node
+    if kind == Nodetype.BASE:
+        base, bound = arg
+        if base in ("float32", "float64"):
+            if base == "float64":
+                return lambda v: type(v) is float
+            return lambda v: type(v) is float and not abs(v) > 3.4028235e38
+        if base in _INT_RANGES:
+            lo, hi = _INT_RANGES[base]
+            return lambda v: type(v) is int and lo <= v <= hi
+        if base == "bool":
+            return lambda v: type(v) is bool
+        if base in ("string", "wstring"):
+            return lambda v: type(v) is str and (not bound or len(v) <= bound)
+        return None
+    if kind == Nodetype.NAME:
+        return None  # nested: validated recursively
+    sub, length = arg
+    if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES:
+        want = np.dtype(NUMPY_DTYPES[sub[1][0]])
+        if kind == Nodetype.ARRAY:
+            return lambda v: (type(v) is np.ndarray and v.dtype == want and v.ndim == 1
+                              and len(v) == length)
+        return lambda v: (type(v) is np.ndarray and v.dtype == want and v.ndim == 1
+                          and (not length or len(v) <= length))
+    return None
+
+
+@functools.cache
+def _layout(typename: str) -> _Layout:
+    _, defs = _fielddefs(typename)
+    return _Layout(
+        cls=typestore().types[typename],
+        known=frozenset(fname for fname, _ in defs),
+        fields=tuple((fname, node, _default_maker(node)) for fname, node in defs),
+        checks=tuple((fname, node, _fast_check(node)) for fname, node in defs),
+    )
+
+
+@functools.cache
+def _normalised_msg(name: str) -> str:
+    return _normalise(name, "msg")
+
+
 def new(type_or_name: type | str, **fields: Any) -> Any:
     """Build a message with every field not given set to its ROS default (0, "", zeros...).
 
     Raises MessageError naming the field when a keyword is not a field of the type.
     """
     typename = type_or_name if isinstance(type_or_name, str) else type_name(type_or_name)
-    typename = _normalise(typename, "msg")
-    _, defs = _fielddefs(typename)
-    known = {fname for fname, _ in defs}
-    unknown = sorted(set(fields) - known)
-    if unknown:
+    layout = _layout(_normalised_msg(typename))
+    if fields and not layout.known.issuperset(fields):
+        unknown = sorted(set(fields) - layout.known)
         raise MessageError(
-            f"{typename} has no field {unknown[0]!r}; its fields are {sorted(known)}"
+            f"{layout.cls.__msgtype__} has no field {unknown[0]!r}; its fields are "  # type: ignore[attr-defined]
+            f"{sorted(layout.known)}"
         )
     values = {
-        fname: _coerce(f"{typename}.{fname}", node, fields[fname])
-        if fname in fields
-        else _default(node)
-        for fname, node in defs
+        fname: _coerce(f"{typename}.{fname}", node, fields[fname]) if fname in fields
+        else make()
+        for fname, node, make in layout.fields
     }
-    return typestore().types[typename](**values)
+    return layout.cls(**values)
 
 
 def _check_base(path: str, base: str, bound: int, value: Any) -> None:
@@ -254,9 +324,11 @@ def validate(msg: Any, typename: str | None = None, path: str | None = None) -> 
     where = path or expected
     if actual != expected:
         raise MessageError(f"{where}: expected a {expected} message, got {actual or type(msg)}")
-    _, defs = _fielddefs(expected)
-    for fname, node in defs:
-        _check(f"{where}.{fname}", node, getattr(msg, fname))
+    for fname, node, fast in _layout(expected).checks:
+        value = getattr(msg, fname)
+        if fast is not None and fast(value):
+            continue
+        _check(f"{where}.{fname}", node, value)
 
 
 def serialize(msg: Any, typename: str | None = None) -> bytes:
@@ -267,6 +339,32 @@ def serialize(msg: Any, typename: str | None = None) -> bytes:
         return bytes(typestore().serialize_cdr(msg, name))
     except Exception as exc:
         raise MessageError(f"cannot serialize {name}: {exc}") from None
+
+
+def _fixed_size(node: tuple[Any, Any]) -> bool:
+    kind, arg = node
+    if kind == Nodetype.BASE:
+        return arg[0] not in ("string", "wstring")
+    if kind == Nodetype.NAME:
+        return all(_fixed_size(n) for _, n in _fielddefs(arg)[1])
+    return kind == Nodetype.ARRAY and _fixed_size(arg[0])
+
+
+@functools.cache
+def fixed_cdr_size(typename: str) -> int | None:
+    """The CDR size of every ``typename`` message, or None when it varies (strings,
+    sequences)."""
+    if not _fixed_size((Nodetype.NAME, typename)):
+        return None
+    return len(serialize(new(typename), typename))
+
+
+def cdr_size(msg: Any, typename: str | None = None) -> int:
+    """Bytes ``msg`` takes in CDR (encapsulation header included); serializes only types
+    whose size varies."""
+    name = typename or type_name(msg)
+    size = fixed_cdr_size(name)
+    return size if size is not None else len(serialize(msg, name))
 
 
 def deserialize(data: bytes | bytearray | memoryview, typename: str) -> Any:

@@ -33,7 +33,7 @@ from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square
 from quadmission.square_pilot import PilotPhase, SquarePilot
 from sim.arena import ArenaSpec
 from sim.fcu.link import LinkDirection
-from sim.fcu.sitl import build_sitl
+from sim.fcu.sitl import Sitl, build_sitl
 from sim.world import Scene, StopWhen
 
 if TYPE_CHECKING:
@@ -105,11 +105,16 @@ def _plan_json(plan: SquarePlan, speed: float) -> dict[str, Any]:
 
 
 def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
-               speed: float = SQUARE_SPEED, limit_s: float = FLIGHT_LIMIT_S) -> dict[str, Any]:
+               speed: float = SQUARE_SPEED, limit_s: float = FLIGHT_LIMIT_S,
+               physics_hz: int | None = None,
+               setup: Callable[[Sitl], None] | None = None) -> dict[str, Any]:
     """Fly ``plan`` in ``arena`` through the companion stack, as given (no fit check);
-    write report.json and path.png into ``options.out``; return the report."""
+    write report.json and path.png into ``options.out``; return the report.
+
+    ``physics_hz`` overrides ``config/sim_world.yaml``'s; ``setup(sitl)`` adds nodes or
+    parts before the flight (benchmarks add a camera and its subscriber)."""
     options.out.mkdir(parents=True, exist_ok=True)
-    sitl = build_sitl(arena, seed=options.seed)
+    sitl = build_sitl(arena, seed=options.seed, physics_hz=physics_hz)
     start_companion(sitl)
     context = sitl.executor.context
     pilot = SquarePilot(plan.corners(), altitude=plan.altitude, speed=speed,
@@ -118,6 +123,8 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     for node in (pilot, recorder):
         sitl.executor.add_node(node)
     sitl.extra_parts.append(_Progress(pilot, options.progress))
+    if setup is not None:
+        setup(sitl)
     result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
     truth, crash = result.trajectory, result.crash
     end_s = crash.t_s if crash is not None else result.sim_time_s

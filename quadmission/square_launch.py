@@ -12,6 +12,7 @@ over (:class:`~runtime.launch.Finishing`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -61,8 +62,10 @@ class SitlSimulation:
     def run(self, limit_s: float, stop: Callable[[], bool],
             tick: Callable[[int], None] | None = None,
             tick_hz: float = 1000.0) -> SimulationResult:
-        if tick is not None:
-            self.sitl.extra_parts.append(_Tick(tick, tick_hz))
+        if tick is not None:  # the fastest rate up to tick_hz that divides the physics rate
+            physics_hz = self.sitl.scene.physics_hz
+            self.sitl.extra_parts.append(
+                _Tick(tick, physics_hz / math.ceil(physics_hz / tick_hz)))
         result = self.sitl.run(limit_s, stop=StopWhen(stop))
         if result.crash is not None:
             return SimulationResult(1, f"CRASH: {result.crash.reason} at "

@@ -1,8 +1,11 @@
 """Node API in rclpy's shape: publishers, subscriptions, services, timers, parameters.
 
-Nodes talk only through their context's transport, as CDR bytes: a message published
-here is serialized, and each subscriber gets its own deserialized copy. So any node can
-move to another process unchanged.
+Nodes talk only through their context's transport. A message published here is validated;
+over a transport that crosses processes it is serialized and each subscriber gets its own
+deserialized copy; in one process (a :class:`~runtime.transport.MessageWriter`) the
+subscribers share the published object, which nobody may change after publishing or
+receiving it. Every message stays CDR-serialisable, so any node can move to another
+process unchanged.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ from runtime.parameters import (
     parameter_fields,
     type_of_value,
 )
-from runtime.transport import Endpoint, EndpointKind, RequestId
+from runtime.transport import Endpoint, EndpointKind, MessageWriter, RequestId, Sample, Writer
 
 T = TypeVar("T")
 P = TypeVar("P")
@@ -44,6 +47,32 @@ def _type_name(msg_type: type | str) -> str:
     if isinstance(msg_type, str):  # UnknownTypeError for a bad name
         return interfaces.type_name(interfaces.get_message(msg_type))
     return interfaces.type_name(msg_type)
+
+
+def _sender(writer: Writer, type_name: str) -> Callable[[Any, RequestId | None], None]:
+    """How to send a message of ``type_name`` on ``writer``: validated and handed over as
+    it is when the writer's readers share our process, validated and serialized otherwise."""
+    if isinstance(writer, MessageWriter):
+        write_message = writer.write_message
+
+        def hand_over(msg: Any, request_id: RequestId | None = None) -> None:
+            interfaces.validate(msg, type_name)
+            write_message(msg, request_id)
+
+        return hand_over
+
+    def serialize(msg: Any, request_id: RequestId | None = None) -> None:
+        writer.write(interfaces.serialize(msg, type_name), request_id)
+
+    return serialize
+
+
+def _message(data: Sample, type_name: str) -> Any:
+    """The message of a received sample: bytes are deserialized (MessageError when
+    malformed), a message handed over in-process is used as it is."""
+    if isinstance(data, bytes | bytearray | memoryview):
+        return interfaces.deserialize(data, type_name)
+    return data
 
 
 def stable_guid(*parts: str) -> int:
@@ -92,17 +121,17 @@ class _Inbox:
         node: Node,
         qos: QoSProfile,
         label: Label,
-        handler: Callable[[bytes, RequestId | None], None],
+        handler: Callable[[Sample, RequestId | None], None],
     ) -> None:
         maxlen = qos.depth if qos.history is HistoryPolicy.KEEP_LAST else None
-        self._queue: deque[tuple[bytes, RequestId | None]] = deque(maxlen=maxlen)
+        self._queue: deque[tuple[Sample, RequestId | None]] = deque(maxlen=maxlen)
         self._loop = node.context.loop
         self._label = label
         self._handler = handler
         self.dropped = 0
         self.closed = False
 
-    def on_sample(self, data: bytes, request_id: RequestId | None) -> None:
+    def on_sample(self, data: Sample, request_id: RequestId | None) -> None:
         if self._queue.maxlen is not None and len(self._queue) == self._queue.maxlen:
             self.dropped += 1
         self._queue.append((data, request_id))
@@ -126,12 +155,14 @@ class Publisher(Generic[T]):
         self._writer = node.context.transport.create_writer(
             Endpoint(self.topic_name, self.type_name, qos)
         )
+        self._send = _sender(self._writer, self.type_name)
 
     def publish(self, msg: Any) -> None:
-        """Serialize and send ``msg``; MessageError names a malformed field.
+        """Validate and send ``msg``; MessageError names a malformed field.
 
         ``msg`` may also be the CDR bytes of a message of this topic's type, already
         serialized (as rclpy publishes a serialized message): they are sent as they are.
+        In one process the subscribers receive ``msg`` itself: do not change it afterwards.
         """
         if isinstance(msg, bytes):
             self._writer.write(msg)
@@ -141,7 +172,7 @@ class Publisher(Generic[T]):
             raise TopicTypeError(
                 f"publish on {self.topic_name}: expected {self.type_name}, got {actual}"
             )
-        self._writer.write(interfaces.serialize(msg, self.type_name))
+        self._send(msg, None)
 
     def get_subscription_count(self) -> int:
         return self._writer.matched_count()
@@ -181,12 +212,14 @@ class Subscription(Generic[T]):
         """Samples dropped because the KEEP_LAST queue was full."""
         return self._inbox.dropped
 
-    def _handle(self, data: bytes, _request_id: RequestId | None) -> None:
+    def _handle(self, data: Sample, _request_id: RequestId | None) -> None:
         if self.raw:
+            if not isinstance(data, bytes):  # handed over in-process: the bytes it stands for
+                data = interfaces.serialize(data, self.type_name)
             self.callback(data)
             return
         try:
-            msg = interfaces.deserialize(data, self.type_name)
+            msg = _message(data, self.type_name)
         except interfaces.MessageError as exc:
             self.malformed += 1
             self._node.get_logger().error(f"dropped a malformed sample on {self.topic_name}: {exc}")
@@ -278,6 +311,7 @@ class Service:
         self._writer = transport.create_writer(
             Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY)
         )
+        self._send = _sender(self._writer, self._rep_name)
         self._inbox = _Inbox(node, qos, (node.get_name(), "service", self.service_name),
                              self._handle)
         self._reader = transport.create_reader(
@@ -285,11 +319,11 @@ class Service:
             self._inbox.on_sample,
         )
 
-    def _handle(self, data: bytes, request_id: RequestId | None) -> None:
+    def _handle(self, data: Sample, request_id: RequestId | None) -> None:
         if request_id is None:
             return
         try:
-            request = interfaces.deserialize(data, self._req_name)
+            request = _message(data, self._req_name)
         except interfaces.MessageError as exc:
             self._node.get_logger().error(f"malformed request on {self.service_name}: {exc}")
             return
@@ -313,7 +347,7 @@ class Service:
                 f"service {self.service_name}: callback returned {response!r}, "
                 f"expected a {self._rep_name}"
             )
-        self._writer.write(interfaces.serialize(response, self._rep_name), request_id)
+        self._send(response, request_id)
 
     def destroy(self) -> None:
         self._inbox.closed = True
@@ -339,6 +373,7 @@ class Client:
         self._writer = transport.create_writer(
             Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST)
         )
+        self._send = _sender(self._writer, self._req_name)
         self._inbox = _Inbox(node, qos, (node.get_name(), "client", self.service_name),
                              self._handle)
         self._reader = transport.create_reader(
@@ -346,17 +381,17 @@ class Client:
             self._on_reply,
         )
 
-    def _on_reply(self, data: bytes, request_id: RequestId | None) -> None:
+    def _on_reply(self, data: Sample, request_id: RequestId | None) -> None:
         if request_id is not None and request_id.client_guid == self._guid:
             self._inbox.on_sample(data, request_id)
 
-    def _handle(self, data: bytes, request_id: RequestId | None) -> None:
+    def _handle(self, data: Sample, request_id: RequestId | None) -> None:
         assert request_id is not None
         future = self._pending.pop(request_id.sequence, None)
         if future is None or future.done():
             return
         try:
-            future.set_result(interfaces.deserialize(data, self._rep_name))
+            future.set_result(_message(data, self._rep_name))
         except interfaces.MessageError as exc:
             future.set_exception(exc)
 
@@ -367,11 +402,15 @@ class Client:
             raise TopicTypeError(
                 f"call to {self.service_name}: expected {self._req_name}, got {actual}"
             )
-        data = interfaces.serialize(request, self._req_name)
         self._sequence += 1
         future: Future[Any] = Future(self._node.context.loop)
         self._pending[self._sequence] = future
-        self._writer.write(data, RequestId(self._guid, self._sequence))
+        try:
+            self._send(request, RequestId(self._guid, self._sequence))
+        except interfaces.MessageError:
+            del self._pending[self._sequence]
+            self._sequence -= 1
+            raise
         return future
 
     def service_is_ready(self) -> bool:

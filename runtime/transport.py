@@ -1,7 +1,11 @@
 """Transports move serialized messages between endpoints; nodes never share objects.
 
 A transport knows topics, not nodes: a writer writes CDR bytes, every matched reader's
-``on_sample`` receives them. Services travel as a request topic and a reply topic, each
+``on_sample`` receives them. A transport whose endpoints share one process may also offer
+``write_message`` (:class:`MessageWriter`): the validated message object itself is handed
+to the readers, unserialized (zero-copy; receivers treat it as read-only). Readers then get
+either CDR bytes or a message, and deserialize only bytes. The DDS transport always
+serializes. Services travel as a request topic and a reply topic, each
 sample tagged with a RequestId (the client's GUID and a sequence number), which is how
 rmw_cyclonedds frames them on the wire. The Cyclone DDS backend implements the same
 Protocol, so node code does not change when a node moves to another process.
@@ -14,7 +18,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import Protocol
+from typing import Any, Protocol, runtime_checkable
 
 from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile
 from runtime.errors import RuntimeApiError, TopicTypeError
@@ -48,7 +52,10 @@ class RequestId:
     sequence: int
 
 
-SampleCallback = Callable[[bytes, RequestId | None], None]
+Sample = Any
+"""What a reader receives: CDR ``bytes``, or (from a :class:`MessageWriter`) the message."""
+
+SampleCallback = Callable[[Sample, RequestId | None], None]
 
 
 class Writer(Protocol):
@@ -57,6 +64,13 @@ class Writer(Protocol):
     def matched_count(self) -> int: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class MessageWriter(Protocol):
+    """A writer whose readers live in the same process: it may pass the message object."""
+
+    def write_message(self, msg: Any, request_id: RequestId | None = None) -> None: ...
 
 
 class Reader(Protocol):
@@ -95,7 +109,7 @@ class _InProcessWriter:
         self._channel = channel
         self.endpoint = endpoint
         qos = endpoint.qos
-        self.history: deque[tuple[bytes, RequestId | None]] | None = None
+        self.history: deque[tuple[Sample, RequestId | None]] | None = None
         if qos.durability is DurabilityPolicy.TRANSIENT_LOCAL:
             maxlen = qos.depth if qos.history is HistoryPolicy.KEEP_LAST else None
             self.history = deque(maxlen=maxlen)
@@ -103,6 +117,10 @@ class _InProcessWriter:
         self.closed = False
 
     def write(self, data: bytes, request_id: RequestId | None = None) -> None:
+        self.write_message(data, request_id)
+
+    def write_message(self, data: Sample, request_id: RequestId | None = None) -> None:
+        """Hand ``data`` (CDR bytes or a validated message) to every matched reader."""
         if self.closed:
             raise RuntimeApiError(f"write on {self.endpoint.name}: the writer was destroyed")
         self.samples_written += 1
@@ -140,6 +158,9 @@ class _InProcessReader:
 
 class InProcessTransport:
     """All endpoints in one process; delivery is synchronous and in creation order.
+
+    Writers are :class:`MessageWriter`\\ s: publishers hand over message objects, shared by
+    every reader and never serialized (a test round-trips every type through CDR apart).
 
     QoS is honoured as DDS does it: incompatible pairs do not match (and are recorded in
     ``incompatibilities``), a TRANSIENT_LOCAL writer keeps its last ``depth`` samples and
@@ -193,6 +214,14 @@ class InProcessTransport:
                 for data, request_id in writer.history:
                     on_sample(data, request_id)
         return reader
+
+    def samples_written(self) -> dict[tuple[str, str], int]:
+        """Samples written so far per (name, type), services' halves included (benchmarks)."""
+        counts: dict[tuple[str, str], int] = {}
+        for channel in self._channels.values():
+            key = (channel.name, channel.type_name)
+            counts[key] = counts.get(key, 0) + sum(w.samples_written for w in channel.writers)
+        return counts
 
     def topic_names_and_types(self) -> list[tuple[str, str]]:
         """Like ``ros2 topic list -t``: every topic with its type, sorted."""

@@ -83,15 +83,43 @@ def depth_to_points(
     return np.stack((z, left, up), axis=1).astype(np.float32)
 
 
-class SceneRenderer:
-    """Renders the down camera, the depth camera and the top-down view of a compiled scene."""
+ONBOARD_MULTISAMPLES = 0
+"""Anti-aliasing samples of the onboard cameras' buffers. None: ``benchmarks/bench_sitl.py``
+decodes every pad marker alike with 0 and 4 samples at 640x480 and 320x240, and 4 samples
+cost more per frame (its ``antialiasing`` figures); the top-down view (a picture for
+people) keeps the model's 4."""
 
-    def __init__(self, model: mujoco.MjModel) -> None:
+_LEAN_FLAGS = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
+               mujoco.mjtRndFlag.mjRND_SKYBOX)
+"""Render passes the onboard cameras skip: shadow maps and mirror passes cost a software
+renderer a pass each, and the cameras look down or ahead at the field, not the sky."""
+
+
+class SceneRenderer:
+    """Renders the down camera, the depth camera and the top-down view of a compiled scene.
+
+    Each camera gets its own ``mujoco.Renderer`` on first use, with an offscreen buffer of
+    the camera's own size (not the model's largest) and, for the onboard cameras,
+    ``multisamples`` anti-aliasing samples and no shadow, reflection or skybox pass. The
+    depth camera has its own renderer in depth mode: flat segment colours (MuJoCo's, no
+    lighting), no textures, and only the depth buffer read back.
+    """
+
+    def __init__(self, model: mujoco.MjModel, *, multisamples: int = ONBOARD_MULTISAMPLES,
+                 lean: bool = True) -> None:
+        if multisamples < 0:
+            raise ParameterError(f"multisamples: {multisamples} must be >= 0")
         self._model = model
-        self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
+        self._multisamples = multisamples
+        self._lean = lean
+        self._renderers: dict[str, mujoco.Renderer] = {}
         self._onboard = mujoco.MjvOption()
         self._onboard.geomgroup[QUAD_GEOM_GROUP] = 0
         self._onboard.sitegroup[:] = 0
+        self._depth_option = mujoco.MjvOption()
+        self._depth_option.geomgroup[QUAD_GEOM_GROUP] = 0
+        self._depth_option.sitegroup[:] = 0
+        self._depth_option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
         self._overview = mujoco.MjvOption()
         self._overview.sitegroup[:] = 0
 
@@ -118,30 +146,50 @@ class SceneRenderer:
         return int(width), int(height)
 
     def _renderer(self, camera: str) -> mujoco.Renderer:
+        renderer = self._renderers.get(camera)
+        if renderer is None:
+            renderer = self._renderers[camera] = self._make_renderer(camera)
+        return renderer
+
+    def _make_renderer(self, camera: str) -> mujoco.Renderer:
+        """A renderer whose GL buffer is the camera's size: MuJoCo sizes it from the
+        model's ``offwidth``/``offheight``/``offsamples``, set here only while it is made."""
         width, height = self.camera_size(camera)
-        key = (width, height)
-        if key not in self._renderers:
-            self._renderers[key] = mujoco.Renderer(self._model, height=height, width=width)
-        return self._renderers[key]
+        model = self._model
+        vis_global, quality = model.vis.global_, model.vis.quality
+        saved = (vis_global.offwidth, vis_global.offheight, quality.offsamples)
+        onboard = camera != TOP_CAMERA
+        try:
+            vis_global.offwidth, vis_global.offheight = width, height
+            if onboard:
+                quality.offsamples = self._multisamples
+            renderer = mujoco.Renderer(model, height=height, width=width)
+        finally:
+            vis_global.offwidth, vis_global.offheight, quality.offsamples = saved
+        if onboard and self._lean:
+            for flag in _LEAN_FLAGS:
+                renderer.scene.flags[flag] = False
+        if camera == DEPTH_CAMERA:
+            renderer.enable_depth_rendering()  # segment colours, no lighting; depth read
+        return renderer
 
     def rgb(self, data: mujoco.MjData, camera: str) -> Image:
         """An RGB image from ``camera`` (onboard cameras hide the drone itself)."""
+        if camera == DEPTH_CAMERA:
+            raise ParameterError(f"camera: {DEPTH_CAMERA!r} renders depth only; use depth()")
         renderer = self._renderer(camera)
         option = self._overview if camera == TOP_CAMERA else self._onboard
-        renderer.disable_depth_rendering()
         renderer.update_scene(data, camera=camera, scene_option=option)
         image: Image = renderer.render()
         return image
 
     def depth(self, data: mujoco.MjData, camera: str = DEPTH_CAMERA) -> DepthImage:
         """Z-depth [m] along ``camera``'s optical axis, per pixel."""
+        if camera != DEPTH_CAMERA:
+            raise ParameterError(f"camera: depth() renders {DEPTH_CAMERA!r}, not {camera!r}")
         renderer = self._renderer(camera)
-        renderer.enable_depth_rendering()
-        try:
-            renderer.update_scene(data, camera=camera, scene_option=self._onboard)
-            depth: DepthImage = renderer.render()
-        finally:
-            renderer.disable_depth_rendering()
+        renderer.update_scene(data, camera=camera, scene_option=self._depth_option)
+        depth: DepthImage = renderer.render()
         return depth
 
     def down_image(self, data: mujoco.MjData) -> Image:

@@ -268,8 +268,8 @@ class Imu:
 
     Samples MuJoCo's accelerometer and gyro at ``rate_hz`` through the noise model; the
     latest sample and its time are what the flight controller reads. MuJoCo computes
-    sensors at the start of a step, so a sample is one physics step old (0.33 ms at
-    3 kHz), as a real IMU's filter delay would make it. The rate is the flight
+    sensors at the start of a step, so a sample is one physics step old (0.67 ms at
+    1.5 kHz), as a real IMU's filter delay would make it. The rate is the flight
     controller's to choose (``imu_rate_hz`` in ``config/fcu_firmware.yaml``), so it has
     no default here.
     """

@@ -4,7 +4,7 @@ Started by :mod:`runtime.dds.launcher` as ``python -m runtime.dds.process SPEC_J
 (:class:`ProcessSpec`). A node process waits for the first ``/clock`` (``use_sim_time``),
 creates its nodes and spins them until one of them finishes (its exit code is the
 process's) or SIGINT/SIGTERM. The simulator process builds the simulation around an
-executor on the same transport and, every millisecond of simulated time, publishes
+executor on the same transport and, about every millisecond of simulated time, publishes
 ``/clock``, takes the samples that arrived and paces to ``rtf`` times real time. It waits
 for the node processes' ``/clock`` subscriptions before it starts, so no simulated time
 passes while they boot. A last line on stderr says why the process ended.

@@ -98,24 +98,25 @@ class FcuAgentNode(Node):
             short: self.create_publisher(topic.type, topic.name, topic.qos)
             for short, topic in AGENT_OUT.items()
         }
-        for short, topic in AGENT_IN.items():
-            self.create_subscription(topic.type, topic.name,
-                                     self._receiver(short, topic.type), topic.qos, raw=True)
-        self.malformed = 0
+        self._subscriptions = [
+            self.create_subscription(topic.type, topic.name, self._receiver(short, topic.type),
+                                     topic.qos)
+            for short, topic in AGENT_IN.items()
+        ]
         self._consumers: dict[str, Callable[[Arrival], None]] = {}
         self.sent = dict.fromkeys(AGENT_OUT, 0)
         self.lost = dict.fromkeys(AGENT_OUT, 0)
 
+    @property
+    def malformed(self) -> int:
+        """/fmu/in samples the FCU could not parse (dropped, and logged)."""
+        return sum(s.malformed for s in self._subscriptions)
+
     def _receiver(self, topic: str, type_name: str) -> Any:
-        def receive(data: bytes) -> None:
-            delivery = self.link.send(LinkDirection.TO_FCU, self.now().nanoseconds, len(data))
+        def receive(msg: Any) -> None:
+            size = interfaces.cdr_size(msg, type_name)  # what the serial line carries
+            delivery = self.link.send(LinkDirection.TO_FCU, self.now().nanoseconds, size)
             if delivery is None:
-                return
-            try:
-                msg = interfaces.deserialize(data, type_name)
-            except interfaces.MessageError as exc:  # the FCU drops what it cannot parse
-                self.malformed += 1
-                self.get_logger().error(f"{AGENT_IN[topic].name}: {exc}")
                 return
             arrival = Arrival(delivery, topic, msg)
             consumer = self._consumers.get(topic)
@@ -139,14 +140,36 @@ class FcuAgentNode(Node):
         """Send ``msg`` from the FCU at ``t_ns``: published on /fmu/out/``topic`` when it
         arrives, or never if the link loses it."""
         publisher = self._publishers[topic]
-        data = interfaces.serialize(msg, publisher.type_name)
-        delivery = self.link.send(LinkDirection.TO_COMPANION, t_ns, len(data))
+        interfaces.validate(msg, publisher.type_name)  # the FCU's bug, raised where it is
+        delivery = self.link.send(LinkDirection.TO_COMPANION, t_ns,
+                                  interfaces.cdr_size(msg, publisher.type_name))
         if delivery is None:
             self.lost[topic] += 1
             return
         self.sent[topic] += 1
-        self.context.loop.call_at(delivery, lambda: publisher.publish(data),
+        self.context.loop.call_at(delivery, lambda: publisher.publish(msg),
                                   (self.get_name(), "link", topic))
+
+    def unread(self, topic: str) -> bool:
+        """Whether /fmu/out/``topic`` has no subscriber and a fixed CDR size: then the
+        message need not be built, :meth:`send_unread` accounts for it on the line."""
+        publisher = self._publishers[topic]
+        return (publisher.get_subscription_count() == 0
+                and interfaces.fixed_cdr_size(publisher.type_name) is not None)
+
+    def send_unread(self, topic: str, t_ns: int) -> None:
+        """Account for a /fmu/out/``topic`` message nobody subscribes to: it takes its
+        time on the serial line (so the other messages queue behind it exactly as if it
+        were built) but is neither built nor published."""
+        publisher = self._publishers[topic]
+        size = interfaces.fixed_cdr_size(publisher.type_name)
+        if size is None:
+            raise ValueError(f"/fmu/out/{topic}: its size varies; build and send() it")
+        delivery = self.link.send(LinkDirection.TO_COMPANION, t_ns, size)
+        if delivery is None:
+            self.lost[topic] += 1
+        else:
+            self.sent[topic] += 1
 
     def request_timesync(self, fcu_time_us: int, t_ns: int) -> None:
         """The FCU asks the agent for its clock (the XRCE-DDS session's time sync)."""

@@ -159,6 +159,126 @@ def _frd_flu(v: FloatArray) -> FloatArray:
     return np.array([v[0], -v[1], -v[2]])
 
 
+# --- the same on Python floats: the hot loops' fast paths ---------------------------------
+# numpy's per-call overhead dominates on 3- and 4-vectors; the loops below run on floats and
+# build arrays only for their outputs (tests/sim/fcu/test_fcu_math_recorded.py holds them
+# within 1e-6 of the numpy implementation they replaced).
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+def _fq_normalise(q: Quat) -> Quat:
+    w, x, y, z = q
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    return (w / n, x / n, y / n, z / n)
+
+
+def _fq_multiply(p: Quat, q: Quat) -> Quat:
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return (
+        pw * qw - px * qx - py * qy - pz * qz,
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    )
+
+
+def _fq_dcm_column_z(q: Quat) -> Vec3:
+    """Third column of ``quat_to_dcm(q)`` (body z in the world), ``q`` unit."""
+    w, x, y, z = q
+    return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
+
+
+def _fq_dcm_row_z(q: Quat) -> Vec3:
+    """Third row of ``quat_to_dcm(q)`` (world down in the body), ``q`` unit."""
+    w, x, y, z = q
+    return (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
+
+
+def _f_cross(a: Vec3, b: Vec3) -> Vec3:
+    ax, ay, az = a
+    bx, by, bz = b
+    return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+
+
+def _fq_between(src: Vec3, dst: Vec3) -> Quat:
+    """:func:`_quat_between` on floats."""
+    cx, cy, cz = _f_cross(src, dst)
+    dot = src[0] * dst[0] + src[1] * dst[1] + src[2] * dst[2]
+    if cx * cx + cy * cy + cz * cz < 1e-10 and dot < 0.0:
+        a = [abs(v) for v in src]
+        i = a.index(min(a))
+        axis = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+        q: Quat = (0.0, *_f_cross(src, axis))
+    else:
+        ss = src[0] * src[0] + src[1] * src[1] + src[2] * src[2]
+        dd = dst[0] * dst[0] + dst[1] * dst[1] + dst[2] * dst[2]
+        q = (dot + math.sqrt(ss * dd), cx, cy, cz)
+    return _fq_normalise(q)
+
+
+def _fq_yaw(q: Quat) -> float:
+    w, x, y, z = q
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def _fq_from_dcm_columns(bx: Vec3, by: Vec3, bz: Vec3) -> Quat:
+    """:func:`quat_from_dcm` of the matrix with columns ``bx, by, bz``."""
+    r00, r10, r20 = bx
+    r01, r11, r21 = by
+    r02, r12, r22 = bz
+    trace = r00 + r11 + r22
+    if trace > 0.0:
+        s = 2.0 * math.sqrt(trace + 1.0)
+        q = (0.25 * s, (r21 - r12) / s, (r02 - r20) / s, (r10 - r01) / s)
+    elif r00 > r11 and r00 > r22:
+        s = 2.0 * math.sqrt(1.0 + r00 - r11 - r22)
+        q = ((r21 - r12) / s, 0.25 * s, (r01 + r10) / s, (r02 + r20) / s)
+    elif r11 > r22:
+        s = 2.0 * math.sqrt(1.0 + r11 - r00 - r22)
+        q = ((r02 - r20) / s, (r01 + r10) / s, 0.25 * s, (r12 + r21) / s)
+    else:
+        s = 2.0 * math.sqrt(1.0 + r22 - r00 - r11)
+        q = ((r10 - r01) / s, (r02 + r20) / s, (r12 + r21) / s, 0.25 * s)
+    w, x, y, z = _fq_normalise(q)
+    return (-w, -x, -y, -z) if w < 0.0 else (w, x, y, z)
+
+
+def _f_attitude_from_thrust(thrust: Vec3, yaw: float) -> Quat:
+    """:func:`attitude_from_thrust_vector` on floats."""
+    tx, ty, tz = thrust
+    norm = math.sqrt(tx * tx + ty * ty + tz * tz)
+    body_z: Vec3 = (0.0, 0.0, 1.0) if norm < _EPS else (-tx / norm, -ty / norm, -tz / norm)
+    bx = _f_cross((-math.sin(yaw), math.cos(yaw), 0.0), body_z)
+    if body_z[2] < 0.0:
+        bx = (-bx[0], -bx[1], -bx[2])
+    if abs(body_z[2]) < 1e-6:
+        bx = (0.0, 0.0, 1.0)
+    n = math.sqrt(bx[0] * bx[0] + bx[1] * bx[1] + bx[2] * bx[2])
+    bx = (bx[0] / n, bx[1] / n, bx[2] / n)
+    return _fq_from_dcm_columns(bx, _f_cross(body_z, bx), body_z)
+
+
+def _f_constrain_xy(v0: tuple[float, float], v1: tuple[float, float],
+                    limit: float) -> tuple[float, float]:
+    """:func:`_constrain_xy` on floats."""
+    tx, ty = v0[0] + v1[0], v0[1] + v1[1]
+    n0, n1 = math.hypot(*v0), math.hypot(*v1)
+    if math.hypot(tx, ty) <= limit:
+        return (tx, ty)
+    if n0 >= limit or n1 < 1e-3:
+        return (v0[0] / n0 * limit, v0[1] / n0 * limit) if n0 > _EPS else (0.0, 0.0)
+    if n0 < 1e-3:
+        return (v1[0] / n1 * limit, v1[1] / n1 * limit)
+    u1 = (v1[0] / n1, v1[1] / n1)
+    m = u1[0] * v0[0] + u1[1] * v0[1]
+    c = v0[0] * v0[0] + v0[1] * v0[1] - limit * limit
+    k = -m + math.sqrt(m * m - c)
+    return (v0[0] + u1[0] * k, v0[1] + u1[1] * k)
+
+
 # --- typed data --------------------------------------------------------------------------
 
 
@@ -357,7 +477,8 @@ class PositionControlOutput:
 
 def _check_setpoint(sp: TrajectorySetpointData) -> None:
     """PX4 ``PositionControl::_inputValid``: every axis controlled, x and y in pairs."""
-    fin = [np.isfinite(v) for v in (sp.position, sp.velocity, sp.acceleration)]
+    isfinite = math.isfinite
+    fin = [[isfinite(c) for c in v.tolist()] for v in (sp.position, sp.velocity, sp.acceleration)]
     for name, mask in zip(("position", "velocity", "acceleration"), fin, strict=True):
         if mask[0] != mask[1]:
             raise InvalidSetpointError(f"{name}: x and y must both be set or both be NaN")
@@ -378,112 +499,125 @@ class PositionController:
         self._thrust_min = gains.thrust_min_fraction * total
         self._thrust_max = gains.thrust_max_fraction * total
         self._thrust_xy_margin = gains.thrust_xy_margin_fraction * total
-        self._kp_pos = np.array([gains.position_p_xy, gains.position_p_xy, gains.position_p_z])
-        self._kp_vel = np.array([gains.velocity_p_xy, gains.velocity_p_xy, gains.velocity_p_z])
-        self._ki_vel = np.array([gains.velocity_i_xy, gains.velocity_i_xy, gains.velocity_i_z])
-        self._kd_vel = np.array([gains.velocity_d_xy, gains.velocity_d_xy, gains.velocity_d_z])
+        self._kp_pos = (gains.position_p_xy, gains.position_p_xy, gains.position_p_z)
+        self._kp_vel = (gains.velocity_p_xy, gains.velocity_p_xy, gains.velocity_p_z)
+        self._ki_vel = (gains.velocity_i_xy, gains.velocity_i_xy, gains.velocity_i_z)
+        self._kd_vel = (gains.velocity_d_xy, gains.velocity_d_xy, gains.velocity_d_z)
+        self._cos_max_tilt = math.cos(gains.max_tilt)
+        self._sin_max_tilt = math.sin(gains.max_tilt)
         self.reset()
 
     def reset(self) -> None:
         """Clear the integrator, the velocity-derivative filter and the held yaw."""
-        self._vel_int = np.zeros(3)
-        self._vel_dot = np.zeros(3)
-        self._last_vel: FloatArray | None = None
+        self._vel_int = [0.0, 0.0, 0.0]
+        self._vel_dot = [0.0, 0.0, 0.0]
+        self._last_vel: list[float] | None = None
         self._held_yaw: float | None = None
 
     @property
     def velocity_integral(self) -> FloatArray:
         """Velocity integrator [m/s^2] (a copy)."""
-        return self._vel_int.copy()
+        return np.array(self._vel_int)
 
     def update(
         self, state: VehicleState, setpoint: TrajectorySetpointData, dt_us: int
     ) -> PositionControlOutput:
         """Run one position-loop step of ``dt_us`` microseconds."""
         _check_setpoint(setpoint)
+        isfinite = math.isfinite
         dt = max(dt_us, 1) / _US_PER_S
         g = self._g
-        vel = state.velocity_ned
+        vel = state.velocity_ned.tolist()
+        pos = state.position_ned.tolist()
+        vel_dot = self._vel_dot
         if self._last_vel is not None:
-            raw = (vel - self._last_vel) / dt
-            self._vel_dot += _lowpass_alpha(g.velocity_d_cutoff_hz, dt) * (raw - self._vel_dot)
-        self._last_vel = vel.copy()
+            alpha = _lowpass_alpha(g.velocity_d_cutoff_hz, dt)
+            for i in range(3):
+                raw = (vel[i] - self._last_vel[i]) / dt
+                vel_dot[i] += alpha * (raw - vel_dot[i])
+        self._last_vel = vel
 
         # position P + velocity feed-forward (PositionControl::_positionControl)
-        vel_sp = np.array(setpoint.velocity, dtype=np.float64)
-        vel_from_pos = (setpoint.position - state.position_ned) * self._kp_pos
-        pos_ok = np.isfinite(vel_from_pos)
-        vel_sp = np.where(pos_ok & ~np.isfinite(vel_sp), vel_from_pos, vel_sp)
-        vel_sp = np.where(pos_ok & np.isfinite(setpoint.velocity), vel_sp + vel_from_pos, vel_sp)
-        if np.isfinite(vel_sp[0]):
-            v0 = np.where(pos_ok[:2], vel_from_pos[:2], 0.0)
-            vel_sp[:2] = _constrain_xy(v0, vel_sp[:2] - v0, g.max_speed_xy)
-        if np.isfinite(vel_sp[2]):
+        sp_pos = setpoint.position.tolist()
+        sp_vel = setpoint.velocity.tolist()
+        vel_from_pos = [(sp_pos[i] - pos[i]) * self._kp_pos[i] for i in range(3)]
+        pos_ok = [isfinite(v) for v in vel_from_pos]
+        vel_sp = [
+            (sp_vel[i] + vel_from_pos[i] if isfinite(sp_vel[i]) else vel_from_pos[i])
+            if pos_ok[i] else sp_vel[i]
+            for i in range(3)
+        ]
+        if isfinite(vel_sp[0]):
+            v0 = (vel_from_pos[0] if pos_ok[0] else 0.0, vel_from_pos[1] if pos_ok[1] else 0.0)
+            vel_sp[0], vel_sp[1] = _f_constrain_xy(
+                v0, (vel_sp[0] - v0[0], vel_sp[1] - v0[1]), g.max_speed_xy)
+        if isfinite(vel_sp[2]):
             vel_sp[2] = min(max(vel_sp[2], -g.max_speed_up), g.max_speed_down)
 
         # velocity PID (PositionControl::_velocityControl)
-        self._vel_int[2] = min(max(self._vel_int[2], -GRAVITY), GRAVITY)
-        vel_error = vel_sp - vel
-        acc_from_vel = vel_error * self._kp_vel + self._vel_int - self._vel_dot * self._kd_vel
-        acc_sp = np.array(setpoint.acceleration, dtype=np.float64)
-        vel_ok = np.isfinite(vel_sp)
-        acc_sp = np.where(vel_ok & np.isfinite(acc_sp), acc_sp + acc_from_vel, acc_sp)
-        acc_sp = np.where(vel_ok & ~np.isfinite(acc_sp), acc_from_vel, acc_sp)
+        vel_int = self._vel_int
+        vel_int[2] = min(max(vel_int[2], -GRAVITY), GRAVITY)
+        vel_error = [vel_sp[i] - vel[i] for i in range(3)]
+        acc_from_vel = [vel_error[i] * self._kp_vel[i] + vel_int[i] - vel_dot[i] * self._kd_vel[i]
+                        for i in range(3)]
+        sp_acc = setpoint.acceleration.tolist()
+        acc_sp = [
+            (sp_acc[i] + acc_from_vel[i] if isfinite(sp_acc[i]) else acc_from_vel[i])
+            if isfinite(vel_sp[i]) else sp_acc[i]
+            for i in range(3)
+        ]
 
         # acceleration -> thrust vector (PositionControl::_accelerationControl)
-        body_z = np.array([-acc_sp[0], -acc_sp[1], GRAVITY])
-        body_z /= math.sqrt(float(body_z @ body_z))
-        cos_tilt = body_z[2]
-        if cos_tilt < math.cos(g.max_tilt):
-            xy = float(np.hypot(body_z[0], body_z[1]))
-            body_z = np.array(
-                [
-                    body_z[0] / xy * math.sin(g.max_tilt),
-                    body_z[1] / xy * math.sin(g.max_tilt),
-                    math.cos(g.max_tilt),
-                ]
-            )
-        collective = self._mass * (GRAVITY - acc_sp[2]) / body_z[2]
+        bx, by, bz = -acc_sp[0], -acc_sp[1], GRAVITY
+        n = math.sqrt(bx * bx + by * by + bz * bz)
+        bx, by, bz = bx / n, by / n, bz / n
+        if bz < self._cos_max_tilt:
+            xy = math.hypot(bx, by)
+            bx, by, bz = (bx / xy * self._sin_max_tilt, by / xy * self._sin_max_tilt,
+                          self._cos_max_tilt)
+        collective = self._mass * (GRAVITY - acc_sp[2]) / bz
         collective = max(collective, self._thrust_min)
-        thrust = -body_z * collective
+        tx, ty, tz = -bx * collective, -by * collective, -bz * collective
 
         # vertical anti-windup, vertical priority with a horizontal margin
-        at_min = -thrust[2] <= self._thrust_min + _EPS
-        at_max = -thrust[2] >= self._thrust_max - _EPS
+        at_min = -tz <= self._thrust_min + _EPS
+        at_max = -tz >= self._thrust_max - _EPS
         if (at_min and vel_error[2] >= 0.0) or (at_max and vel_error[2] <= 0.0):
             vel_error[2] = 0.0
-        xy_norm = float(np.hypot(thrust[0], thrust[1]))
+        xy_norm = math.hypot(tx, ty)
         margin = min(xy_norm, self._thrust_xy_margin)
-        thrust[2] = max(thrust[2], -math.sqrt(self._thrust_max**2 - margin**2))
-        xy_left = math.sqrt(max(self._thrust_max**2 - thrust[2] ** 2, 0.0))
+        tz = max(tz, -math.sqrt(self._thrust_max**2 - margin**2))
+        xy_left = math.sqrt(max(self._thrust_max**2 - tz**2, 0.0))
         if xy_norm > xy_left:
-            thrust[:2] *= xy_left / xy_norm
+            tx *= xy_left / xy_norm
+            ty *= xy_left / xy_norm
         # tracking anti-windup, horizontal
-        produced = thrust[:2] / self._mass
-        wanted = acc_sp[:2]
-        limited = produced if float(wanted @ wanted) > float(produced @ produced) else wanted
+        px, py = tx / self._mass, ty / self._mass
+        wx, wy = acc_sp[0], acc_sp[1]
+        lx, ly = (px, py) if wx * wx + wy * wy > px * px + py * py else (wx, wy)
         if self._kp_vel[0] > 0.0:
-            vel_error[:2] -= 2.0 / self._kp_vel[0] * (wanted - limited)
-        vel_error = np.where(np.isfinite(vel_error), vel_error, 0.0)
-        self._vel_int += vel_error * self._ki_vel * dt
+            vel_error[0] -= 2.0 / self._kp_vel[0] * (wx - lx)
+            vel_error[1] -= 2.0 / self._kp_vel[0] * (wy - ly)
+        for i in range(3):
+            if isfinite(vel_error[i]):
+                vel_int[i] += vel_error[i] * self._ki_vel[i] * dt
 
         # yaw: hold the current heading when the setpoint has none
-        if math.isfinite(setpoint.yaw):
+        if isfinite(setpoint.yaw):
             yaw = setpoint.yaw
             self._held_yaw = None
-        elif math.isfinite(setpoint.yawspeed):
+        elif isfinite(setpoint.yawspeed):
             yaw = self._held_yaw = quat_yaw(state.q)
         else:
             if self._held_yaw is None:
                 self._held_yaw = quat_yaw(state.q)
             yaw = self._held_yaw
-        collective_norm = math.sqrt(float(thrust @ thrust))
         return PositionControlOutput(
-            velocity_setpoint_ned=vel_sp,
-            acceleration_setpoint_ned=acc_sp,
-            thrust_ned=thrust,
-            collective_thrust=collective_norm,
-            attitude_setpoint=attitude_from_thrust_vector(thrust, yaw),
+            velocity_setpoint_ned=np.array(vel_sp),
+            acceleration_setpoint_ned=np.array(acc_sp),
+            thrust_ned=np.array((tx, ty, tz)),
+            collective_thrust=math.sqrt(tx * tx + ty * ty + tz * tz),
+            attitude_setpoint=np.array(_f_attitude_from_thrust((tx, ty, tz), yaw)),
             yawspeed_feedforward=setpoint.yawspeed,
         )
 
@@ -495,49 +629,50 @@ class AttitudeController:
     """Quaternion P control with yaw de-prioritised, as PX4's ``AttitudeControl``."""
 
     def __init__(self, gains: ControlGains) -> None:
-        self._kp = np.array(
-            [gains.attitude_p_roll_pitch, gains.attitude_p_roll_pitch, gains.attitude_p_yaw]
-        )
+        kp = [gains.attitude_p_roll_pitch, gains.attitude_p_roll_pitch, gains.attitude_p_yaw]
         rp = gains.attitude_p_roll_pitch
         self._yaw_weight = min(max(gains.attitude_p_yaw / rp, 0.0), 1.0) if rp > 0.0 else 1.0
         if self._yaw_weight > 1e-4:  # the weighting scales the yaw error down: compensate
-            self._kp[2] /= self._yaw_weight
-        self._rate_limit = np.array(
-            [gains.max_rate_roll_pitch, gains.max_rate_roll_pitch, gains.max_rate_yaw]
-        )
+            kp[2] /= self._yaw_weight
+        self._kp = tuple(kp)
+        self._rate_limit = (gains.max_rate_roll_pitch, gains.max_rate_roll_pitch,
+                            gains.max_rate_yaw)
 
     def update(
         self, q: FloatArray, q_setpoint: FloatArray, yawspeed_feedforward: float = math.nan
     ) -> FloatArray:
         """Body-rate setpoint [rad/s, FRD] driving ``q`` (q_ned_frd) to ``q_setpoint``."""
-        q = q / math.sqrt(float(q @ q))
-        qd = q_setpoint / math.sqrt(float(q_setpoint @ q_setpoint))
-        e_z = quat_to_dcm(q)[:, 2]
-        e_z_d = quat_to_dcm(qd)[:, 2]
-        qd_red = _quat_between(e_z, e_z_d)
+        w, x, y, z = q.tolist()
+        qn = _fq_normalise((w, x, y, z))
+        w, x, y, z = q_setpoint.tolist()
+        qd = _fq_normalise((w, x, y, z))
+        qd_red = _fq_between(_fq_dcm_column_z(qn), _fq_dcm_column_z(qd))
         if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
             qd_red = qd
         else:
-            qd_red = quat_multiply(qd_red, q)
-        q_mix = quat_multiply(_conjugate(qd_red), qd)
+            qd_red = _fq_multiply(qd_red, qn)
+        q_mix = _fq_multiply((qd_red[0], -qd_red[1], -qd_red[2], -qd_red[3]), qd)
         if q_mix[0] < 0.0:
-            q_mix = -q_mix
+            q_mix = (-q_mix[0], -q_mix[1], -q_mix[2], -q_mix[3])
         w = min(max(q_mix[0], -1.0), 1.0)
         z = min(max(q_mix[3], -1.0), 1.0)
         yw = self._yaw_weight
-        qd = quat_multiply(
-            qd_red, np.array([math.cos(yw * math.acos(w)), 0.0, 0.0, math.sin(yw * math.asin(z))])
-        )
-        qe = quat_multiply(_conjugate(q), qd)
+        qd = _fq_multiply(
+            qd_red, (math.cos(yw * math.acos(w)), 0.0, 0.0, math.sin(yw * math.asin(z))))
+        qe = _fq_multiply((qn[0], -qn[1], -qn[2], -qn[3]), qd)
         if qe[0] < 0.0:
-            qe = -qe
-        rate_sp = 2.0 * qe[1:] * self._kp
+            qe = (-qe[0], -qe[1], -qe[2], -qe[3])
+        kp, lim = self._kp, self._rate_limit
+        rate_sp = [2.0 * qe[1] * kp[0], 2.0 * qe[2] * kp[1], 2.0 * qe[3] * kp[2]]
         if math.isfinite(yawspeed_feedforward):
-            rate_sp = rate_sp + quat_to_dcm(q)[2, :] * yawspeed_feedforward
-        return np.clip(rate_sp, -self._rate_limit, self._rate_limit)
+            down = _fq_dcm_row_z(qn)
+            rate_sp = [rate_sp[i] + down[i] * yawspeed_feedforward for i in range(3)]
+        return np.array([min(max(rate_sp[i], -lim[i]), lim[i]) for i in range(3)])
 
 
 # --- rate control -------------------------------------------------------------------------
+
+_INTEGRATOR_RATE_SCALE = math.radians(400.0)  # rad/s, PX4's integrator attenuation
 
 
 class RateController:
@@ -545,53 +680,66 @@ class RateController:
 
     def __init__(self, gains: ControlGains, params: QuadrotorParams) -> None:
         ix, iy, iz = params.inertia
-        self._inertia = np.array([ix, iy, iz])
+        self._inertia = (float(ix), float(iy), float(iz))
         rp, yw = "roll_pitch", "yaw"
-        self._kp = np.array([getattr(gains, f"rate_p_{a}") for a in (rp, rp, yw)])
-        self._ki = np.array([getattr(gains, f"rate_i_{a}") for a in (rp, rp, yw)])
-        self._kd = np.array([getattr(gains, f"rate_d_{a}") for a in (rp, rp, yw)])
-        self._int_lim = np.array([getattr(gains, f"rate_integral_limit_{a}") for a in (rp, rp, yw)])
+        self._kp = tuple(float(getattr(gains, f"rate_p_{a}")) for a in (rp, rp, yw))
+        self._ki = tuple(float(getattr(gains, f"rate_i_{a}")) for a in (rp, rp, yw))
+        self._kd = tuple(float(getattr(gains, f"rate_d_{a}")) for a in (rp, rp, yw))
+        self._int_lim = tuple(float(getattr(gains, f"rate_integral_limit_{a}"))
+                              for a in (rp, rp, yw))
         self._d_cutoff_hz = gains.rate_d_cutoff_hz
         self.reset()
 
     def reset(self) -> None:
         """Clear the integrator, the derivative filter and the saturation flags."""
-        self._int = np.zeros(3)
-        self._ang_acc = np.zeros(3)
-        self._last_rate: FloatArray | None = None
-        self._sat_pos = np.zeros(3, dtype=bool)
-        self._sat_neg = np.zeros(3, dtype=bool)
+        self._int = [0.0, 0.0, 0.0]
+        self._ang_acc = [0.0, 0.0, 0.0]
+        self._last_rate: list[float] | None = None
+        self._sat_pos = [False, False, False]
+        self._sat_neg = [False, False, False]
 
     @property
     def integral(self) -> FloatArray:
         """Rate integrator [rad/s^2] (a copy)."""
-        return self._int.copy()
+        return np.array(self._int)
 
     def set_saturation(self, positive: npt.ArrayLike, negative: npt.ArrayLike) -> None:
         """Per-axis flags from the mixer: the torque could not grow / shrink any further."""
-        self._sat_pos = np.asarray(positive, dtype=bool).reshape(3)
-        self._sat_neg = np.asarray(negative, dtype=bool).reshape(3)
+        self._sat_pos = np.asarray(positive, dtype=bool).reshape(3).tolist()
+        self._sat_neg = np.asarray(negative, dtype=bool).reshape(3).tolist()
 
     def update(
         self, rate_frd: FloatArray, rate_setpoint_frd: FloatArray, dt_us: int, landed: bool = False
     ) -> FloatArray:
         """Torque setpoint [N m, FRD] for one step of ``dt_us`` microseconds."""
         dt = max(dt_us, 1) / _US_PER_S
+        rate = [float(v) for v in rate_frd]
+        rate_sp = [float(v) for v in rate_setpoint_frd]
+        ang_acc = self._ang_acc
         if self._last_rate is not None:
-            raw = (rate_frd - self._last_rate) / dt
-            self._ang_acc += _lowpass_alpha(self._d_cutoff_hz, dt) * (raw - self._ang_acc)
-        self._last_rate = np.array(rate_frd, dtype=np.float64)
-        error = rate_setpoint_frd - rate_frd
-        acc = self._kp * error + self._int - self._kd * self._ang_acc
+            alpha = _lowpass_alpha(self._d_cutoff_hz, dt)
+            for i in range(3):
+                raw = (rate[i] - self._last_rate[i]) / dt
+                ang_acc[i] += alpha * (raw - ang_acc[i])
+        self._last_rate = rate
+        kp, ki, kd, integral = self._kp, self._ki, self._kd, self._int
+        error = [rate_sp[i] - rate[i] for i in range(3)]
+        acc = [kp[i] * error[i] + integral[i] - kd[i] * ang_acc[i] for i in range(3)]
         if not landed:
-            e = np.where(self._sat_pos, np.minimum(error, 0.0), error)
-            e = np.where(self._sat_neg, np.maximum(e, 0.0), e)
-            factor = np.maximum(0.0, 1.0 - (e / math.radians(400.0)) ** 2)
-            candidate = self._int + factor * self._ki * e * dt
-            if np.all(np.isfinite(candidate)):
-                self._int = np.clip(candidate, -self._int_lim, self._int_lim)
-        torque: FloatArray = self._inertia * acc
-        return torque
+            candidate = []
+            for i in range(3):
+                e = error[i]
+                if self._sat_pos[i]:
+                    e = min(e, 0.0)
+                if self._sat_neg[i]:
+                    e = max(e, 0.0)
+                factor = max(0.0, 1.0 - (e / _INTEGRATOR_RATE_SCALE) ** 2)
+                candidate.append(integral[i] + factor * ki[i] * e * dt)
+            if all(math.isfinite(c) for c in candidate):
+                lim = self._int_lim
+                self._int = [min(max(candidate[i], -lim[i]), lim[i]) for i in range(3)]
+        inertia = self._inertia
+        return np.array([inertia[i] * acc[i] for i in range(3)])
 
 
 # --- mixer with desaturation ----------------------------------------------------------------
@@ -607,9 +755,9 @@ class MixerOutput:
     saturated_negative: npt.NDArray[np.bool_]  # per FRD torque axis: could not decrease
 
 
-def _desaturation_gain(vector: FloatArray, sp: FloatArray, lo: float, hi: float) -> float:
+def _desaturation_gain(vector: list[float], sp: list[float], lo: float, hi: float) -> float:
     k_min = k_max = 0.0
-    for v, s in zip(vector.tolist(), sp.tolist(), strict=True):
+    for v, s in zip(vector, sp, strict=True):
         if abs(v) < 1e-7:
             continue
         if s < lo:
@@ -622,8 +770,8 @@ def _desaturation_gain(vector: FloatArray, sp: FloatArray, lo: float, hi: float)
 
 
 def _desaturate(
-    sp: FloatArray, vector: FloatArray, lo: float, hi: float, min_gain: float = -1.0
-) -> tuple[FloatArray, float]:
+    sp: list[float], vector: list[float], lo: float, hi: float, min_gain: float = -1.0
+) -> tuple[list[float], float]:
     """PX4 ``desaturateActuators``: two passes along ``vector``; returns (sp, total gain).
 
     The total gain only shrinks the contribution (kept in ``[min_gain, 0]``): a torque is
@@ -633,15 +781,15 @@ def _desaturate(
     for scale in (1.0, 0.5):
         gain = scale * _desaturation_gain(vector, sp, lo, hi)
         gain = min(max(gain, min_gain - total), -total)  # total <= 0: at most undo it
-        sp = sp + gain * vector
+        sp = [s + gain * v for s, v in zip(sp, vector, strict=True)]
         total += gain
     return sp, total
 
 
 @functools.cache
-def _mixer_columns(params: QuadrotorParams) -> tuple[FloatArray, ...]:
+def _mixer_columns(params: QuadrotorParams) -> tuple[tuple[float, ...], ...]:
     """Rotor thrusts per unit collective thrust and per unit FLU torque about x, y, z."""
-    return tuple(mix(params, t, (x, y, z)) for t, x, y, z in np.eye(4).tolist())
+    return tuple(tuple(mix(params, t, (x, y, z)).tolist()) for t, x, y, z in np.eye(4).tolist())
 
 
 def mix_with_desaturation(
@@ -654,27 +802,29 @@ def mix_with_desaturation(
     it with 15 % headroom above the top, and reduce thrust again. Attitude authority thus
     wins over collective thrust, and yaw gives way first.
     """
-    torque_flu = _frd_flu(torque_frd)
+    tx, ty, tz = (float(v) for v in torque_frd)
     col_thrust, col_x, col_y, col_z = _mixer_columns(params)
     lo, hi = 0.0, params.max_motor_thrust
-    col_roll = col_x * torque_flu[0]
-    col_pitch = col_y * torque_flu[1]
-    col_yaw = col_z * torque_flu[2]
-    sp = col_thrust * collective_thrust + col_roll + col_pitch
+    col_roll = [c * tx for c in col_x]  # FRD -> FLU: y and z negated
+    col_pitch = [c * -ty for c in col_y]
+    col_yaw = [c * -tz for c in col_z]
+    sp = [t * collective_thrust + r + p
+          for t, r, p in zip(col_thrust, col_roll, col_pitch, strict=True)]
     no_thrust = -max(collective_thrust, 0.0)
-    sp, gain_t1 = _desaturate(sp, col_thrust, lo, hi, no_thrust)
+    thrust_col = list(col_thrust)
+    sp, gain_t1 = _desaturate(sp, thrust_col, lo, hi, no_thrust)
     sp, gain_roll = _desaturate(sp, col_roll, lo, hi)
     sp, gain_pitch = _desaturate(sp, col_pitch, lo, hi)
-    sp = sp + col_yaw
+    sp = [s + y for s, y in zip(sp, col_yaw, strict=True)]
     sp, gain_yaw = _desaturate(sp, col_yaw, lo, hi + 0.15 * (hi - lo))
-    sp, gain_t2 = _desaturate(sp, col_thrust, lo, hi, no_thrust - gain_t1)
-    reduced = np.array([gain_roll < -1e-6, gain_pitch < -1e-6, gain_yaw < -1e-6])
-    sign_frd = np.sign(torque_frd)
+    sp, gain_t2 = _desaturate(sp, thrust_col, lo, hi, no_thrust - gain_t1)
+    reduced = (gain_roll < -1e-6, gain_pitch < -1e-6, gain_yaw < -1e-6)
+    torque = (tx, ty, tz)
     return MixerOutput(
-        motor_thrusts=np.clip(sp, lo, hi),
+        motor_thrusts=np.array([min(max(s, lo), hi) for s in sp]),
         collective_thrust=collective_thrust + gain_t1 + gain_t2,
-        saturated_positive=reduced & (sign_frd > 0.0),
-        saturated_negative=reduced & (sign_frd < 0.0),
+        saturated_positive=np.array([r and t > 0.0 for r, t in zip(reduced, torque, strict=True)]),
+        saturated_negative=np.array([r and t < 0.0 for r, t in zip(reduced, torque, strict=True)]),
     )
 
 

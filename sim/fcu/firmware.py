@@ -581,8 +581,14 @@ class Firmware:
     # -- telemetry ----------------------------------------------------------------------
     def _publisher(self, topic: str) -> Any:
         build = getattr(self, f"_msg_{topic}")
+        source = _TELEMETRY_SOURCE[topic]
 
         def publish() -> None:
+            if source is not None and getattr(self, source) is None:
+                return  # nothing to tell yet
+            if self.agent.unread(topic):  # nobody subscribes: the bytes, not the message
+                self.agent.send_unread(topic, self._now_ns)
+                return
             msg = build()
             if msg is not None:
                 self.agent.send(topic, msg, self._now_ns)
@@ -712,6 +718,16 @@ class Firmware:
             result=int(ack.result), result_param1=int(ack.result_param1),
             result_param2=int(ack.result_param2), target_system=int(ack.target_system),
             target_component=int(ack.target_component), from_external=bool(ack.from_external))
+
+
+_TELEMETRY_SOURCE: dict[str, str | None] = {
+    "vehicle_odometry": "estimate", "vehicle_local_position": "estimate",
+    "vehicle_attitude": "estimate", "vehicle_status": "status", "failsafe_flags": "status",
+    "battery_status": "battery", "timesync_status": "_last_timesync_status",
+    "vehicle_land_detected": "land", "sensor_combined": None,
+}
+"""The firmware state each telemetry message is built from (None: always there); no
+message is sent before its state exists."""
 
 
 def _yaw(q: FloatArray) -> float:

@@ -64,9 +64,11 @@ def build_sitl(
     firmware: FirmwareConfig | None = None,
     vision_noise: VisionNoise | None = None,
     executor: DeterministicExecutor | None = None,
+    physics_hz: int | None = None,
 ) -> Sitl:
-    """A quadrotor on the start pad, FCU booted, vision running; nothing armed yet."""
-    scene = Scene.build(arena or default_arena())
+    """A quadrotor on the start pad, FCU booted, vision running; nothing armed yet.
+    ``physics_hz`` defaults to ``config/sim_world.yaml``'s."""
+    scene = Scene.build(arena or default_arena(), physics_hz=physics_hz)
     scene.place_at_takeoff()
     ex = executor or DeterministicExecutor()
     link_params = link or load_parameters(LinkParams, LINK_NODE_NAME)

@@ -10,9 +10,14 @@ from hypothesis import strategies as st
 
 import interfaces
 from flight_control.frames import (
+    frd_to_flu,
     ned_to_enu,
     quat_angle_between,
+    quat_conjugate,
     quat_from_euler,
+    quat_ned_frd_to_enu_flu,
+    quat_rotate,
+    variance_ned_to_enu,
     wrap_pi,
     yaw_ned_to_enu,
     yaw_rate_ned_to_enu,
@@ -150,3 +155,37 @@ def test_setpoint_converted_back_gives_the_enu_inputs(p: list[float], v: list[fl
     else:
         assert abs(wrap_pi(yaw_ned_to_enu(float(wire.yaw)) - yaw)) < 1e-5
     assert math.isclose(yaw_rate_ned_to_enu(float(wire.yawspeed)), yaw_rate, abs_tol=1e-6)
+
+
+quat_part = st.floats(-1.0, 1.0, allow_nan=False)
+
+
+@given(p=st.lists(coord, min_size=3, max_size=3), v=st.lists(coord, min_size=3, max_size=3),
+       w=st.lists(coord, min_size=3, max_size=3),
+       q=st.lists(quat_part, min_size=4, max_size=4).filter(
+           lambda q: sum(c * c for c in q) > 1e-3),
+       var=st.lists(variance, min_size=9, max_size=9))
+def test_odometry_on_floats_matches_the_frames_helpers(p: list[float], v: list[float],
+                                                       w: list[float], q: list[float],
+                                                       var: list[float]) -> None:
+    # odometry_enu runs on floats for speed; the broadcasting frames helpers define it
+    msg = interfaces.new("px4_msgs/msg/VehicleOdometry", position=p, velocity=v,
+                         angular_velocity=w, q=q, position_variance=var[:3],
+                         orientation_variance=var[3:6], velocity_variance=var[6:])
+    odo = odometry_enu(msg)
+    q_enu = quat_ned_frd_to_enu_flu(msg.q.astype(np.float64))
+    velocity = ned_to_enu(msg.velocity.astype(np.float64))
+    np.testing.assert_allclose(odo.q, q_enu, atol=1e-12)
+    np.testing.assert_allclose(odo.position, ned_to_enu(msg.position.astype(np.float64)),
+                               atol=1e-12)
+    np.testing.assert_allclose(odo.velocity, velocity, atol=1e-12)
+    np.testing.assert_allclose(odo.body_velocity,
+                               quat_rotate(quat_conjugate(q_enu), velocity), atol=1e-9)
+    np.testing.assert_allclose(odo.angular_velocity,
+                               frd_to_flu(msg.angular_velocity.astype(np.float64)), atol=1e-12)
+    pose = odo.pose_covariance.reshape(6, 6).diagonal()
+    np.testing.assert_allclose(pose[:3], variance_ned_to_enu(msg.position_variance), rtol=1e-7)
+    np.testing.assert_allclose(pose[3:], msg.orientation_variance, rtol=1e-7)
+    np.testing.assert_allclose(odo.twist_covariance.reshape(6, 6).diagonal()[:3],
+                               variance_ned_to_enu(msg.velocity_variance), rtol=1e-7)
+    assert np.count_nonzero(odo.pose_covariance) == 6

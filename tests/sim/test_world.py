@@ -211,7 +211,7 @@ def test_the_world_runs_at_the_rates_of_its_config_file(
         contest: ArenaSpec, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     _config_with(tmp_path, monkeypatch, "sim_world.yaml", "trajectory_rate_hz: 100.0",
                  "trajectory_rate_hz: 40.0")
-    _config_with(tmp_path, monkeypatch, "sim_world.yaml", "physics_hz: 3000", "physics_hz: 1000")
+    _config_with(tmp_path, monkeypatch, "sim_world.yaml", "physics_hz: 1500", "physics_hz: 1000")
     scene = Scene.build(contest)
     scene.place_at_takeoff(height=1.0)
     result = run_world(scene, DeterministicExecutor(config_dir=None), duration_s=1.0,
@@ -264,11 +264,11 @@ def test_the_touchdown_speed_comes_from_config(
 
 @pytest.mark.parametrize(("old", "new", "message"), [
     ("robots_rate_hz: 50.0", "robots_rate_hz: 7.0",
-     "sim_world.robots_rate_hz: 7 Hz does not divide the physics rate 3000 Hz (physics_hz)"),
+     "sim_world.robots_rate_hz: 7 Hz does not divide the physics rate 1500 Hz (physics_hz)"),
     ("  rate_hz: 500.0", "  rate_hz: 2000.0",
-     "sim_world.crash.rate_hz: 2000 Hz does not divide the physics rate 3000 Hz (physics_hz)"),
-    ("physics_hz: 3000", "physics_hz: 3001",
-     "sim_world.actuation_rate_hz: 500 Hz does not divide the physics rate 3001 Hz "
+     "sim_world.crash.rate_hz: 2000 Hz does not divide the physics rate 1500 Hz (physics_hz)"),
+    ("physics_hz: 1500", "physics_hz: 1501",
+     "sim_world.actuation_rate_hz: 500 Hz does not divide the physics rate 1501 Hz "
      "(physics_hz)"),
     ("max_tilt_deg: 80.0", "max_tilt_deg: 0.0",
      "sim_world.crash.max_tilt_deg: 0.0 is outside the allowed range (0, 180] deg"),
