@@ -9,6 +9,8 @@ is judged against, in the same run (so the ratios hold on a loaded machine):
 - ``rtf_no_camera`` and ``rtf_down_camera`` (the 640x480 downward camera at its 12 Hz, with
   one subscriber), against ``rtf_bare_world`` (the world loop alone, constant hover thrust,
   same physics rate and simulated time);
+- ``rtf_cpu_*``: the same, simulated seconds per second of the process's CPU time (all
+  threads): on a shared machine the wall clock measures the neighbours too;
 - ``fcu_tick_mean_us``: the scheduler's duty measurement of one firmware main-loop tick,
   against its budget (2000 us at 500 Hz); ``scheduler_bookkeeping_us_per_tick``: the same
   schedule ticked with no-op functions (meters + dispatch: what the measuring costs),
@@ -98,6 +100,10 @@ class Flight:
         return float(self.report["host"]["real_time_factor"])
 
     @property
+    def rtf_cpu(self) -> float:
+        return float(self.report["sim_time_s"]) / float(self.report["host"]["cpu_time_s"])
+
+    @property
     def sim_s(self) -> float:
         return float(self.report["sim_time_s"])
 
@@ -149,13 +155,14 @@ def fly(*, camera: bool = False, physics_hz: int | None = None,
     return Flight(report, trace.rows, holder[0], len(frames))
 
 
-def bare_world_rtf(sim_s: float, physics_hz: int | None) -> float:
+def bare_world_rtf(sim_s: float, physics_hz: int | None) -> tuple[float, float]:
+    """Real-time factor of the bare world loop, by wall time and by CPU time."""
     scene = Scene.build(default_arena(), physics_hz=physics_hz)
     scene.place_at_takeoff(height=1.0)
     result = run_world(scene, DeterministicExecutor(config_dir=None), duration_s=sim_s,
                        parts=[Actuation(ConstantThrust.hover(scene.quad),
                                         MotorModel.hovering(scene.quad)), RobotMotion()])
-    return result.real_time_factor
+    return result.real_time_factor, result.cpu_time_factor
 
 
 def message_mix(sitl: Sitl) -> dict[tuple[str, str], int]:
@@ -352,6 +359,7 @@ def physics_rates(reference: Flight, reference_hz: int) -> list[dict[str, Any]]:
             flights[hz] = fly(physics_hz=hz)
     base = flights[3000]
     return [{"physics_hz": hz, "tracking_rmse_m": f.rmse_xy, "rtf": f.rtf,
+             "rtf_cpu": round(f.rtf_cpu, 2),
              "vs_3000_hz": trajectory_difference(f.trace, base.trace)}
             for hz, f in sorted(flights.items(), reverse=True)]
 
@@ -369,7 +377,7 @@ def main(argv: list[str] | None = None) -> int:
     fly()  # warm up: message code generation, imports
     flight = fly()
     cam = fly(camera=True)
-    bare = bare_world_rtf(flight.sim_s, physics_hz)
+    bare, bare_cpu = bare_world_rtf(flight.sim_s, physics_hz)
     mix = message_mix(flight.sitl)
     messages = sum(mix.values())
     tick = flight.sitl.firmware.scheduler.report()
@@ -384,6 +392,9 @@ def main(argv: list[str] | None = None) -> int:
         "rtf_bare_world": round(bare, 2),
         "ratio_no_camera_over_bare": round(flight.rtf / bare, 3),
         "ratio_down_camera_over_bare": round(cam.rtf / bare, 3),
+        "rtf_cpu_no_camera": round(flight.rtf_cpu, 2),
+        "rtf_cpu_down_camera": round(cam.rtf_cpu, 2),
+        "rtf_cpu_bare_world": round(bare_cpu, 2),
         "down_camera_frames": cam.frames,
         "fcu_tick_mean_us": round(tick.tick_duty.avg_us, 1),
         "fcu_tick_budget_us": 1e6 / tick.main_freq_hz,

@@ -186,6 +186,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
         "path_image": PATH_IMAGE,
         "host": {"wall_time_s": rounded(result.wall_time_s, 2),
                  "real_time_factor": rounded(result.real_time_factor, 2),
+                 "cpu_time_s": rounded(result.cpu_time_s, 2),
                  "fcu_overruns": sitl.firmware.scheduler.report().overruns},
     }
     write_report(options.out, report)

@@ -416,10 +416,18 @@ class WorldResult:
     wall_time_s: float
     trajectory: Trajectory
     crash: Crash | None
+    cpu_time_s: float = 0.0
+    """Host CPU time of this process over the run (all threads): unlike the wall time, it
+    hardly depends on what else the machine runs."""
 
     @property
     def real_time_factor(self) -> float:
         return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+    @property
+    def cpu_time_factor(self) -> float:
+        """Simulated seconds per second of this process's CPU time."""
+        return self.sim_time_s / self.cpu_time_s if self.cpu_time_s > 0 else math.inf
 
 
 def run_world(
@@ -453,6 +461,7 @@ def run_world(
     step = start_step
     status = WorldStatus.COMPLETED
     wall_start = time.perf_counter()
+    cpu_start = time.process_time()
     model, data = scene.model, scene.data
     while True:
         t_ns = max(scene.time_ns(step), executor.now().nanoseconds)
@@ -482,6 +491,7 @@ def run_world(
         wall_time_s=time.perf_counter() - wall_start,
         trajectory=recorder.trajectory(),
         crash=crash_detector.crash,
+        cpu_time_s=time.process_time() - cpu_start,
     )
 
 
