@@ -104,9 +104,10 @@ def ours_ping(domain: int, duration_s: float) -> dict[str, Any]:
     while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
         ex.spin_once_realtime()
     ex.spin_until(time.time_ns())
-    node.create_timer(1.0 / RATE_HZ, tick)
+    timer = node.create_timer(1.0 / RATE_HZ, tick)
     end = time.monotonic() + duration_s
     ex.spin(until=lambda: time.monotonic() > end)
+    timer.cancel()  # then only collect the echoes still on their way
     settle = time.monotonic() + 0.2
     ex.spin(until=lambda: time.monotonic() > settle)
     return _stats([r // 2 for r in rtts], sent[0], duration_s)
@@ -140,12 +141,13 @@ def _bare_endpoints(domain: int, out_topic: str, in_topic: str) -> Any:
 def bare_echo(domain: int) -> None:
     from cyclonedds.util import duration
 
-    _d, _dp, _cls, writer, reader, ws = _bare_endpoints(domain, PONG, PING)
+    _d, _dp, cls, writer, reader, ws = _bare_endpoints(domain, PONG, PING)
     print("ready", flush=True)
     while not sys.stdin.closed:
         ws.wait(duration(milliseconds=50))
         for sample in reader.take(64):
-            writer.write(sample)
+            if isinstance(sample, cls):  # not the no-writers notice at the end
+                writer.write(sample)
 
 
 def bare_ping(domain: int, duration_s: float) -> dict[str, Any]:
