@@ -14,6 +14,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from quadmission.square_launch import sitl
 from runtime import DeterministicExecutor, LaunchDescription
 from runtime.launch import run_in_process
 
@@ -39,3 +42,17 @@ def test_square_launch_lands_over_dds_processes() -> None:
     assert "[pilot] landed" in out.stderr
     for process in ("simulator", "bridge", "flight_control", "pilot"):
         assert f"started {process} (pid" in out.stderr
+
+
+def test_a_crash_fails_the_launch_with_its_reason() -> None:
+    # Dropped from 4 m with the motors off: a hard touchdown, reported as the launch's
+    # failure (the simulator process prints it and exits with this code over DDS).
+    simulation = sitl(DeterministicExecutor())
+    simulation.sitl.scene.place_at_takeoff(height=4.0)
+    ticks: list[int] = []
+    result = simulation.run(5.0, stop=lambda: False, tick=ticks.append)
+    assert result.exit_code == 1
+    assert result.reason.startswith("CRASH: ") and "touchdown" in result.reason, result.reason
+    steps = np.diff(ticks)
+    assert len(steps) and steps.max() - steps.min() <= 1  # [ns] a steady tick
+    assert steps.max() <= 1_400_000  # /clock about every millisecond
