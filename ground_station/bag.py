@@ -31,6 +31,7 @@ from mcap.reader import make_reader
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
+from rosbags.interfaces import Nodetype
 
 from ground_station.errors import BagError
 from interfaces import typestore
@@ -43,6 +44,46 @@ SCHEMA_ENCODING = "ros2msg"
 MESSAGE_ENCODING = "cdr"
 DEFAULT_FLUSH_PERIOD_S = 0.5  # host seconds between sealed chunks (crash loses at most this)
 CHUNK_SIZE = 4 * 1024 * 1024  # bytes: a chunk is sealed earlier when it grows past this
+
+
+def _ref(typename: str) -> str:
+    """A nested type as a .msg file names it: ``pkg/Name`` for messages; the action
+    parts that ROS 2 composes (``pkg/action/Nav_Feedback``) keep their full name."""
+    pkg, kind, name = typename.split("/")
+    return f"{pkg}/{name}" if kind == "msg" else typename
+
+
+def _field_text(node: Any, subdefs: dict[str, str]) -> str:
+    kind, detail = node
+    if kind == Nodetype.BASE:
+        base, bound = detail
+        return f"{base}<={bound}" if bound and base == "string" else str(base)
+    if kind == Nodetype.NAME:
+        if detail not in subdefs:
+            subdefs[detail] = ""  # placeholder first: pre-order, as rosbag2 writes them
+            subdefs[detail] = _definition_text(detail, subdefs)
+        return _ref(detail)
+    (sub_kind, sub), size = detail
+    inner = _field_text((sub_kind, sub), subdefs)
+    count = "" if not size else (str(size) if kind == Nodetype.ARRAY else f"<={size}")
+    return f"{inner}[{count}]"
+
+
+def _definition_text(typename: str, subdefs: dict[str, str]) -> str:
+    constants, fields = typestore().fielddefs[typename]
+    lines = [f"{ctype} {name}={value}" for name, ctype, value in constants]
+    lines += [f"{_field_text(node, subdefs)} {name}" for name, node in fields
+              if name != "structure_needs_at_least_one_member"]
+    return "\n".join([*lines, ""])
+
+
+def message_definition(typename: str) -> str:
+    """The ``ros2msg`` schema text of ``typename`` as rosbag2 stores it: its fields, then
+    each nested type after a line of 80 ``=`` and ``MSG: pkg/Name``."""
+    subdefs: dict[str, str] = {}
+    text = _definition_text(typename, subdefs)
+    return text + "".join(f"{'=' * 80}\nMSG: {_ref(name)}\n{body}"
+                          for name, body in subdefs.items())
 
 
 def mcap_path(folder: Path) -> Path:
@@ -170,7 +211,7 @@ class BagWriter:
     def _add(self, topic: str, msgtype: str, qos: list[dict[str, Any]]) -> int:
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:
-            msgdef, _ = typestore().generate_msgdef(msgtype, ros_version=2)
+            msgdef = message_definition(msgtype)
             schema_id = self._writer.register_schema(msgtype, SCHEMA_ENCODING,
                                                      msgdef.encode())
             self._schemas[msgtype] = schema_id
@@ -386,4 +427,4 @@ def repair_bag(path: Path) -> RepairResult:
 
 
 __all__ = ["DEFAULT_FLUSH_PERIOD_S", "METADATA_NAME", "BagInfo", "BagWriter", "RepairResult",
-           "TopicInfo", "bag_info", "find_mcap", "mcap_path", "qos_yaml", "repair_bag"]
+           "TopicInfo", "bag_info", "find_mcap", "mcap_path", "message_definition", "qos_yaml", "repair_bag"]

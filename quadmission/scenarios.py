@@ -44,6 +44,8 @@ class ScenarioOptions:
     random_arena: bool = False  # generate an arena from the seed instead
     lighting: Lighting | None = None  # None: the arena file's preset
     progress: Callable[[str], None] = field(default=lambda _line: None, compare=False)
+    # pacing, recording, Foxglove, the operator page (quadmission.run_services.RunServices)
+    services: Any = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if self.random_arena and self.arena is not None:

@@ -28,6 +28,7 @@ from quadmission.assembly import start_companion
 from quadmission.errors import SquareDoesNotFit
 from quadmission.plots import FlightPicture, save_path_figure
 from quadmission.report import write_report
+from quadmission.run_services import attach_services
 from quadmission.square_eval import SetpointRecorder, rounded, tracking
 from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square
 from quadmission.square_pilot import PilotPhase, SquarePilot
@@ -118,7 +119,8 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     for node in (pilot, recorder):
         sitl.executor.add_node(node)
     sitl.extra_parts.append(_Progress(pilot, options.progress))
-    result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
+    with attach_services(options, sitl.executor, sitl.extra_parts, arena):
+        result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
     truth, crash = result.trajectory, result.crash
     end_s = crash.t_s if crash is not None else result.sim_time_s
 
