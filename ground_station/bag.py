@@ -427,4 +427,5 @@ def repair_bag(path: Path) -> RepairResult:
 
 
 __all__ = ["DEFAULT_FLUSH_PERIOD_S", "METADATA_NAME", "BagInfo", "BagWriter", "RepairResult",
-           "TopicInfo", "bag_info", "find_mcap", "mcap_path", "message_definition", "qos_yaml", "repair_bag"]
+           "TopicInfo", "bag_info", "find_mcap", "mcap_path", "message_definition", "qos_yaml",
+           "repair_bag"]
