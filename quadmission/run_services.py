@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from ground_station.recorder_node import BagRecorderNode
     from ground_station.server import GroundStationServer
     from sim.arena import ArenaSpec
-    from sim.world import Part
+    from sim.world import Part, Scene
 
 BAG_DIR = "bag"  # the run's recording: OUT/bag/bag_0.mcap + metadata.yaml
 COMMAND_LOG = "gcs_commands.jsonl"
@@ -81,10 +81,23 @@ class RunServices:
 
     @contextmanager
     def attach(self, executor: DeterministicExecutor, parts: list[Part], out: Path,
-               arena: ArenaSpec | None = None) -> Iterator[RunServices]:
+               arena: ArenaSpec | None = None,
+               camera_scene: Scene | None = None) -> Iterator[RunServices]:
         """Start what was asked for in ``executor`` (pacer into ``parts``); on exit, seal
-        the bag and stop the bridge. The page's server stays up (:meth:`close` stops it)."""
+        the bag and stop the bridge. The page's server stays up (:meth:`close` stops it).
+        ``camera_scene``: a scenario without cameras of its own gets the down camera for
+        the page (rendered only while someone subscribes)."""
         context = executor.context
+        stack = ExitStack()
+        if camera_scene is not None and self.gcs is not None:
+            from sim.render import SceneRenderer
+            from sim.sensors import DownCamera, SimSensorsNode, sensor_parts
+
+            sensors = SimSensorsNode(context=context)
+            executor.add_node(sensors)
+            renderer = stack.enter_context(SceneRenderer(camera_scene.model))
+            parts.extend(p for p in sensor_parts(sensors, renderer, camera_scene)
+                         if isinstance(p, DownCamera))
         if self.rtf is not None:
             parts.append(RealTimePacer(self.rtf, origin_host_s=self.origin_host_s))
         if self.record:
@@ -107,6 +120,7 @@ class RunServices:
         try:
             yield self
         finally:
+            stack.close()
             if self.recorder is not None:
                 self.recorder.close()
                 self.say(f"  bag: {self.recorder.bag.message_count} messages in "
@@ -152,12 +166,12 @@ def _clear_old_bag(folder: Path) -> None:
 
 
 def attach_services(options: Any, executor: DeterministicExecutor, parts: list[Part],
-                    arena: ArenaSpec | None = None) -> Any:
+                    arena: ArenaSpec | None = None, camera_scene: Scene | None = None) -> Any:
     """``options.services.attach(...)`` when the run asked for any, else a no-op context."""
     services: RunServices | None = getattr(options, "services", None)
     if services is None:
         return _nothing()
-    return services.attach(executor, parts, options.out, arena)
+    return services.attach(executor, parts, options.out, arena, camera_scene)
 
 
 @contextmanager

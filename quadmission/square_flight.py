@@ -119,7 +119,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     for node in (pilot, recorder):
         sitl.executor.add_node(node)
     sitl.extra_parts.append(_Progress(pilot, options.progress))
-    with attach_services(options, sitl.executor, sitl.extra_parts, arena):
+    with attach_services(options, sitl.executor, sitl.extra_parts, arena, sitl.scene):
         result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
     truth, crash = result.trajectory, result.crash
     end_s = crash.t_s if crash is not None else result.sim_time_s
