@@ -32,6 +32,7 @@ from quadmission.run_services import attach_services
 from quadmission.square_eval import SetpointRecorder, rounded, tracking
 from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square
 from quadmission.square_pilot import PilotPhase, SquarePilot
+from quadmission.square_status import SquareStatusNode
 from sim.arena import ArenaSpec
 from sim.fcu.link import LinkDirection
 from sim.fcu.sitl import build_sitl
@@ -116,7 +117,8 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     pilot = SquarePilot(plan.corners(), altitude=plan.altitude, speed=speed,
                         land_speed=LAND_SPEED, context=context)
     recorder = SetpointRecorder(context=context)
-    for node in (pilot, recorder):
+    status = SquareStatusNode(pilot, plan.outline(), context=context)
+    for node in (pilot, recorder, status):
         sitl.executor.add_node(node)
     sitl.extra_parts.append(_Progress(pilot, options.progress))
     with attach_services(options, sitl.executor, sitl.extra_parts, arena, sitl.scene):

@@ -2,10 +2,11 @@
 during a real flight: the square over the SITL through the companion stack, paced to real
 time, with the ground station attached as ``quadmission sim --gcs`` attaches it.
 
-The mission state machine (issue 12) is not built yet: a small node publishes
-``/mission/state`` from the square pilot's step, and the optimiser's proposal on
-``/mission/sequence_proposal``, as the FSM will. ``/mission/command`` is heard by a plain
-listener. Screenshots stay in ``runs/test_output/ground_station/`` for a person to look at.
+The mission state machine (issue 12) is not built yet: the square's status node publishes
+``/mission/state`` from the pilot's step and the square as ``/navigation/path``, and a
+small node the optimiser's proposal on ``/mission/sequence_proposal``, as the FSM will.
+``/mission/command`` is heard by a plain listener. Screenshots stay in
+``runs/test_output/ground_station/`` for a person to look at.
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ from quadmission.assembly import start_companion
 from quadmission.run_services import COMMAND_LOG, GcsOptions, RunServices
 from quadmission.square_fit import fit_square
 from quadmission.square_flight import LAND_SPEED, SQUARE_SPEED
-from quadmission.square_pilot import PilotPhase, SquarePilot
+from quadmission.square_pilot import SquarePilot
+from quadmission.square_status import SquareStatusNode
 from runtime import Node, qos_profile_default
 from sim.arena import default_arena
 from sim.fcu.sitl import build_sitl
@@ -47,32 +49,15 @@ if not CHROMIUM.is_file():
     pytest.skip("Debian's chromium package is missing: apt-get install chromium "
                 "(make system-deps installs it)", allow_module_level=True)
 
-_PHASES = {PilotPhase.WAIT_READY: "PHASE_PREFLIGHT", PilotPhase.ARM: "PHASE_PREFLIGHT",
-           PilotPhase.TAKEOFF: "PHASE_TAKEOFF", PilotPhase.SQUARE: "PHASE_EXPLORE",
-           PilotPhase.LAND: "PHASE_RETURN_HOME", PilotPhase.DONE: "PHASE_COMPLETED",
-           PilotPhase.FAILED: "PHASE_ABORTED"}
+class _Proposal(Node):
+    """The optimiser's proposed landing sequence, as the FSM (issue 12) will publish it."""
 
-
-class _MissionStandIn(Node):
-    """/mission/state from the pilot's step, and a proposed sequence (the FSM's job)."""
-
-    def __init__(self, pilot: SquarePilot, **kwargs: Any) -> None:
-        super().__init__("mission_stand_in", **kwargs)
-        self.pilot = pilot
-        self.state_pub = self.create_publisher("quadmission_interfaces/msg/MissionState",
-                                               "/mission/state", qos_profile_default)
-        self.proposal_pub = self.create_publisher("quadmission_interfaces/msg/LandingSequence",
-                                                  "/mission/sequence_proposal",
-                                                  qos_profile_default)
-        self.create_timer(0.2, self._tick)
-        self._type = interfaces.get_message("quadmission_interfaces/msg/MissionState")
-
-    def _tick(self) -> None:
-        phase = getattr(self._type, _PHASES[self.pilot.phase])
-        self.state_pub.publish(interfaces.new(self._type, phase=phase,
-                                              sub_state=self.pilot.phase.value))
-        self.proposal_pub.publish(interfaces.new("quadmission_interfaces/msg/LandingSequence",
-                                                 pad_ids=PROPOSAL))
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("proposal", **kwargs)
+        self.pub = self.create_publisher("quadmission_interfaces/msg/LandingSequence",
+                                         "/mission/sequence_proposal", qos_profile_default)
+        self.create_timer(0.5, lambda: self.pub.publish(interfaces.new(
+            "quadmission_interfaces/msg/LandingSequence", pad_ids=PROPOSAL)))
 
 
 class _CommandListener(Node):
@@ -111,7 +96,8 @@ def flight(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Flight]:
     pilot = SquarePilot(plan.corners(), altitude=plan.altitude, speed=SQUARE_SPEED,
                         land_speed=LAND_SPEED, context=context)
     listener = _CommandListener(context=context)
-    for node in (pilot, _MissionStandIn(pilot, context=context), listener):
+    status = SquareStatusNode(pilot, plan.outline(), context=context)
+    for node in (pilot, status, _Proposal(context=context), listener):
         sitl.executor.add_node(node)
     services = RunServices(gcs=GcsOptions(port=0, token=TOKEN))
     ready, stop = threading.Event(), threading.Event()
@@ -188,6 +174,8 @@ def test_page_loads_and_shows_the_live_state_changing(page: Any, flight: Flight)
     # the map has the field's pads (the layout reached the page as data)
     state = json.loads(page.evaluate("fetch('api/state').then(r => r.text())"))
     assert [p["id"] for p in state["layout"]["pads"]] == [p.id for p in default_arena().pads]
+    square = fit_square(default_arena()).outline()  # the planned path, from /navigation/path
+    assert state["planned"] == [[pytest.approx(x), pytest.approx(y)] for x, y in square]
     page.screenshot(path=str(OUTPUT / "live_state.png"))
 
 
