@@ -142,8 +142,9 @@ class GroundStationNode(Node):
     # telemetry ---------------------------------------------------------------------------
     def _on_odometry(self, msg: Any) -> None:
         pose = msg.pose.pose
+        valid = self.view.fcu.get("position_valid", True)  # the FCU's word, once it speaks
         self.view.on_pose(self._t(), Pose2(pose.position.x, pose.position.y, pose.position.z,
-                                           yaw_of(pose.orientation)))
+                                           yaw_of(pose.orientation)), flown=valid)
 
     def _on_status(self, msg: Any) -> None:
         remaining = float(msg.battery_remaining)

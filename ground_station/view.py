@@ -72,11 +72,15 @@ class OperatorView:
         self.revision += 1
         self.t_s = max(self.t_s, t_s)
 
-    def on_pose(self, t_s: float, pose: Pose2) -> None:
+    def on_pose(self, t_s: float, pose: Pose2, flown: bool = True) -> None:
+        """The latest pose; also a flown-path point unless ``flown`` is False (the FCU
+        says its position is not valid yet)."""
         with self._lock:
             self.pose = pose
             last = self.flown[-1] if self.flown else None
-            if last is None or math.dist(last, (pose.x, pose.y)) >= self.path_spacing_m:
+            if not flown:
+                pass
+            elif last is None or math.dist(last, (pose.x, pose.y)) >= self.path_spacing_m:
                 self.flown.append((pose.x, pose.y))
             self._changed(t_s)
 
