@@ -246,12 +246,27 @@ def _latency_run(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- fsm -------------------------------------------------------------------------------------
+def _fsm_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--diagram", action="store_true",
+                   help="the README block: a mermaid state diagram and the error policy")
+
+
+def _fsm_run(args: argparse.Namespace) -> int:
+    from fsm.diagram import readme_block, transition_table
+
+    print(readme_block() if args.diagram else transition_table(), end="")
+    return 0
+
+
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
     Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
             _fcu_schedule_args, _fcu_schedule_run),
     Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
             _latency_args, _latency_run),
+    Command("fsm", "the mission state machine's transitions (--diagram: mermaid, for the README)",
+            _fsm_args, _fsm_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
     Command("interfaces", "list message types, or show one: field types and defaults",
             _interfaces_args, _interfaces_run),
