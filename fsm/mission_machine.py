@@ -2,8 +2,9 @@
 
 :class:`Mission` is the model. Inputs are its methods, one per thing that can happen:
 operator commands (:meth:`start`, :meth:`pause`, :meth:`resume`, :meth:`abort`,
-:meth:`receive_sequence`) answer with a :class:`Reply`; action results (:meth:`took_off`,
-:meth:`landed`, :meth:`marker_not_found`...) and alerts (:meth:`error`) move the machine.
+:meth:`return_home`, :meth:`receive_sequence`) answer with a :class:`Reply`; action
+results (:meth:`took_off`, :meth:`landed`, :meth:`marker_not_found`...) and alerts
+(:meth:`error`) move the machine.
 Outputs go to a :class:`MissionDriver`: entering a state starts its action
 (:data:`ACTIONS`), leaving it cancels whatever is still running there (cancel reaches the
 active child: a pause, an abort or an error in ``mission.pad.land`` cancels the
@@ -325,6 +326,13 @@ class Mission:
             return self._reject("ABORT", f"nothing to abort in state {self.state}")
         self._emit(EventKind.COMMAND_ACCEPTED, f"ABORT accepted: {reason or 'no reason'}")
         self.error(ErrorCause.OPERATOR_ABORT, reason or "operator's ABORT")
+        return Reply(True)
+
+    def return_home(self, reason: str = "") -> Reply:
+        if Reaction.RETURN_AND_LAND.value not in self.triggers():
+            return self._reject("RETURN_HOME", f"cannot return home from state {self.state}")
+        self._emit(EventKind.COMMAND_ACCEPTED, f"RETURN_HOME accepted: {reason or 'no reason'}")
+        self.error(ErrorCause.OPERATOR_RETURN, reason or "operator's RETURN_HOME")
         return Reply(True)
 
     def receive_sequence(self, pads: Sequence[int], points: Sequence[int] = ()) -> Reply:

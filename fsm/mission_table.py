@@ -37,6 +37,7 @@ class ErrorCause(Enum):
     SEQUENCE_TIMEOUT = "sequence_timeout"  # no landing sequence from the operator in time
     PREFLIGHT_FAILED = "preflight_failed"  # a module did not answer or is not healthy
     OPERATOR_ABORT = "operator_abort"
+    OPERATOR_RETURN = "operator_return"  # the operator's RETURN_HOME
 
 
 class Reaction(Enum):
@@ -71,6 +72,7 @@ ERROR_POLICY: dict[ErrorCause, Policy] = {
                                         "the operator did not answer in time"),
     ErrorCause.PREFLIGHT_FAILED: Policy(Reaction.HOLD, "on the ground: do not start"),
     ErrorCause.OPERATOR_ABORT: Policy(Reaction.HOLD, "the operator's ABORT: stop at once"),
+    ErrorCause.OPERATOR_RETURN: Policy(Reaction.RETURN_AND_LAND, "the operator's RETURN_HOME"),
 }
 
 

@@ -422,3 +422,16 @@ def test_abort_stops_from_paused_and_commands_outside_their_states_are_rejected(
     assert not m.start().accepted
     assert not m.abort("again").accepted
     assert ("land",) not in d.calls
+
+
+def test_return_home_on_the_operators_command_lands_home_and_is_not_a_completion() -> None:
+    m, d = make_mission()
+    assert not m.return_home("x").accepted  # idle: nowhere to return from
+    to_pad_land(m)
+    assert m.return_home("wind").accepted
+    assert m.state == "returning.navigate" and d.last("navigate") == ("navigate", PADS[1])
+    assert not m.return_home("again").accepted
+    m.arrived()
+    m.landed()
+    assert m.state == "landed"
+    assert m.stop is not None and m.stop.cause is ErrorCause.OPERATOR_RETURN
