@@ -139,6 +139,11 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                        help="generate a random arena from --seed instead")
     p.add_argument("--lighting", choices=[preset.value for preset in Lighting], default=None,
                    help="lighting preset (default: the arena's own)")
+    p.add_argument("--target-robot", type=int, default=None, metavar="ID",
+                   help="mission: the robot marker to find (default: config/mission.yaml's)")
+    p.add_argument("--remove-pad", type=int, default=None, metavar="ID",
+                   help="mission: remove this pad from the field, which the mission still "
+                        "believes is there (seed 003, 4.2: the pad-search branch)")
 
 
 def _stderr(line: str) -> None:
@@ -154,6 +159,7 @@ def _sim_run(args: argparse.Namespace) -> int:
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               random_arena=args.random_arena,
                               lighting=Lighting(args.lighting) if args.lighting else None,
+                              target_robot=args.target_robot, remove_pad=args.remove_pad,
                               progress=_stderr)
     arena = "random" if args.random_arena else (args.arena or "default")
     _stderr(f"quadmission sim: scenario {args.scenario}, arena {arena}, seed {args.seed}, "
