@@ -171,7 +171,10 @@ class GroundStationNode(Node):
     def _on_state(self, msg: Any) -> None:
         self.view.on_mission_state(self._t(), {
             "phase": int(msg.phase), "phase_name": PHASES.get(msg.phase, str(msg.phase)),
-            "previous_phase": int(msg.previous_phase), "sub_state": msg.sub_state,
+            "previous_phase": int(msg.previous_phase), "state": msg.state,
+            "sub_state": msg.sub_state, "score": int(msg.score),
+            "pads_skipped": [int(p) for p in msg.pads_skipped],
+            "stop_reason": msg.stop_reason,
             "elapsed_s": round(msg.elapsed.sec + msg.elapsed.nanosec * 1e-9, 1),
             "robot_marker_id": int(msg.robot_marker_id),
             "landing_sequence": [int(p) for p in msg.landing_sequence],
@@ -212,8 +215,9 @@ class GroundStationNode(Node):
                                             self.params.jpeg_quality))
 
     def _on_robot(self, msg: Any) -> None:
-        rgb = image_rgb(msg.image)
-        picture = None if rgb is None else jpeg(rgb, 640, self.params.jpeg_quality)
+        # the scanner's JPEGs as they are: the annotated one, else the raw capture
+        picture = next((bytes(p.data) for p in (msg.picture_annotated, msg.picture_raw)
+                        if len(p.data) and p.format.lower() in ("jpeg", "jpg")), None)
         self.view.on_robot(self._t(), RobotPicture(int(msg.marker_id), msg.pose.position.x,
                                                    msg.pose.position.y, int(msg.sightings),
                                                    picture))
@@ -229,14 +233,16 @@ class GroundStationNode(Node):
                 command = self._queue.get_nowait()
             except queue.Empty:
                 return
+            t = self.now()
+            sequence = interfaces.new("quadmission_interfaces/msg/LandingSequence",
+                                      pad_ids=list(command.sequence))
             msg = interfaces.new("quadmission_interfaces/msg/MissionCommand",
                                  command=getattr(interfaces.get_message(
                                      "quadmission_interfaces/msg/MissionCommand"),
                                      command.verb.constant),
-                                 landing_sequence=list(command.sequence),
-                                 reason=command.reason)
-            t = self.now()
-            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t.nanoseconds, 10**9)
+                                 sequence=sequence, reason=command.reason)
+            for header in (msg.header, sequence.header):
+                header.stamp.sec, header.stamp.nanosec = divmod(t.nanoseconds, 10**9)
             self.command_pub.publish(msg)
             self.sent.append(command)
 

@@ -1,6 +1,7 @@
 """The operator page's web server: static page, live state, camera, authenticated commands.
 
 Routes: ``GET /`` (the page, ``web/``), ``GET /api/state`` (the view's snapshot, JSON),
+``GET /api/diagram`` (the mission machine's states and transitions),
 ``GET /api/camera.jpg``, ``GET /api/robot/<id>.jpg``, ``POST /api/command`` (JSON, see
 :mod:`ground_station.commands`). Reading is open; every command must carry the token
 (``Authorization: Bearer <token>``), compared in constant time. Each command, accepted
@@ -28,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ground_station.commands import OperatorCommand, parse_command
+from ground_station.diagram import diagram
 from ground_station.errors import CommandError
 from ground_station.view import OperatorView
 
@@ -136,6 +138,8 @@ class _Handler(BaseHTTPRequestHandler):
             self._send(HTTPStatus.OK, (WEB_DIR / name).read_bytes(), ctype)
         elif path == "/api/state":
             self._json(HTTPStatus.OK, self.station.view.snapshot())
+        elif path == "/api/diagram":
+            self._json(HTTPStatus.OK, diagram())
         elif path == "/api/camera.jpg":
             self._image(self.station.view.camera())
         elif path.startswith("/api/robot/") and path.endswith(".jpg"):

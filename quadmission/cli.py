@@ -164,6 +164,11 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                        help="generate a random arena from --seed instead")
     p.add_argument("--lighting", choices=[preset.value for preset in Lighting], default=None,
                    help="lighting preset (default: the arena's own)")
+    p.add_argument("--target-robot", type=int, default=None, metavar="ID",
+                   help="mission: the robot marker to find (default: config/mission.yaml's)")
+    p.add_argument("--remove-pad", type=int, default=None, metavar="ID",
+                   help="mission: remove this pad from the field, which the mission still "
+                        "believes is there (seed 003, 4.2: the pad-search branch)")
     _run_services_args(p)
 
 
@@ -181,6 +186,7 @@ def _sim_run(args: argparse.Namespace) -> int:
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               random_arena=args.random_arena,
                               lighting=Lighting(args.lighting) if args.lighting else None,
+                              target_robot=args.target_robot, remove_pad=args.remove_pad,
                               progress=_stderr, services=services)
     arena = "random" if args.random_arena else (args.arena or "default")
     _stderr(f"quadmission sim: scenario {args.scenario}, arena {arena}, seed {args.seed}, "
@@ -410,12 +416,27 @@ def _gcs_run(args: argparse.Namespace) -> int:
         services.close()
 
 
+# -- fsm -------------------------------------------------------------------------------------
+def _fsm_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--diagram", action="store_true",
+                   help="the README block: a mermaid state diagram and the error policy")
+
+
+def _fsm_run(args: argparse.Namespace) -> int:
+    from fsm.diagram import readme_block, transition_table
+
+    print(readme_block() if args.diagram else transition_table(), end="")
+    return 0
+
+
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
     Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
             _fcu_schedule_args, _fcu_schedule_run),
     Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
             _latency_args, _latency_run),
+    Command("fsm", "the mission state machine's transitions (--diagram: mermaid, for the README)",
+            _fsm_args, _fsm_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
     Command("interfaces", "list message types, or show one: field types and defaults",
             _interfaces_args, _interfaces_run),

@@ -2,9 +2,10 @@
 
 The square is a mission script, not the contest's state machine (issue 12), but the
 operator page and Foxglove speak the mission's topics. :class:`SquareStatusNode`
-publishes ``/mission/state`` from the pilot's step (waiting and arming are PREFLIGHT, the
-square is flown under EXPLORE, the landing under RETURN_HOME) and the square it flies as
-``/navigation/path``, the planned path. It only reads the pilot; the flight is unchanged.
+publishes ``/mission/state`` from the pilot's step (waiting and arming are ``preflight``,
+the square is flown as ``mission.explore``, the landing as ``returning.land``) and the
+square it flies as ``/navigation/path``, the planned path. It only reads the pilot;
+the flight is unchanged.
 """
 
 from __future__ import annotations
@@ -13,15 +14,17 @@ from collections.abc import Sequence
 from typing import Any
 
 import interfaces
+from fsm.mission_table import phase_of
 from quadmission.square_pilot import PilotPhase, SquarePilot
 from runtime import Node, qos_profile_default
 
 STATUS_PERIOD_S = 0.2  # s between /mission/state messages
-PHASE_OF_STEP = {
-    PilotPhase.WAIT_READY: "PHASE_PREFLIGHT", PilotPhase.ARM: "PHASE_PREFLIGHT",
-    PilotPhase.TAKEOFF: "PHASE_TAKEOFF", PilotPhase.SQUARE: "PHASE_EXPLORE",
-    PilotPhase.LAND: "PHASE_RETURN_HOME", PilotPhase.DONE: "PHASE_COMPLETED",
-    PilotPhase.FAILED: "PHASE_ABORTED"}
+#: The mission machine's state (fsm/mission_table.py) each pilot step stands for.
+STATE_OF_STEP = {
+    PilotPhase.WAIT_READY: "preflight", PilotPhase.ARM: "preflight",
+    PilotPhase.TAKEOFF: "mission.takeoff", PilotPhase.SQUARE: "mission.explore",
+    PilotPhase.LAND: "returning.land", PilotPhase.DONE: "completed",
+    PilotPhase.FAILED: "stopped"}
 
 
 class SquareStatusNode(Node):
@@ -45,7 +48,7 @@ class SquareStatusNode(Node):
         self.create_timer(STATUS_PERIOD_S, self._tick)
 
     def _phase(self) -> int:
-        return int(getattr(self._state, PHASE_OF_STEP[self.pilot.phase]))
+        return phase_of(STATE_OF_STEP[self.pilot.phase]).value
 
     def _tick(self) -> None:
         phase = self._phase()
@@ -55,12 +58,13 @@ class SquareStatusNode(Node):
         if self.pilot.phase is PilotPhase.SQUARE:
             sub += f" (corner {self.pilot.corner_index + 1}/{len(self.pilot.corners)})"
         stamp = self.now().nanoseconds
+        state = STATE_OF_STEP[self.pilot.phase]
         msg = interfaces.new(self._state, phase=phase, previous_phase=self._previous,
-                             sub_state=sub)
+                             state=state, sub_state=sub)
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 10**9)
         self.state_pub.publish(msg)
         self.path.header.stamp.sec, self.path.header.stamp.nanosec = divmod(stamp, 10**9)
         self.path_pub.publish(self.path)
 
 
-__all__ = ["PHASE_OF_STEP", "SquareStatusNode"]
+__all__ = ["STATE_OF_STEP", "SquareStatusNode"]

@@ -6,43 +6,44 @@ const params = new URLSearchParams(location.hash.slice(1));
 if (params.get("token")) tokenInput.value = params.get("token");
 let lastRevision = -1, lastCamera = -1, lastChange = Date.now(), sequenceEdited = false;
 let robotsShown = "";
-const PHASE_FLOW = ["idle", "preflight", "takeoff", "explore", "report_robot",
-  "await_sequence", "landing_sequence", "return_home", "completed"];
-
 function flag(el, value, good = true) {
   el.textContent = value === undefined || value === null ? "-" : (value ? "yes" : "no");
   el.className = value === undefined || value === null ? "" : (value === good ? "ok" : "bad");
 }
 
+let diagram = null;  // the mission machine: /api/diagram, fetched once
+fetch("api/diagram").then((r) => r.json()).then((d) => { diagram = d; });
+
 function drawFsm(state) {
   const svg = $("fsm");
-  const phases = Object.values(state.phases || {});
-  const active = state.mission && state.mission.phase_name;
-  const flow = PHASE_FLOW.filter((p) => phases.includes(p));
-  const side = phases.filter((p) => !flow.includes(p));
-  let out = '<defs><marker id="arr" markerWidth="6" markerHeight="6" refX="5" refY="3" orient="auto">' +
-    '<path d="M0,0 L6,3 L0,6 z" fill="#888"/></marker></defs>';
-  const box = (name, x, y, w) => {
-    const on = name === active;
-    return `<g class="state${on ? " active" : ""}" data-state="${name}">` +
-      `<rect x="${x}" y="${y}" width="${w}" height="20" rx="4" fill="${on ? "#ffd75e" : "#2a3340"}"` +
-      ` stroke="${on ? "#fff" : "#6a7a90"}"/>` +
-      `<text x="${x + w / 2}" y="${y + 14}" text-anchor="middle" style="fill:${on ? "#000" : "#ddd"}">` +
-      `${name}</text></g>`;
-  };
-  flow.forEach((name, i) => {
-    const y = 4 + i * 27;
-    out += box(name, 10, y, 150);
-    if (i + 1 < flow.length)
-      out += `<line x1="85" y1="${y + 20}" x2="85" y2="${y + 27}" stroke="#888" marker-end="url(#arr)"/>`;
+  const m = state.mission || {};
+  const active = m.state || "";
+  const lit = (name) => active === name || active.startsWith(name + ".");
+  if (!diagram) return;
+  const rows = diagram.states;
+  const half = Math.ceil(rows.length / 2);
+  // split the column at a top-level state so that a nested machine stays in one column
+  let split = rows.findIndex((s, i) => i >= half && s.depth === 0);
+  if (split < 0) split = rows.length;
+  let out = "";
+  rows.forEach((s, i) => {
+    const col = i < split ? 0 : 1, row = col ? i - split : i;
+    const x = 6 + col * 178 + s.depth * 14, y = 4 + row * 21, w = 168 - s.depth * 14;
+    const on = lit(s.name);
+    const fill = on ? (s.composite ? "#6b5a1e" : "#ffd75e") : (s.composite ? "#222a35" : "#2a3340");
+    out += `<g class="state${on ? " active" : ""}" data-state="${s.name}"><title>${s.doc}</title>` +
+      `<rect x="${x}" y="${y}" width="${w}" height="18" rx="4" fill="${fill}"` +
+      ` stroke="${on ? "#fff" : (s.terminal ? "#c07070" : "#6a7a90")}"/>` +
+      `<text x="${x + 6}" y="${y + 13}" style="fill:${on && !s.composite ? "#000" : "#ddd"}">` +
+      `${s.composite ? "▾ " : ""}${s.label}</text></g>`;
   });
-  side.forEach((name, i) => {
-    const y = 60 + i * 80;
-    out += box(name, 220, y, 120);
-    out += `<text x="280" y="${y + 34}" text-anchor="middle">from any mission state</text>`;
-    out += `<line x1="162" y1="${y + 10}" x2="218" y2="${y + 10}" stroke="#888" stroke-dasharray="3,3" marker-end="url(#arr)"/>`;
-  });
+  const rowsUsed = Math.max(split, rows.length - split);
+  svg.setAttribute("viewBox", `0 0 360 ${8 + rowsUsed * 21}`);
+  svg.setAttribute("height", String(8 + rowsUsed * 21));
   svg.innerHTML = out;
+  const ways = diagram.transitions.filter((t) => lit(t.source))
+    .map((t) => `${t.trigger}${t.label ? " " + t.label : ""} → ${t.dest}`);
+  $("ways-out").textContent = ways.length ? "next: " + ways.join(" · ") : "";
 }
 
 function drawMap(state) {
@@ -113,8 +114,11 @@ function render(state) {
   $("pose").textContent = state.pose ?
     `x ${state.pose.x.toFixed(2)} y ${state.pose.y.toFixed(2)} z ${state.pose.z.toFixed(2)} m, heading ${(state.pose.yaw * 180 / Math.PI).toFixed(0)} deg` : "no pose yet";
   const m = state.mission || {};
-  $("phase").textContent = m.phase_name ? m.phase_name : "no /mission/state yet";
-  $("sub_state").textContent = m.sub_state ? `${m.sub_state}` + (m.target_pad_id ? ` (pad ${m.target_pad_id})` : "") : "";
+  $("phase").textContent = m.state || m.phase_name || "no /mission/state yet";
+  $("sub_state").textContent = (m.phase_name ? `phase ${m.phase_name}` : "") +
+    (m.sub_state ? `, ${m.sub_state}` : "") + (m.target_pad_id ? `, pad ${m.target_pad_id}` : "") +
+    (m.score !== undefined && m.phase_name ? `, score ${m.score}` : "") +
+    (m.stop_reason ? ` — stopped: ${m.stop_reason}` : "");
   drawFsm(state);
   const f = state.fcu || {};
   flag($("link"), f.connected); flag($("armed"), f.armed); flag($("offboard"), f.offboard);
@@ -153,11 +157,16 @@ function render(state) {
 }
 
 async function poll() {
+  setTimeout(poll, 250);
+  let state = null;
   try {
     const r = await fetch("api/state", { cache: "no-store" });
-    if (r.ok) render(await r.json());
-  } catch (e) { $("live").textContent = "disconnected"; $("live").className = "pill stale"; }
-  setTimeout(poll, 250);
+    if (r.ok) state = await r.json();
+  } catch (e) {  // the server is gone; the page keeps trying
+    $("live").textContent = "disconnected"; $("live").className = "pill stale";
+    return;
+  }
+  if (state) render(state);  // a drawing error shows in the console (and fails the tests)
 }
 
 async function send(body) {

@@ -76,7 +76,7 @@ class Flight:
     out: Path
 
     def commands(self) -> list[tuple[int, list[int]]]:
-        return [(int(m.command), [int(p) for p in m.landing_sequence])
+        return [(int(m.command), [int(p) for p in m.sequence.pad_ids])
                 for m in list(self.listener.heard)]
 
     def wait_for_command(self, count: int, timeout_s: float = 30.0) -> None:
@@ -139,9 +139,12 @@ def browser() -> Iterator[Any]:
 @pytest.fixture(scope="module")
 def page(browser: Any, flight: Flight) -> Iterator[Any]:
     page = browser.new_page(viewport={"width": 1600, "height": 1000})
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.goto(flight.url)
     yield page
     page.close()
+    assert not errors, f"the page's script failed {len(errors)} times: {errors[:3]}"
 
 
 def _command(name: str) -> int:
@@ -157,12 +160,15 @@ def test_page_loads_and_shows_the_live_state_changing(page: Any, flight: Flight)
     page.wait_for_function(f"parseFloat(document.getElementById('t_s').textContent) > "
                            f"{first_t + 1.0}", timeout=WAIT_MS)
     assert int(page.text_content("#revision")) > first_revision
-    assert page.text_content("#live") == "live"
-    # the FSM diagram lights the state /mission/state names
+    page.wait_for_function("document.getElementById('live').textContent === 'live'",
+                           timeout=WAIT_MS)
+    # the mission machine's diagram lights the state /mission/state names, and its parents
     page.wait_for_function("document.getElementById('phase').textContent !== "
                            "'no /mission/state yet'", timeout=WAIT_MS)
-    active = page.get_attribute("#fsm g.active", "data-state")
-    assert active == page.text_content("#phase")
+    state_name = page.text_content("#phase")
+    lit = page.eval_on_selector_all("#fsm g.active", "gs => gs.map(g => g.dataset.state)")
+    parts = state_name.split(".")
+    assert lit == [".".join(parts[: i + 1]) for i in range(len(parts))]
     # FCU health from /fcu/status, time sync from the bridge
     page.wait_for_function("document.getElementById('link').textContent === 'yes'",
                            timeout=WAIT_MS)
