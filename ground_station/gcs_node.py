@@ -142,7 +142,7 @@ class GroundStationNode(Node):
     # telemetry ---------------------------------------------------------------------------
     def _on_odometry(self, msg: Any) -> None:
         pose = msg.pose.pose
-        valid = self.view.fcu.get("position_valid", True)  # the FCU's word, once it speaks
+        valid = self.view.fcu.get("position_valid", False)  # the FCU must vouch for it
         self.view.on_pose(self._t(), Pose2(pose.position.x, pose.position.y, pose.position.z,
                                            yaw_of(pose.orientation)), flown=valid)
 
