@@ -5,8 +5,16 @@ simulator; this is what a contest's organisers hand the team before the run.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
+
+from ground_station.errors import GroundStationError
+
+
+class BadLayout(GroundStationError):
+    """A field layout file that cannot be read."""
 
 
 @dataclass(frozen=True)
@@ -59,4 +67,36 @@ class FieldLayout:
         }
 
 
-__all__ = ["Box", "FieldLayout", "PadInfo"]
+    @classmethod
+    def from_json(cls, data: Any) -> FieldLayout:
+        """The inverse of :meth:`to_json`; BadLayout names what is missing or wrong."""
+        try:
+            return cls(
+                name=str(data.get("name", "")),
+                size=tuple(float(v) for v in data["size"]),  # type: ignore[arg-type]
+                obstacles=tuple(Box(str(b["name"]), (float(b["center"][0]), float(b["center"][1])),
+                                    (float(b["size"][0]), float(b["size"][1])),
+                                    float(b["height"])) for b in data.get("obstacles", [])),
+                pads=tuple(PadInfo(int(p["id"]), (float(p["center"][0]), float(p["center"][1])),
+                                   float(p["side"])) for p in data.get("pads", [])),
+                start_pad=int(data.get("start_pad", 0)),
+                points=tuple((int(robot), tuple((int(pad), int(pts))
+                                                for pad, pts in table.items()))
+                             for robot, table in data.get("points", {}).items()))
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+            raise BadLayout(f"not a field layout: {type(exc).__name__}: {exc}") from None
+
+
+def load_layout(path: Path) -> FieldLayout:
+    """A :class:`FieldLayout` from its JSON file (``OUT/field.json`` of a sim run)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise BadLayout(f"{path}: {exc}") from None
+    try:
+        return FieldLayout.from_json(data)
+    except BadLayout as exc:
+        raise BadLayout(f"{path}: {exc}") from None
+
+
+__all__ = ["BadLayout", "Box", "FieldLayout", "PadInfo", "load_layout"]

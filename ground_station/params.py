@@ -41,6 +41,9 @@ class GroundStationParams:
                                 description="voxel-map points kept for the page")
     command_period_s: float = param(unit="s", range=(0.001, 1.0),
                                     description="how often queued operator commands are sent")
+    host: str = param(description="address the page binds to (loopback unless changed)")
+    port: int = param(range=(0, 65535), description="the page's TCP port; 0 picks a free one")
+    layout_file: str = param(description="the field as JSON (FieldLayout), or '' for none")
 
 
 __all__ = ["FoxgloveBridgeParams", "GroundStationParams", "RecorderParams"]

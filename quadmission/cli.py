@@ -217,9 +217,10 @@ def _run_services_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--foxglove-port", type=int, default=8765, help="Foxglove bridge port")
     p.add_argument("--gcs", action="store_true",
                    help="serve the operator page (http://127.0.0.1:8080) during the run")
-    p.add_argument("--host", default="127.0.0.1",
+    p.add_argument("--host", default=None,
                    help="address the page and the Foxglove bridge bind to (default loopback)")
-    p.add_argument("--port", type=int, default=8080, help="operator page port (0: any free)")
+    p.add_argument("--port", type=int, default=None,
+                   help="operator page port (default config/ground_station.yaml's 8080; 0: any)")
     p.add_argument("--gcs-linger", action="store_true",
                    help="with --gcs: keep the page up after the run until Ctrl-C")
 
@@ -240,7 +241,8 @@ def _run_services(args: argparse.Namespace) -> Any:
 
     gcs = GcsOptions(args.host, args.port, resolve_token()) if args.gcs else None
     return RunServices(rtf=args.rtf, record=args.record, foxglove=args.foxglove,
-                       foxglove_host=args.host, foxglove_port=args.foxglove_port, gcs=gcs,
+                       foxglove_host=args.host or "127.0.0.1", foxglove_port=args.foxglove_port,
+                       gcs=gcs,
                        origin_host_s=_STARTED_HOST_S, say=_stderr)
 
 
@@ -373,9 +375,9 @@ def _gcs_args(p: argparse.ArgumentParser) -> None:
                    help="arena YAML for the map (default: the run's arena.yaml beside the bag)")
     p.add_argument("--rtf", type=_positive_float, default=1.0,
                    help="playback speed, times real time")
-    p.add_argument("--host", default="127.0.0.1",
+    p.add_argument("--host", default=None,
                    help="address the page binds to (default loopback)")
-    p.add_argument("--port", type=int, default=8080, help="page port (0: any free)")
+    p.add_argument("--port", type=int, default=None, help="page port (default 8080; 0: any)")
     p.add_argument("--foxglove", action="store_true",
                    help="also serve the replayed topics to Foxglove")
     p.add_argument("--foxglove-port", type=int, default=8765)
@@ -393,7 +395,8 @@ def _gcs_run(args: argparse.Namespace) -> int:
     arena = load_arena(arena_file) if arena_file else None
     from ground_station.server import resolve_token
 
-    services = RunServices(rtf=args.rtf, foxglove=args.foxglove, foxglove_host=args.host,
+    services = RunServices(rtf=args.rtf, foxglove=args.foxglove,
+                           foxglove_host=args.host or "127.0.0.1",
                            foxglove_port=args.foxglove_port,
                            gcs=GcsOptions(args.host, args.port, resolve_token()), say=_stderr)
     ex = DeterministicExecutor()

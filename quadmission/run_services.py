@@ -9,6 +9,7 @@ keeps the page up after the run when asked to.
 
 from __future__ import annotations
 
+import json
 import shutil
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
 
 BAG_DIR = "bag"  # the run's recording: OUT/bag/bag_0.mcap + metadata.yaml
 COMMAND_LOG = "gcs_commands.jsonl"
+FIELD_JSON = "field.json"  # the run's FieldLayout, for GroundStationServerNode's layout_file
 
 
 def field_layout(arena: ArenaSpec) -> FieldLayout:
@@ -51,8 +53,10 @@ def field_layout(arena: ArenaSpec) -> FieldLayout:
 
 @dataclass(frozen=True)
 class GcsOptions:
-    host: str = "127.0.0.1"
-    port: int = 8080
+    """Where the page is served; None: the node's parameters (config/ground_station.yaml)."""
+
+    host: str | None = None
+    port: int | None = None
     token: str = ""
 
 
@@ -134,11 +138,15 @@ class RunServices:
         from ground_station.server import GroundStationServer, ServerConfig, resolve_token
 
         assert self.gcs is not None
-        self.station = GroundStationNode(field_layout(arena) if arena else None,
-                                         context=executor.context)
+        layout = field_layout(arena) if arena else None
+        self.station = GroundStationNode(layout, context=executor.context)
         executor.add_node(self.station)
         out.mkdir(parents=True, exist_ok=True)
-        config = ServerConfig(host=self.gcs.host, port=self.gcs.port,
+        if layout is not None:  # for a ground station started elsewhere (layout_file)
+            (out / FIELD_JSON).write_text(json.dumps(layout.to_json(), indent=1))
+        params = self.station.params
+        config = ServerConfig(host=params.host if self.gcs.host is None else self.gcs.host,
+                              port=params.port if self.gcs.port is None else self.gcs.port,
                               token=self.gcs.token or resolve_token(),
                               command_log=out / COMMAND_LOG)
         self.server = GroundStationServer(self.station.view, self.station.submit,
@@ -179,5 +187,5 @@ def _nothing() -> Iterator[None]:
     yield None
 
 
-__all__ = ["BAG_DIR", "COMMAND_LOG", "GcsOptions", "RunServices", "attach_services",
+__all__ = ["BAG_DIR", "COMMAND_LOG", "FIELD_JSON", "GcsOptions", "RunServices", "attach_services",
            "field_layout"]
