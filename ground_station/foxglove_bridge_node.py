@@ -35,6 +35,7 @@ class FoxgloveBridgeNode(Node):
         self.channels: dict[str, Channel] = {}
         self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
                             discovery_period_s=self.params.discovery_period_s,
+                            topics=self.params.topics,
                             on_new_topic=self._on_new_topic, on_sample=self._on_sample)
 
     @property

@@ -9,6 +9,8 @@ from runtime import param
 
 @dataclass(frozen=True)
 class RecorderParams:
+    topics: tuple[str, ...] = param(description="'topic pkg/msg/Type' entries tapped even "
+                                    "when the transport cannot list its topics (DDS)")
     include: str = param(description="topics to record: a regular expression (fullmatch)")
     exclude: str = param(description="topics not to record: a regular expression, or ''")
     discovery_period_s: float = param(unit="s", range=(0.01, 10.0),
@@ -21,6 +23,8 @@ class RecorderParams:
 class FoxgloveBridgeParams:
     host: str = param(description="address the WebSocket server binds to")
     port: int = param(range=(0, 65535), description="TCP port; 0 picks a free one")
+    topics: tuple[str, ...] = param(description="'topic pkg/msg/Type' entries tapped even "
+                                    "when the transport cannot list its topics (DDS)")
     include: str = param(description="topics to serve: a regular expression (fullmatch)")
     exclude: str = param(description="topics not to serve: a regular expression, or ''")
     discovery_period_s: float = param(unit="s", range=(0.01, 10.0),

@@ -29,6 +29,7 @@ class BagRecorderNode(Node):
         self.bag = BagWriter(folder, flush_period_s=self.params.flush_period_s)
         self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
                             discovery_period_s=self.params.discovery_period_s,
+                            topics=self.params.topics,
                             on_new_topic=self._on_new_topic, on_sample=self.bag.write)
 
     def _on_new_topic(self, topic: str, msgtype: str) -> int:

@@ -2,8 +2,9 @@
 Foxglove bridge do. Samples arrive as CDR bytes, never decoded.
 
 Discovery asks the transport for ``topic_names_and_types()`` (the in-process transport
-and the DDS one offer it) every ``discovery_period_s`` of node time; topics named in
-``topics`` are tapped as soon as they appear. Readers are BEST_EFFORT and VOLATILE, so
+offers it) every ``discovery_period_s`` of node time; the ``topics`` given as
+``"name pkg/msg/Type"`` are tapped from the start, for a transport that cannot list its
+topics (DDS: give them in the node's YAML). Readers are BEST_EFFORT and VOLATILE, so
 they match every writer (QoS request/offer rules) and never slow one down.
 """
 
@@ -13,9 +14,16 @@ import re
 from collections.abc import Callable
 from typing import Any
 
+import interfaces
+from ground_station.errors import GroundStationError
 from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from runtime import Endpoint, Node
 from runtime.transport import Reader
+
+
+class TopicTapError(GroundStationError):
+    """A topics entry that is not '/topic pkg/msg/Type'."""
+
 
 #: What a tap requests: matches any writer.
 TAP_QOS = QoSProfile(depth=100, history=HistoryPolicy.KEEP_LAST,
@@ -31,7 +39,8 @@ class TopicTap:
     ``exclude`` (regular expressions, ``re.fullmatch``)."""
 
     def __init__(self, node: Node, *, include: str, exclude: str, discovery_period_s: float,
-                 on_new_topic: NewTopic, on_sample: Sample) -> None:
+                 on_new_topic: NewTopic, on_sample: Sample,
+                 topics: tuple[str, ...] = ()) -> None:
         self._node = node
         self._include = re.compile(include)
         self._exclude = re.compile(exclude) if exclude else None
@@ -39,6 +48,12 @@ class TopicTap:
         self._on_sample = on_sample
         self._readers: dict[str, Reader] = {}
         self.topics: dict[str, str] = {}
+        for entry in topics:
+            name, _, msgtype = entry.strip().partition(" ")
+            if not name.startswith("/") or not msgtype.strip():
+                raise TopicTapError(f"topics entry {entry!r}: expected '/topic pkg/msg/Type'")
+            interfaces.get_message(msgtype.strip())  # an unknown type is named here
+            self._tap(name, msgtype.strip())
         self.discover()
         node.create_timer(discovery_period_s, self.discover)
 
@@ -53,16 +68,18 @@ class TopicTap:
         if listing is None:
             return
         for name, msgtype in listing():
-            if name in self._readers or not self._wanted(name):
-                continue
-            handle = self._on_new_topic(name, msgtype)
+            if name not in self._readers and self._wanted(name):
+                self._tap(name, msgtype)
 
-            def on_sample(data: bytes, _rid: Any, handle: Any = handle) -> None:
-                self._on_sample(handle, self._node.get_clock().now().nanoseconds, data)
+    def _tap(self, name: str, msgtype: str) -> None:
+        handle = self._on_new_topic(name, msgtype)
 
-            self._readers[name] = self._node.context.transport.create_reader(
-                Endpoint(name, msgtype, TAP_QOS), on_sample)
-            self.topics[name] = msgtype
+        def on_sample(data: bytes, _rid: Any, handle: Any = handle) -> None:
+            self._on_sample(handle, self._node.get_clock().now().nanoseconds, data)
+
+        self._readers[name] = self._node.context.transport.create_reader(
+            Endpoint(name, msgtype, TAP_QOS), on_sample)
+        self.topics[name] = msgtype
 
     def close(self) -> None:
         for reader in self._readers.values():
@@ -70,4 +87,4 @@ class TopicTap:
         self._readers.clear()
 
 
-__all__ = ["TAP_QOS", "TopicTap"]
+__all__ = ["TAP_QOS", "TopicTap", "TopicTapError"]

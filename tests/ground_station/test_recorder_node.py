@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from rosbags.highlevel import AnyReader
 
 import interfaces
 from ground_station.recorder_node import BagRecorderNode
+from ground_station.topic_tap import TopicTapError
 from quadmission.examples import Listener, Talker
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 
@@ -48,3 +50,25 @@ def test_recorder_finds_topics_and_records_every_sample(tmp_path: Path) -> None:
     discovery_s = recorder.params.discovery_period_s
     # the odometry topic is found at the first discovery tick after it appears
     assert odometry.sent - round(discovery_s / 0.01) <= counts["/fcu/odometry"] <= odometry.sent
+
+
+def test_topics_given_by_name_and_type_are_recorded_without_discovery(tmp_path: Path) -> None:
+    """What a DDS process does: its transport cannot list topics, so they are named."""
+    ex = DeterministicExecutor()
+    talker = Talker(context=ex.context)
+    recorder = BagRecorderNode(tmp_path / "bag", context=ex.context, parameter_overrides={
+        "include": "", "topics": ["/chatter std_msgs/msg/String"]})  # discovery finds nothing
+    ex.add_node(talker)
+    ex.add_node(recorder)
+    ex.spin_for(1.0)
+    recorder.close()
+    with AnyReader([tmp_path / "bag"], default_typestore=interfaces.typestore()) as reader:
+        texts = [reader.deserialize(raw, c.msgtype).data for c, _, raw in reader.messages()]
+    assert texts == [f"hello {i}" for i in range(1, talker.count + 1)]
+
+
+def test_a_malformed_topics_entry_is_named(tmp_path: Path) -> None:
+    ex = DeterministicExecutor()
+    with pytest.raises(TopicTapError, match="'chatter': expected '/topic pkg/msg/Type'"):
+        BagRecorderNode(tmp_path / "bag", context=ex.context,
+                        parameter_overrides={"topics": ["chatter"]})
