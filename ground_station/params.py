@@ -9,6 +9,8 @@ from runtime import param
 
 @dataclass(frozen=True)
 class RecorderParams:
+    folder: str = param(description="the bag folder, when the node is started from a launch "
+                        "file ('' = given by the app: --record writes OUT/bag)")
     topics: tuple[str, ...] = param(description="'topic pkg/msg/Type' entries tapped even "
                                     "when the transport cannot list its topics (DDS)")
     include: str = param(description="topics to record: a regular expression (fullmatch)")

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ground_station.bag import BagWriter
+from ground_station.errors import BagError
 from ground_station.params import RecorderParams
 from ground_station.topic_tap import TAP_QOS, TopicTap
 from runtime import Node
@@ -21,11 +22,16 @@ NODE_NAME = "bag_recorder"
 
 
 class BagRecorderNode(Node):
-    """Records into the bag folder ``folder`` (created; it must not hold a bag yet)."""
+    """Records into the bag folder ``folder`` (created; it must not hold a bag yet), or the
+    ``folder`` parameter's when started from a launch file."""
 
-    def __init__(self, folder: Path, **kwargs: Any) -> None:
+    def __init__(self, folder: Path | None = None, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(RecorderParams)
+        if folder is None:
+            if not self.params.folder:
+                raise BagError(f"{NODE_NAME}: no bag folder; set its 'folder' parameter")
+            folder = Path(self.params.folder)
         self.bag = BagWriter(folder, flush_period_s=self.params.flush_period_s)
         self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
                             discovery_period_s=self.params.discovery_period_s,

@@ -8,6 +8,7 @@ import pytest
 from rosbags.highlevel import AnyReader
 
 import interfaces
+from ground_station.bag import bag_info
 from ground_station.recorder_node import BagRecorderNode
 from ground_station.topic_tap import TopicTapError
 from quadmission.examples import Listener, Talker
@@ -72,3 +73,17 @@ def test_a_malformed_topics_entry_is_named(tmp_path: Path) -> None:
     with pytest.raises(TopicTapError, match="'chatter': expected '/topic pkg/msg/Type'"):
         BagRecorderNode(tmp_path / "bag", context=ex.context,
                         parameter_overrides={"topics": ["chatter"]})
+
+
+def test_a_launched_recorder_writes_where_its_parameter_says(tmp_path: Path) -> None:
+    from runtime import LaunchDescription, NodeSpec, launch
+
+    ex = DeterministicExecutor()
+    talker = Talker(context=ex.context)
+    ex.add_node(talker)
+    (recorder,) = launch(LaunchDescription((NodeSpec(
+        "ground_station.recorder_node:BagRecorderNode",
+        parameters={"folder": str(tmp_path / "launched")}),)), ex)
+    ex.spin_for(1.0)
+    recorder.destroy_node()
+    assert bag_info(tmp_path / "launched").message_count == talker.count
