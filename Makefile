@@ -8,12 +8,16 @@ OUT    ?= runs/default
 .PHONY: test sim lint typecheck bench mutate mutate-clean clean system-deps
 
 # System libraries the Python wheels need: Mesa EGL for headless MuJoCo rendering, libusb for
-# open3d's import. Installed with apt-get when missing and we are root; otherwise named.
+# open3d's import; and Debian's headless Chromium for the operator page's browser tests
+# (tests/ground_station, driven by Playwright). Installed with apt-get when missing and we
+# are root; otherwise named.
 SYSTEM_LIBS := libusb-1.0.so.0 libEGL.so.1
-SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri
+SYSTEM_BINS := /usr/bin/chromium
+SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver
 
 system-deps:
 	@missing=""; for lib in $(SYSTEM_LIBS); do ldconfig -p | grep -q "$$lib" || missing="$$missing $$lib"; done; \
+	for bin in $(SYSTEM_BINS); do test -x "$$bin" || missing="$$missing $$bin"; done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    echo "installing system libraries:$$missing" >&2; \
@@ -37,9 +41,10 @@ test: $(STAMP)
 	$(BIN)/mypy
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
 
-## make sim: set up .venv, then fly the square through the companion stack (default arena)
+## make sim: set up .venv, then fly the square through the companion stack (default arena),
+## recording its topics to OUT/bag (rosbag2 MCAP)
 sim: $(STAMP)
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission sim --out $(OUT)
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission sim --record --out $(OUT)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -13,6 +13,7 @@ import logging
 import math
 import os
 import sys
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +32,7 @@ exit codes:
   130  interrupted (Ctrl-C)
   141  the output pipe was closed (quadmission interfaces | head): stops quietly
 """
+_STARTED_HOST_S = time.monotonic()  # when the command started: simulated time 0 under --rtf
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a C tool killed by the signal returns
@@ -39,6 +41,7 @@ EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a C tool killed by the signal retu
 def project_errors() -> tuple[type[Exception], ...]:
     """The base class of each package's own errors: what the CLI reports as bad input."""
     from flight_control.errors import FlightControlError
+    from ground_station.errors import GroundStationError
     from interfaces.errors import InterfaceError
     from quadmission.errors import QuadmissionError
     from runtime.errors import RuntimeApiError
@@ -46,7 +49,7 @@ def project_errors() -> tuple[type[Exception], ...]:
     from sim.fcu.errors import SchedulerError
 
     return (InterfaceError, RuntimeApiError, SimError, SchedulerError, FlightControlError,
-            QuadmissionError)
+            GroundStationError, QuadmissionError)
 
 
 def _positive_seconds(text: str) -> float:
@@ -109,27 +112,17 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--transport", choices=("inproc", "dds"), default="inproc",
                    help="inproc: every node in this process, in simulated time (default); "
                         "dds: each process group in its own process on Cyclone DDS")
-    p.add_argument("--rtf", type=_non_negative, default=1.0,
-                   help="dds: simulated seconds per wall second the simulator paces to "
-                        "(default 1: real time; 0: as fast as it can)")
     p.add_argument("--domain-id", type=int, default=0, help="dds: the DDS domain id")
-
-
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value >= 0:
-        raise argparse.ArgumentTypeError(f"{text} must be >= 0")
-    return value
+    p.add_argument("--out", type=Path, default=Path("runs/launch"),
+                   help="folder for the recording (--record writes OUT/bag)")
+    _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
 
 
 def _launch_dds(args: argparse.Namespace, description: Any) -> int:
     from runtime.dds.launcher import process_specs, run_launch
 
     specs = process_specs(
-        description, domain_id=args.domain_id, rtf=args.rtf,
+        description, domain_id=args.domain_id, rtf=1.0 if args.rtf is None else args.rtf,
         duration_s=args.duration or 600.0,
         config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
     result = run_launch(specs)
@@ -157,12 +150,30 @@ def _launch_run(args: argparse.Namespace) -> int:
     nodes = launch(description, ex)
     print(f"launched {len(nodes)} node(s): "
           + ", ".join(n.get_fully_qualified_name() for n in nodes), file=sys.stderr)
-    steps = max(1, int(args.duration))
-    for _ in range(steps):
-        ex.spin_for(args.duration / steps)
-        print(f"  t={ex.now().seconds:.1f}s callbacks={ex.callbacks_run}", file=sys.stderr)
-    print(json.dumps({"sim_time_s": ex.now().seconds, "callbacks": ex.callbacks_run}))
+    services = _run_services(args)
+    parts: list[Any] = []
+    with services.attach(ex, parts, args.out):
+        pacer = parts[0] if parts else None
+        steps = max(1, int(args.duration))
+        for _ in range(steps):
+            _spin_paced(ex, args.duration / steps, pacer)
+            print(f"  t={ex.now().seconds:.1f}s callbacks={ex.callbacks_run}", file=sys.stderr)
+    print(json.dumps({"sim_time_s": ex.now().seconds, "callbacks": ex.callbacks_run}),
+          flush=True)
+    _linger(services, args)
     return 0
+
+
+def _spin_paced(ex: Any, seconds: float, pacer: Any) -> None:
+    """Spin ``seconds`` of executor time, in pacer-sized slices when pacing."""
+    if pacer is None:
+        ex.spin_for(seconds)
+        return
+    end = ex.now().nanoseconds + round(seconds * 1e9)
+    slice_ns = round(1e9 / pacer.rate_hz)
+    while ex.now().nanoseconds < end:
+        ex.spin_until(min(end, ex.now().nanoseconds + slice_ns))
+        pacer.update(ex.now().nanoseconds, None)
 
 
 # -- sim -------------------------------------------------------------------------------------
@@ -182,6 +193,12 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                        help="generate a random arena from --seed instead")
     p.add_argument("--lighting", choices=[preset.value for preset in Lighting], default=None,
                    help="lighting preset (default: the arena's own)")
+    p.add_argument("--target-robot", type=int, default=None, metavar="ID",
+                   help="mission: the robot marker to find (default: config/mission.yaml's)")
+    p.add_argument("--remove-pad", type=int, default=None, metavar="ID",
+                   help="mission: remove this pad from the field, which the mission still "
+                        "believes is there (seed 003, 4.2: the pad-search branch)")
+    _run_services_args(p)
 
 
 def _stderr(line: str) -> None:
@@ -194,10 +211,12 @@ def _sim_run(args: argparse.Namespace) -> int:
     from quadmission.scenarios import SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
 
+    services = _run_services(args)
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               random_arena=args.random_arena,
                               lighting=Lighting(args.lighting) if args.lighting else None,
-                              progress=_stderr)
+                              target_robot=args.target_robot, remove_pad=args.remove_pad,
+                              progress=_stderr, services=services)
     arena = "random" if args.random_arena else (args.arena or "default")
     _stderr(f"quadmission sim: scenario {args.scenario}, arena {arena}, seed {args.seed}, "
             f"out {args.out}")
@@ -205,12 +224,65 @@ def _sim_run(args: argparse.Namespace) -> int:
         report = SCENARIOS[args.scenario](options)
     except ScenarioRefused as exc:
         _stderr(f"REFUSED: {exc}")
+        services.close()
         return 2
     print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)},
-                     allow_nan=False))
+                     allow_nan=False), flush=True)
     _stderr(f"report: {args.out / REPORT_NAME}")
     _stderr(str(report.get("verdict", "")))
+    _linger(services, args)
     return 0 if report.get("ok", report.get("all_decoded", True)) else 1
+
+
+def _run_services_args(p: argparse.ArgumentParser) -> None:
+    """Options every run shares: pacing, recording, Foxglove, the operator page."""
+    p.add_argument("--rtf", type=_positive_float, default=None,
+                   help="pace the run to this many times real time (default: as fast as it "
+                        "goes; --gcs implies 1)")
+    p.add_argument("--record", action="store_true",
+                   help="record the topics to a rosbag2 MCAP in OUT/bag (crash-safe)")
+    p.add_argument("--foxglove", action="store_true",
+                   help="serve the live topics to Foxglove (ws://127.0.0.1:8765)")
+    p.add_argument("--foxglove-port", type=int, default=8765, help="Foxglove bridge port")
+    p.add_argument("--gcs", action="store_true",
+                   help="serve the operator page (http://127.0.0.1:8080) during the run")
+    p.add_argument("--host", default=None,
+                   help="address the page and the Foxglove bridge bind to (default loopback)")
+    p.add_argument("--port", type=int, default=None,
+                   help="operator page port (default config/ground_station.yaml's 8080; 0: any)")
+    p.add_argument("--gcs-linger", action="store_true",
+                   help="with --gcs: keep the page up after the run until Ctrl-C")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"{text} must be a positive number")
+    return value
+
+
+def _run_services(args: argparse.Namespace) -> Any:
+    from ground_station.server import resolve_token
+    from quadmission.run_services import GcsOptions, RunServices
+
+    gcs = GcsOptions(args.host, args.port, resolve_token()) if args.gcs else None
+    return RunServices(rtf=args.rtf, record=args.record, foxglove=args.foxglove,
+                       foxglove_host=args.host or "127.0.0.1", foxglove_port=args.foxglove_port,
+                       gcs=gcs,
+                       origin_host_s=_STARTED_HOST_S, say=_stderr)
+
+
+def _linger(services: Any, args: argparse.Namespace) -> None:
+    try:
+        if services.server is not None and args.gcs_linger:
+            _stderr(f"run over; the page stays at {services.server.url} until Ctrl-C")
+            while True:
+                time.sleep(1.0)
+    finally:
+        services.close()
 
 
 # -- fcu-schedule ----------------------------------------------------------------------------
@@ -289,15 +361,121 @@ def _latency_run(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- bag -----------------------------------------------------------------------------------
+def _bag_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("action", choices=("info", "repair"),
+                   help="info: topics, counts, duration; repair: re-index a killed recording")
+    p.add_argument("bag", type=Path, help="a bag folder (OUT/bag) or its .mcap file")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def _bag_run(args: argparse.Namespace) -> int:
+    from ground_station.bag import bag_info, repair_bag
+
+    if args.action == "repair":
+        result = repair_bag(args.bag)
+        if args.json:
+            print(json.dumps(result.to_json(), indent=2))
+        elif result.repaired:
+            print(f"repaired {result.path}: {result.messages} messages on {result.topics} "
+                  f"topics kept, {result.bytes_dropped} bytes of cut tail dropped")
+        else:
+            print(f"{result.path} is already indexed ({result.messages} messages); unchanged")
+        return 0
+    info = bag_info(args.bag)
+    if args.json:
+        print(json.dumps(info.to_json(), indent=2))
+        return 0
+    state = "indexed" if info.indexed else "NOT indexed (killed?): run quadmission bag repair"
+    print(f"{info.path}: {state}")
+    print(f"duration {info.duration_s:.3f} s, {info.message_count} messages, "
+          f"{len(info.topics)} topics")
+    width = max((len(t.name) for t in info.topics), default=0)
+    for t in info.topics:
+        print(f"  {t.name:<{width}}  {t.count:>8}  {t.msgtype}")
+    return 0
+
+
+# -- gcs -------------------------------------------------------------------------------------
+def _gcs_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--replay", type=Path, required=True,
+                   help="a recorded bag (OUT/bag) to play into the page")
+    p.add_argument("--arena", type=Path, default=None,
+                   help="arena YAML for the map (default: the run's arena.yaml beside the bag)")
+    p.add_argument("--rtf", type=_positive_float, default=1.0,
+                   help="playback speed, times real time")
+    p.add_argument("--host", default=None,
+                   help="address the page binds to (default loopback)")
+    p.add_argument("--port", type=int, default=None, help="page port (default 8080; 0: any)")
+    p.add_argument("--foxglove", action="store_true",
+                   help="also serve the replayed topics to Foxglove")
+    p.add_argument("--foxglove-port", type=int, default=8765)
+
+
+def _gcs_run(args: argparse.Namespace) -> int:
+    from ground_station.player import BagPlayer
+    from quadmission.run_services import GcsOptions, RunServices
+    from runtime import DeterministicExecutor
+    from sim.arena import load_arena
+
+    arena_file = args.arena or next(
+        (p / "arena.yaml" for p in (args.replay, args.replay.parent, args.replay.parent.parent)
+         if (p / "arena.yaml").is_file()), None)
+    arena = load_arena(arena_file) if arena_file else None
+    from ground_station.server import resolve_token
+
+    services = RunServices(rtf=args.rtf, foxglove=args.foxglove,
+                           foxglove_host=args.host or "127.0.0.1",
+                           foxglove_port=args.foxglove_port,
+                           gcs=GcsOptions(args.host, args.port, resolve_token()), say=_stderr)
+    ex = DeterministicExecutor()
+    player = BagPlayer(args.replay, ex)
+    parts: list[Any] = []
+    try:
+        with services.attach(ex, parts, args.replay.parent, arena):
+            _stderr(f"replaying {player.path} at {args.rtf:g}x; Ctrl-C stops")
+            wall0 = time.monotonic()
+            while (offset := player.next_offset_ns()) is not None:
+                ahead = offset / 1e9 / args.rtf - (time.monotonic() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+                player.step()
+            _stderr(f"replayed {player.played} messages; the page stays up until Ctrl-C")
+            while True:
+                time.sleep(1.0)
+    finally:
+        player.close()
+        services.close()
+
+
+# -- fsm -------------------------------------------------------------------------------------
+def _fsm_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--diagram", action="store_true",
+                   help="the README block: a mermaid state diagram and the error policy")
+
+
+def _fsm_run(args: argparse.Namespace) -> int:
+    from fsm.diagram import readme_block, transition_table
+
+    print(readme_block() if args.diagram else transition_table(), end="")
+    return 0
+
+
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
     Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
             _fcu_schedule_args, _fcu_schedule_run),
     Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
             _latency_args, _latency_run),
+    Command("fsm", "the mission state machine's transitions (--diagram: mermaid, for the README)",
+            _fsm_args, _fsm_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
     Command("interfaces", "list message types, or show one: field types and defaults",
             _interfaces_args, _interfaces_run),
+    Command("bag", "a recorded rosbag2 MCAP: info (topics, counts, duration) or repair",
+            _bag_args, _bag_run),
+    Command("gcs", "the operator page over a recorded run (live runs: sim --gcs)",
+            _gcs_args, _gcs_run),
 )
 
 

@@ -61,7 +61,12 @@ def _view(picture: FlightPicture) -> tuple[tuple[float, float], tuple[float, flo
 
 
 def _draw_arena(ax: Axes, picture: FlightPicture) -> None:
-    arena = picture.arena
+    draw_arena(ax, picture.arena, picture.altitude)
+
+
+def draw_arena(ax: Axes, arena: ArenaSpec, altitude: float) -> None:
+    """Walls, pads (the start pad outlined), obstacles (told apart by ``altitude``) and the
+    robots' paths, in map-frame metres."""
     sx, sy = arena.field.size[0], arena.field.size[1]
     t = arena.field.wall_thickness
     for x, y, w, h in ((-t, -t, t, sy + 2 * t), (sx, -t, t, sy + 2 * t),
@@ -79,10 +84,10 @@ def _draw_arena(ax: Axes, picture: FlightPicture) -> None:
     low_label = tall_label = False
     for box in arena.obstacles:
         r = box.footprint
-        tall = box.blocks_flight(picture.altitude)
+        tall = box.blocks_flight(altitude)
         label = None
         if tall and not tall_label:
-            label, tall_label = f"obstacle above {picture.altitude:g} m", True
+            label, tall_label = f"obstacle above {altitude:g} m", True
         elif not tall and not low_label:
             label, low_label = "low obstacle (flown over)", True
         ax.add_patch(Rectangle((r.xmin, r.ymin), r.xmax - r.xmin, r.ymax - r.ymin,
@@ -169,4 +174,4 @@ def save_path_figure(path: Path, picture: FlightPicture) -> None:
     fig.savefig(path)
 
 
-__all__ = ["FlightPicture", "save_path_figure"]
+__all__ = ["FlightPicture", "draw_arena", "save_path_figure"]

@@ -43,7 +43,11 @@ class ScenarioOptions:
     arena: Path | None = None  # None: config/arenas/contest.yaml
     random_arena: bool = False  # generate an arena from the seed instead
     lighting: Lighting | None = None  # None: the arena file's preset
+    target_robot: int | None = None  # mission: the robot to find (None: config/mission.yaml)
+    remove_pad: int | None = None  # mission: take this pad out of the field (seed 003, 4.2)
     progress: Callable[[str], None] = field(default=lambda _line: None, compare=False)
+    # pacing, recording, Foxglove, the operator page (quadmission.run_services.RunServices)
+    services: Any = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if self.random_arena and self.arena is not None:

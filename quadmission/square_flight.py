@@ -28,9 +28,11 @@ from quadmission.assembly import start_companion
 from quadmission.errors import SquareDoesNotFit
 from quadmission.plots import FlightPicture, save_path_figure
 from quadmission.report import write_report
+from quadmission.run_services import attach_services
 from quadmission.square_eval import SetpointRecorder, rounded, tracking
 from quadmission.square_fit import CLEARANCE, SquarePlan, fit_square
 from quadmission.square_pilot import PilotPhase, SquarePilot
+from quadmission.square_status import SquareStatusNode
 from sim.arena import ArenaSpec
 from sim.fcu.link import LinkDirection
 from sim.fcu.sitl import Sitl, build_sitl
@@ -120,12 +122,14 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     pilot = SquarePilot(plan.corners(), altitude=plan.altitude, speed=speed,
                         land_speed=LAND_SPEED, context=context)
     recorder = SetpointRecorder(context=context)
-    for node in (pilot, recorder):
+    status = SquareStatusNode(pilot, plan.outline(), context=context)
+    for node in (pilot, recorder, status):
         sitl.executor.add_node(node)
     sitl.extra_parts.append(_Progress(pilot, options.progress))
     if setup is not None:
         setup(sitl)
-    result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
+    with attach_services(options, sitl.executor, sitl.extra_parts, arena, sitl.scene):
+        result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
     truth, crash = result.trajectory, result.crash
     end_s = crash.t_s if crash is not None else result.sim_time_s
 

@@ -1,0 +1,90 @@
+"""Raw taps on every topic a node can discover: what ``ros2 bag record -a`` and a
+Foxglove bridge do. Samples arrive as CDR bytes, never decoded.
+
+Discovery asks the transport for ``topic_names_and_types()`` (the in-process transport
+offers it) every ``discovery_period_s`` of node time; the ``topics`` given as
+``"name pkg/msg/Type"`` are tapped from the start, for a transport that cannot list its
+topics (DDS: give them in the node's YAML). Readers are BEST_EFFORT and VOLATILE, so
+they match every writer (QoS request/offer rules) and never slow one down.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from typing import Any
+
+import interfaces
+from ground_station.errors import GroundStationError
+from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from runtime import Endpoint, Node
+from runtime.transport import Reader
+
+
+class TopicTapError(GroundStationError):
+    """A topics entry that is not '/topic pkg/msg/Type'."""
+
+
+#: What a tap requests: matches any writer.
+TAP_QOS = QoSProfile(depth=100, history=HistoryPolicy.KEEP_LAST,
+                     reliability=ReliabilityPolicy.BEST_EFFORT,
+                     durability=DurabilityPolicy.VOLATILE)
+
+NewTopic = Callable[[str, str], Any]  # (topic, msgtype) -> a handle given back with samples
+Sample = Callable[[Any, int, bytes], None]  # (handle, t_ns, cdr)
+
+
+class TopicTap:
+    """Taps the topics ``node`` discovers whose names match ``include`` and not
+    ``exclude`` (regular expressions, ``re.fullmatch``)."""
+
+    def __init__(self, node: Node, *, include: str, exclude: str, discovery_period_s: float,
+                 on_new_topic: NewTopic, on_sample: Sample,
+                 topics: tuple[str, ...] = ()) -> None:
+        self._node = node
+        self._include = re.compile(include)
+        self._exclude = re.compile(exclude) if exclude else None
+        self._on_new_topic = on_new_topic
+        self._on_sample = on_sample
+        self._readers: dict[str, Reader] = {}
+        self.topics: dict[str, str] = {}
+        for entry in topics:
+            name, _, msgtype = entry.strip().partition(" ")
+            if not name.startswith("/") or not msgtype.strip():
+                raise TopicTapError(f"topics entry {entry!r}: expected '/topic pkg/msg/Type'")
+            interfaces.get_message(msgtype.strip())  # an unknown type is named here
+            self._tap(name, msgtype.strip())
+        self.discover()
+        node.create_timer(discovery_period_s, self.discover)
+
+    def _wanted(self, name: str) -> bool:
+        if not self._include.fullmatch(name):
+            return False
+        return not (self._exclude and self._exclude.fullmatch(name))
+
+    def discover(self) -> None:
+        """Tap the topics that appeared since the last call."""
+        listing = getattr(self._node.context.transport, "topic_names_and_types", None)
+        if listing is None:
+            return
+        for name, msgtype in listing():
+            if name not in self._readers and self._wanted(name):
+                self._tap(name, msgtype)
+
+    def _tap(self, name: str, msgtype: str) -> None:
+        handle = self._on_new_topic(name, msgtype)
+
+        def on_sample(data: bytes, _rid: Any, handle: Any = handle) -> None:
+            self._on_sample(handle, self._node.get_clock().now().nanoseconds, data)
+
+        self._readers[name] = self._node.context.transport.create_reader(
+            Endpoint(name, msgtype, TAP_QOS), on_sample)
+        self.topics[name] = msgtype
+
+    def close(self) -> None:
+        for reader in self._readers.values():
+            reader.close()
+        self._readers.clear()
+
+
+__all__ = ["TAP_QOS", "TopicTap", "TopicTapError"]

@@ -1,0 +1,360 @@
+"""ArUco recognition on the downward camera (seed 003 sec. 3.3.1, eq. 1-2). Pure: numpy
+and OpenCV, no runtime.
+
+Pipeline (:class:`ArucoScanner`): grey image -> optional preprocessing passes (tried in
+order until every wanted marker is found; which passes, and in which order, was chosen by
+measurement: ``benchmarks/bench_aruco_table1.py``) -> ``cv2.aruco.ArucoDetector``
+(DICT_7X7_1000, sub-pixel corners) -> an ID whitelist per :class:`ScanMode` -> for each
+marker the centre by eq. 1, the image-centre error, eq. 2 into the body frame, and the
+metric offset and height from the pinhole model and the marker's known size
+(``solvePnP`` with ``SOLVEPNP_IPPE_SQUARE``).
+
+Frames:
+
+- image: pixel ``(u, v)``, u to the right, v down, origin at the top-left pixel's centre.
+  The down camera is mounted with image up = body forward and image right = body right
+  (as in seed 003), looking straight down;
+- camera optical frame (OpenCV): x right, y down, z along the optical axis (down);
+- body frame: **FLU** (x forward, y left, z up), REP 103. The seed writes eq. 2 in the
+  NED body frame (FRD): ``e_x = -e_y^v, e_y = e_x^v``. In FLU the same rotation reads
+  ``e_x = -e_y^v, e_y = -e_x^v`` (y left = -right); :func:`camera_to_body` implements
+  the FLU form and :func:`camera_to_body_frd` the seed's, and a test checks they agree.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+Image = npt.NDArray[np.uint8]
+
+DICTIONARY_NAME = "DICT_7X7_1000"
+PAD_IDS = frozenset(range(1, 11))  # landing pads (seed 003)
+ROBOT_IDS = frozenset(range(12, 27))  # ground robots (seed 003)
+
+
+class ScanMode(Enum):
+    """Which markers the scanner reports (seed 003: pads 1-10, robots 12-26)."""
+
+    PADS = "pads"
+    ROBOTS = "robots"
+    BOTH = "both"
+
+    def accepts(self, marker_id: int) -> bool:
+        if self is ScanMode.PADS:
+            return marker_id in PAD_IDS
+        if self is ScanMode.ROBOTS:
+            return marker_id in ROBOT_IDS
+        return marker_id in PAD_IDS or marker_id in ROBOT_IDS
+
+
+class MarkerKind(Enum):
+    """What a marker is printed on."""
+
+    PAD = "pad"
+    ROBOT = "robot"
+    OTHER = "other"
+
+    @classmethod
+    def of(cls, marker_id: int) -> MarkerKind:
+        if marker_id in PAD_IDS:
+            return cls.PAD
+        if marker_id in ROBOT_IDS:
+            return cls.ROBOT
+        return cls.OTHER
+
+
+class Preprocess(Enum):
+    """A preprocessing pass before detection."""
+
+    NONE = "none"  # the grey image as it is
+    CLAHE = "clahe"  # contrast-limited adaptive histogram equalisation
+    DENOISE = "denoise"  # Gaussian blur, then CLAHE (for shot noise in the dark)
+    UPSCALE = "upscale"  # 2x cubic upscale of a light blur (small markers, few px per module)
+
+
+@dataclass(frozen=True)
+class ScannerSettings:
+    """How the scanner detects. ``passes`` are tried in order; the defaults are the
+    measured choice (Table 1 benchmark). ``opencv_defaults()`` is the seed's baseline."""
+
+    passes: tuple[Preprocess, ...] = (Preprocess.NONE, Preprocess.DENOISE, Preprocess.UPSCALE)
+    subpixel: bool = True  # CORNER_REFINE_SUBPIX
+    adaptive_win_min: int = 3  # px, adaptive threshold windows (OpenCV: 3, 23, 10)
+    adaptive_win_max: int = 53
+    adaptive_win_step: int = 10
+    min_perimeter_rate: float = 0.02  # of the image's larger side (OpenCV: 0.03)
+    clahe_clip: float = 3.0
+    clahe_tile: int = 8
+    blur_sigma_px: float = 1.0
+    upscale: float = 2.0
+
+    def __post_init__(self) -> None:
+        if not self.passes:
+            raise ValueError("ScannerSettings.passes: give at least one pass")
+        if self.adaptive_win_min < 3 or self.adaptive_win_max < self.adaptive_win_min:
+            raise ValueError(
+                f"ScannerSettings: adaptive windows [{self.adaptive_win_min}, "
+                f"{self.adaptive_win_max}] px must satisfy 3 <= min <= max")
+        if self.adaptive_win_step < 1:
+            raise ValueError(f"ScannerSettings.adaptive_win_step: {self.adaptive_win_step} < 1")
+        if not 0.0 < self.min_perimeter_rate < 4.0:
+            raise ValueError(
+                f"ScannerSettings.min_perimeter_rate: {self.min_perimeter_rate} not in (0, 4)")
+        if self.upscale < 1.0:
+            raise ValueError(f"ScannerSettings.upscale: {self.upscale} must be >= 1")
+
+    @classmethod
+    def opencv_defaults(cls) -> ScannerSettings:
+        """OpenCV's ``DetectorParameters()`` as they come, one pass, no refinement: the
+        seed's baseline."""
+        return cls(passes=(Preprocess.NONE,), subpixel=False, adaptive_win_min=3,
+                   adaptive_win_max=23, adaptive_win_step=10, min_perimeter_rate=0.03)
+
+
+@dataclass(frozen=True)
+class Marker:
+    """One detected marker, measured in the image, the camera and the body frame."""
+
+    id: int
+    kind: MarkerKind
+    corners_px: FloatArray  # (4, 2), clockwise from the marker's top-left, as OpenCV gives
+    center_px: FloatArray  # (2,), eq. 1
+    error_px: FloatArray  # (2,), (e_x^v, e_y^v): centre minus the principal point, image axes
+    position_cam: FloatArray  # (3,) m, marker centre in the camera optical frame (PnP)
+    offset_body: FloatArray  # (2,) m, marker centre from the optical axis, body FLU x, y (eq. 2)
+    height: float  # m, camera above the marker plane, along the optical axis
+    rotation_cam: FloatArray = field(repr=False)  # (3, 3), marker -> camera optical frame
+    reprojection_error_px: float = 0.0  # RMS over the four corners
+    side_length: float = 0.0  # m, printed side used for the metric estimate
+
+
+# --- eq. 1, eq. 2 ------------------------------------------------------------------------
+def marker_center(corners: npt.ArrayLike) -> FloatArray:
+    """Seed 003 eq. 1: the intersection of the diagonals (P1, P3) and (P2, P4).
+
+    Under perspective this is the exact image of the square's centre (the corner mean is
+    not). Raises ValueError for a degenerate quadrilateral (parallel diagonals)."""
+    p = np.asarray(corners, dtype=np.float64).reshape(4, 2)
+    (x1, y1), (x2, y2), (x3, y3), (x4, y4) = p
+    den = (x1 - x3) * (y2 - y4) - (x2 - x4) * (y1 - y3)
+    if abs(den) < 1e-12:
+        raise ValueError(f"marker_center: the diagonals of {p.tolist()} are parallel")
+    a = x1 * y3 - x3 * y1
+    b = x4 * y2 - x2 * y4
+    xc = ((x2 - x4) * a + (x1 - x3) * b) / den
+    yc = ((y1 - y3) * b + (y2 - y4) * a) / den
+    return np.array([xc, yc])
+
+
+def image_error(center_px: npt.ArrayLike, cx: float, cy: float) -> FloatArray:
+    """The centre expressed from the principal point: ``(e_x^v, e_y^v)`` [px], image axes."""
+    c = np.asarray(center_px, dtype=np.float64)
+    return np.array([c[0] - cx, c[1] - cy])
+
+
+def camera_to_body(error_v: npt.ArrayLike) -> FloatArray:
+    """Eq. 2 in the FLU body frame: ``(x forward, y left) = (-e_y^v, -e_x^v)``."""
+    ev = np.asarray(error_v, dtype=np.float64)
+    return np.array([-ev[1], -ev[0]])
+
+
+def camera_to_body_frd(error_v: npt.ArrayLike) -> FloatArray:
+    """Eq. 2 as the seed writes it (NED body, FRD): ``(e_x, e_y) = (-e_y^v, e_x^v)``."""
+    ev = np.asarray(error_v, dtype=np.float64)
+    return np.array([-ev[1], ev[0]])
+
+
+def body_offset(center_px: npt.ArrayLike, height: float, camera: FloatArray) -> FloatArray:
+    """The marker centre from the optical axis [m], body FLU (x, y): the eq. 1 centre,
+    eq. 2, and the pinhole model at ``height`` [m] along the axis (``camera`` is K)."""
+    fx, fy, cx, cy = camera[0, 0], camera[1, 1], camera[0, 2], camera[1, 2]
+    ev = image_error(center_px, cx, cy)
+    return camera_to_body(np.array([ev[0] * height / fx, ev[1] * height / fy]))
+
+
+def optical_to_body(v_cam: npt.ArrayLike) -> FloatArray:
+    """A vector from the down camera's optical frame into body FLU (image up = forward)."""
+    v = np.asarray(v_cam, dtype=np.float64)
+    return np.array([-v[1], -v[0], -v[2]])
+
+
+# --- detection ---------------------------------------------------------------------------
+@functools.cache
+def _dictionary() -> cv2.aruco.Dictionary:
+    return cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_7X7_1000)
+
+
+def _detector(settings: ScannerSettings) -> cv2.aruco.ArucoDetector:
+    params = cv2.aruco.DetectorParameters()
+    if settings != ScannerSettings.opencv_defaults():
+        params.adaptiveThreshWinSizeMin = settings.adaptive_win_min
+        params.adaptiveThreshWinSizeMax = settings.adaptive_win_max
+        params.adaptiveThreshWinSizeStep = settings.adaptive_win_step
+        params.minMarkerPerimeterRate = settings.min_perimeter_rate
+    if settings.subpixel:
+        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    return cv2.aruco.ArucoDetector(_dictionary(), params)
+
+
+def to_grey(image: npt.ArrayLike) -> Image:
+    """An (H, W) uint8 grey image of an RGB (H, W, 3) or grey uint8 image."""
+    a = np.asarray(image)
+    if a.dtype != np.uint8:
+        raise ValueError(f"image: expected uint8, got {a.dtype}")
+    if a.ndim == 3 and a.shape[2] == 3:
+        return np.asarray(cv2.cvtColor(a, cv2.COLOR_RGB2GRAY), dtype=np.uint8)
+    if a.ndim == 2:
+        return a
+    raise ValueError(f"image: expected (H, W) or (H, W, 3), got shape {a.shape}")
+
+
+class ArucoScanner:
+    """Detects DICT_7X7_1000 markers and measures them (see the module docstring)."""
+
+    def __init__(self, settings: ScannerSettings | None = None) -> None:
+        self.settings = settings or ScannerSettings()
+        self._detector = _detector(self.settings)
+        self._clahe = cv2.createCLAHE(clipLimit=self.settings.clahe_clip,
+                                      tileGridSize=(self.settings.clahe_tile,) * 2)
+
+    def _prepared(self, grey: Image, how: Preprocess) -> tuple[Image, float]:
+        s = self.settings
+        if how is Preprocess.NONE:
+            return grey, 1.0
+        if how is Preprocess.CLAHE:
+            return np.asarray(self._clahe.apply(grey), dtype=np.uint8), 1.0
+        blurred = cv2.GaussianBlur(grey, (0, 0), s.blur_sigma_px)
+        if how is Preprocess.DENOISE:
+            return np.asarray(self._clahe.apply(blurred), dtype=np.uint8), 1.0
+        big = cv2.resize(blurred, None, fx=s.upscale, fy=s.upscale,
+                         interpolation=cv2.INTER_CUBIC)
+        return np.asarray(big, dtype=np.uint8), s.upscale
+
+    def find(self, image: npt.ArrayLike, mode: ScanMode = ScanMode.BOTH,
+             wanted: Iterable[int] | None = None) -> dict[int, FloatArray]:
+        """``{id: corners (4, 2) px}`` of the accepted markers in ``image``.
+
+        Passes run in order; a pass stops the search once it found every ``wanted`` ID
+        (any accepted marker when ``wanted`` is None)."""
+        grey = to_grey(image)
+        want = None if wanted is None else set(wanted)
+        found: dict[int, FloatArray] = {}
+        for how in self.settings.passes:
+            prepared, scale = self._prepared(grey, how)
+            corners, ids, _ = self._detector.detectMarkers(prepared)
+            if ids is not None:
+                for marker_id, c in zip(ids.ravel(), corners, strict=True):
+                    mid = int(marker_id)
+                    if mode.accepts(mid) and mid not in found:
+                        # pixel centres: (u + 0.5) / s - 0.5 maps the scaled grid back
+                        pts = (np.asarray(c, dtype=np.float64).reshape(4, 2) + 0.5) / scale - 0.5
+                        found[mid] = pts
+            if found and (want is None or want <= found.keys()):
+                break
+        return found
+
+    def detect(self, image: npt.ArrayLike, camera: npt.ArrayLike,
+               side_lengths: dict[MarkerKind, float], mode: ScanMode = ScanMode.BOTH,
+               wanted: Iterable[int] | None = None) -> list[Marker]:
+        """Every accepted marker, measured (``camera`` is the 3x3 K, no distortion;
+        ``side_lengths`` the printed side [m] of each kind). Sorted by ID."""
+        k = np.asarray(camera, dtype=np.float64).reshape(3, 3)
+        markers = []
+        for marker_id, corners in sorted(self.find(image, mode, wanted).items()):
+            kind = MarkerKind.of(marker_id)
+            side = side_lengths.get(kind)
+            if side is None or side <= 0.0:
+                continue
+            markers.append(measure(marker_id, corners, k, side))
+        return markers
+
+
+def _square_points(side: float) -> FloatArray:
+    h = side / 2.0
+    # OpenCV's marker corner order: top-left, top-right, bottom-right, bottom-left
+    return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
+
+
+def measure(marker_id: int, corners_px: npt.ArrayLike, camera: FloatArray,
+            side: float) -> Marker:
+    """Centre (eq. 1), image error, body offset (eq. 2 + pinhole) and height of one
+    marker of printed side ``side`` [m] seen with camera matrix ``camera``."""
+    corners = np.asarray(corners_px, dtype=np.float64).reshape(4, 2)
+    obj = _square_points(side)
+    ok, rvec, tvec = cv2.solvePnP(obj, corners, camera, None, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+    if not ok:
+        raise ValueError(f"marker {marker_id}: solvePnP found no pose for {corners.tolist()}")
+    projected, _ = cv2.projectPoints(obj, rvec, tvec, camera, None)
+    reproj = float(np.sqrt(np.mean(np.sum((projected.reshape(4, 2) - corners) ** 2, axis=1))))
+    t = np.asarray(tvec, dtype=np.float64).reshape(3)
+    rotation, _ = cv2.Rodrigues(rvec)
+    center = marker_center(corners)
+    height = float(t[2])
+    return Marker(
+        id=marker_id,
+        kind=MarkerKind.of(marker_id),
+        corners_px=corners,
+        center_px=center,
+        error_px=image_error(center, camera[0, 2], camera[1, 2]),
+        position_cam=t,
+        offset_body=body_offset(center, height, camera),
+        height=height,
+        rotation_cam=np.asarray(rotation, dtype=np.float64),
+        reprojection_error_px=reproj,
+        side_length=side,
+    )
+
+
+def marker_yaw_in_body(marker: Marker) -> float:
+    """The marker's +y axis (its 'up' edge) as a heading in the body frame [rad, FLU]."""
+    up_body = optical_to_body(marker.rotation_cam[:, 1])
+    return math.atan2(up_body[1], up_body[0])
+
+
+def annotate(image: npt.ArrayLike, markers: Sequence[Marker]) -> Image:
+    """An RGB copy of ``image`` with each marker's outline, ID, centre and height."""
+    a = np.asarray(image, dtype=np.uint8)
+    out = cv2.cvtColor(a, cv2.COLOR_GRAY2RGB) if a.ndim == 2 else a.copy()
+    h, w = out.shape[:2]
+    cv2.drawMarker(out, (w // 2, h // 2), (255, 255, 0), cv2.MARKER_CROSS, 16, 1)
+    for m in markers:
+        pts = np.round(m.corners_px).astype(np.int32).reshape(-1, 1, 2)
+        colour = (0, 255, 0) if m.kind is MarkerKind.PAD else (255, 64, 0)
+        cv2.polylines(out, [pts], True, colour, 2)
+        c = (round(float(m.center_px[0])), round(float(m.center_px[1])))
+        cv2.drawMarker(out, c, colour, cv2.MARKER_TILTED_CROSS, 12, 2)
+        cv2.putText(out, f"{m.kind.value} {m.id} h={m.height:.2f}m", (c[0] + 8, c[1] - 8),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA)
+    return np.asarray(out, dtype=np.uint8)
+
+
+__all__ = [
+    "DICTIONARY_NAME",
+    "PAD_IDS",
+    "ROBOT_IDS",
+    "ArucoScanner",
+    "Marker",
+    "MarkerKind",
+    "Preprocess",
+    "ScanMode",
+    "ScannerSettings",
+    "annotate",
+    "body_offset",
+    "camera_to_body",
+    "camera_to_body_frd",
+    "image_error",
+    "marker_center",
+    "marker_yaw_in_body",
+    "measure",
+    "optical_to_body",
+    "to_grey",
+]

@@ -1,0 +1,33 @@
+"""The README's state diagram is the one the code generates, and it draws every transition."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from fsm.diagram import BEGIN, END, mermaid, readme_block
+from fsm.mission_table import ERROR_POLICY, TRANSITIONS
+from quadmission.cli import main
+
+README = Path(__file__).resolve().parents[2] / "README.md"
+
+
+def test_the_readme_block_is_what_quadmission_fsm_diagram_prints(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fsm", "--diagram"]) == 0
+    printed = capsys.readouterr().out
+    assert printed == readme_block()
+    text = README.read_text(encoding="utf-8")
+    start, end = text.index(BEGIN), text.index(END) + len(END) + 1
+    assert text[start:end] == printed, "README is stale: paste `quadmission fsm --diagram`"
+
+
+def test_the_diagram_has_one_edge_per_transition_and_a_row_per_cause() -> None:
+    edges = re.findall(r"^    (\w+) --> (\w+) : (\w+)", mermaid(), re.M)
+    triggers = sorted(t.trigger for t in TRANSITIONS)
+    assert sorted(e[2] for e in edges if e[2] != "resume") == triggers
+    assert any(e[:3] == ("paused", "mission", "resume") for e in edges)
+    for cause, policy in ERROR_POLICY.items():
+        assert f"| `{cause.value}` | {policy.reaction.name} |" in readme_block()
