@@ -317,6 +317,19 @@ class VehicleState:
         )
 
     @classmethod
+    def from_unit(cls, position_ned: Vec3, velocity_ned: Vec3, q: Quat,
+                  angular_velocity_frd: Vec3) -> VehicleState:
+        """A state from floats the caller vouches for (finite, ``q`` of unit norm): the
+        estimator's 500 Hz output, without the checks and copies of the constructor."""
+        state = object.__new__(cls)
+        for name, values in (("position_ned", position_ned), ("velocity_ned", velocity_ned),
+                             ("q", q), ("angular_velocity_frd", angular_velocity_frd)):
+            arr = np.array(values, dtype=np.float64)
+            arr.setflags(write=False)
+            object.__setattr__(state, name, arr)
+        return state
+
+    @classmethod
     def at_rest(
         cls, position_ned: npt.ArrayLike = (0.0, 0.0, 0.0), yaw: float = 0.0
     ) -> VehicleState:
@@ -777,6 +790,8 @@ def _desaturate(
     The total gain only shrinks the contribution (kept in ``[min_gain, 0]``): a torque is
     scaled towards zero, never inverted; thrust is only reduced (airmode off).
     """
+    if lo <= min(sp) and max(sp) <= hi:
+        return sp, 0.0  # nothing saturated: both passes would add zero
     total = 0.0
     for scale in (1.0, 0.5):
         gain = scale * _desaturation_gain(vector, sp, lo, hi)

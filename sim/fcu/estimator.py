@@ -375,9 +375,8 @@ class Estimator:
         x, p = self._x, self._p
         return EstimatorOutput(
             time_us=self._time_us,
-            state=VehicleState(np.array((x[0][0], x[1][0], x[2][0])),
-                               np.array((x[0][1], x[1][1], x[2][1])), np.array(self._q),
-                               np.array(self._rate)),
+            state=VehicleState.from_unit((x[0][0], x[1][0], x[2][0]),
+                                         (x[0][1], x[1][1], x[2][1]), self._q, self._rate),
             position_variance_ned=np.array((p[0][0], p[1][0], p[2][0])),
             velocity_variance_ned=np.array((p[0][3], p[1][3], p[2][3])),
             accel_bias_ned=np.array((x[0][2], x[1][2], x[2][2])),
