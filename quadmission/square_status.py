@@ -37,12 +37,11 @@ class SquareStatusNode(Node):
                                                qos_profile_default)
         self.path_pub = self.create_publisher("nav_msgs/msg/Path", "/navigation/path",
                                               qos_profile_default)
-        self.path = interfaces.new("nav_msgs/msg/Path", poses=[
+        self._poses = [
             interfaces.new("geometry_msgs/msg/PoseStamped", pose=interfaces.new(
                 "geometry_msgs/msg/Pose", position=interfaces.new(
                     "geometry_msgs/msg/Point", x=float(x), y=float(y), z=pilot.altitude)))
-            for x, y in outline])
-        self.path.header.frame_id = "map"
+            for x, y in outline]
         self._previous = self._phase()
         self._current = self._previous
         self.create_timer(STATUS_PERIOD_S, self._tick)
@@ -63,8 +62,12 @@ class SquareStatusNode(Node):
                              state=state, sub_state=sub)
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 10**9)
         self.state_pub.publish(msg)
-        self.path.header.stamp.sec, self.path.header.stamp.nanosec = divmod(stamp, 10**9)
-        self.path_pub.publish(self.path)
+        # a new Path each time: in one process subscribers keep the object published
+        # (the poses never change, so they are shared)
+        path = interfaces.new("nav_msgs/msg/Path", poses=self._poses)
+        path.header.frame_id = "map"
+        path.header.stamp.sec, path.header.stamp.nanosec = divmod(stamp, 10**9)
+        self.path_pub.publish(path)
 
 
 __all__ = ["STATE_OF_STEP", "SquareStatusNode"]
