@@ -30,7 +30,7 @@ from typing import Any
 
 from ground_station.commands import OperatorCommand, parse_command
 from ground_station.diagram import diagram
-from ground_station.errors import CommandError
+from ground_station.errors import CommandError, GroundStationError
 from ground_station.view import OperatorView
 
 TOKEN_ENV = "QUADMISSION_GCS_TOKEN"
@@ -71,7 +71,12 @@ class GroundStationServer:
         self.config = config
         self._log_lock = threading.Lock()
         handler = type("Handler", (_Handler,), {"station": self})
-        self.httpd = ThreadingHTTPServer((config.host, config.port), handler)
+        try:
+            self.httpd = ThreadingHTTPServer((config.host, config.port), handler)
+        except OSError as exc:
+            raise GroundStationError(f"the ground station cannot serve on "
+                                     f"{config.host}:{config.port}: {exc.strerror or exc}; "
+                                     "choose another --port (0: any free one)") from None
         self.httpd.daemon_threads = True
         host, port = self.httpd.server_address[:2]
         self.host = host.decode() if isinstance(host, bytes) else str(host)
@@ -92,7 +97,11 @@ class GroundStationServer:
         return self
 
     def stop(self) -> None:
-        self.httpd.shutdown()
+        """Stop serving and close the socket (also when :meth:`start` was never called:
+        ``shutdown()`` would then wait forever)."""
+        if self._thread.is_alive():
+            self.httpd.shutdown()
+            self._thread.join()
         self.httpd.server_close()
 
     def authorised(self, header: str | None) -> bool:
@@ -163,7 +172,14 @@ class _Handler(BaseHTTPRequestHandler):
             self._json(HTTPStatus.NOT_FOUND, {"error": f"no endpoint {self.path}"})
             return
         client = self.client_address[0]
-        length = int(self.headers.get("Content-Length") or 0)
+        try:
+            length = int(self.headers.get("Content-Length") or 0)
+        except ValueError:
+            length = -1
+        if length < 0:
+            self._json(HTTPStatus.BAD_REQUEST,
+                       {"ok": False, "error": "Content-Length is not a byte count"})
+            return
         body = self.rfile.read(min(length, MAX_BODY_BYTES + 1))
         try:
             payload = json.loads(body or b"null")
