@@ -91,8 +91,22 @@ class RunServices:
         the bag and stop the bridge. The page's server stays up (:meth:`close` stops it).
         ``camera_scene``: a scenario without cameras of its own gets the down camera for
         the page (rendered only while someone subscribes)."""
-        context = executor.context
         stack = ExitStack()
+        try:  # a piece that fails to start (a taken port) still closes the ones before it
+            self._start(executor, parts, out, arena, camera_scene, stack)
+            yield self
+        finally:
+            stack.close()
+            if self.recorder is not None:
+                self.recorder.close()
+                self.say(f"  bag: {self.recorder.bag.message_count} messages in "
+                         f"{self.recorder.bag.path}")
+            if self.bridge is not None:
+                self.bridge.close()
+
+    def _start(self, executor: DeterministicExecutor, parts: list[Part], out: Path,
+               arena: ArenaSpec | None, camera_scene: Scene | None, stack: ExitStack) -> None:
+        context = executor.context
         if camera_scene is not None and self.gcs is not None:
             from sim.render import SceneRenderer
             from sim.sensors import DownCamera, SimSensorsNode, sensor_parts
@@ -121,16 +135,6 @@ class RunServices:
             self.say(f"  Foxglove: open connection {self.bridge.url}")
         if self.gcs is not None:
             self._start_gcs(executor, out, arena)
-        try:
-            yield self
-        finally:
-            stack.close()
-            if self.recorder is not None:
-                self.recorder.close()
-                self.say(f"  bag: {self.recorder.bag.message_count} messages in "
-                         f"{self.recorder.bag.path}")
-            if self.bridge is not None:
-                self.bridge.close()
 
     def _start_gcs(self, executor: DeterministicExecutor, out: Path,
                    arena: ArenaSpec | None) -> None:
