@@ -52,15 +52,23 @@ def project_errors() -> tuple[type[Exception], ...]:
             GroundStationError, QuadmissionError)
 
 
-def _positive_seconds(text: str) -> float:
-    """An argparse type: a positive, finite number of seconds."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
-    if not 0.0 < value < math.inf:
-        raise argparse.ArgumentTypeError(f"{text} must be a positive number of seconds")
-    return value
+def _positive(what: str) -> Callable[[str], float]:
+    """An argparse type: a positive, finite number (``what`` names it in errors)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        if not 0.0 < value < math.inf:
+            raise argparse.ArgumentTypeError(f"{text} must be a positive {what[2:]}")
+        return value
+
+    return parse
+
+
+_positive_seconds = _positive("a number of seconds")
+_positive_float = _positive("a number")
 
 
 @dataclass(frozen=True)
@@ -252,16 +260,6 @@ def _run_services_args(p: argparse.ArgumentParser) -> None:
                    help="operator page port (default config/ground_station.yaml's 8080; 0: any)")
     p.add_argument("--gcs-linger", action="store_true",
                    help="with --gcs: keep the page up after the run until Ctrl-C")
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 < value < math.inf:
-        raise argparse.ArgumentTypeError(f"{text} must be a positive number")
-    return value
 
 
 def _run_services(args: argparse.Namespace) -> Any:
