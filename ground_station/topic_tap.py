@@ -1,5 +1,6 @@
 """Raw taps on every topic a node can discover: what ``ros2 bag record -a`` and a
-Foxglove bridge do. Samples arrive as CDR bytes, never decoded.
+Foxglove bridge do. Samples are passed on as CDR bytes, never decoded (a message handed
+over in-process is serialized first).
 
 Discovery asks the transport for ``topic_names_and_types()`` (the in-process transport
 offers it) every ``discovery_period_s`` of node time; the ``topics`` given as
@@ -18,6 +19,7 @@ import interfaces
 from ground_station.errors import GroundStationError
 from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from runtime import Endpoint, Node
+from runtime.node import sample_bytes
 from runtime.transport import Reader
 
 
@@ -74,8 +76,10 @@ class TopicTap:
     def _tap(self, name: str, msgtype: str) -> None:
         handle = self._on_new_topic(name, msgtype)
 
-        def on_sample(data: bytes, _rid: Any, handle: Any = handle) -> None:
-            self._on_sample(handle, self._node.get_clock().now().nanoseconds, data)
+        def on_sample(data: Any, _rid: Any, handle: Any = handle) -> None:
+            # in one process the sample is the message object itself: tap its CDR
+            self._on_sample(handle, self._node.get_clock().now().nanoseconds,
+                            bytes(sample_bytes(data, msgtype)))
 
         self._readers[name] = self._node.context.transport.create_reader(
             Endpoint(name, msgtype, TAP_QOS), on_sample)

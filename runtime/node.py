@@ -67,6 +67,14 @@ def _sender(writer: Writer, type_name: str) -> Callable[[Any, RequestId | None],
     return serialize
 
 
+def sample_bytes(data: Sample, type_name: str) -> bytes | bytearray | memoryview:
+    """The CDR bytes of a received sample: bytes as they are, a message handed over
+    in-process serialized (what a raw reader, a recorder or a bridge needs)."""
+    if isinstance(data, bytes | bytearray | memoryview):
+        return data
+    return interfaces.serialize(data, type_name)
+
+
 def _message(data: Sample, type_name: str) -> Any:
     """The message of a received sample: bytes are deserialized (MessageError when
     malformed), a message handed over in-process is used as it is."""
@@ -214,9 +222,7 @@ class Subscription(Generic[T]):
 
     def _handle(self, data: Sample, _request_id: RequestId | None) -> None:
         if self.raw:
-            if not isinstance(data, bytes):  # handed over in-process: the bytes it stands for
-                data = interfaces.serialize(data, self.type_name)
-            self.callback(data)
+            self.callback(sample_bytes(data, self.type_name))
             return
         try:
             msg = _message(data, self.type_name)
@@ -727,5 +733,6 @@ __all__ = [
     "Service",
     "Subscription",
     "Timer",
+    "sample_bytes",
     "stable_guid",
 ]
