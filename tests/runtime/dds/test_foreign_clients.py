@@ -38,10 +38,16 @@ def talker(dds_config: DdsConfig, env: dict[str, str]) -> Iterator[subprocess.Po
         [sys.executable, "-m", "tests.runtime.dds.talker_process", str(dds_config.domain_id)],
         env=env, stdout=subprocess.PIPE, text=True)
     assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == "ready"
-    yield proc
-    proc.terminate()
-    assert proc.wait(10) == 0, "the talker did not stop cleanly on SIGTERM"
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        yield proc
+        proc.terminate()
+        assert proc.wait(10) == 0, "the talker did not stop cleanly on SIGTERM"
+    finally:  # a talker that failed to start or to stop is not left running
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
 
 
 def _cli(env: dict[str, str], *args: str) -> str:
