@@ -42,11 +42,15 @@ def yaw_of(q: Any) -> float:
 
 
 def image_rgb(msg: Any) -> np.ndarray | None:
-    """A sensor_msgs/Image as an RGB array (rgb8, bgr8 or mono8), None otherwise."""
+    """A sensor_msgs/Image as an RGB array (rgb8, bgr8 or mono8); None for another
+    encoding, an empty image, or sizes that do not add up (a step shorter than a row,
+    fewer bytes than height * step): the page skips it instead of the node crashing."""
     channels = {"rgb8": 3, "bgr8": 3, "mono8": 1}.get(msg.encoding)
     if channels is None or msg.height == 0 or msg.width == 0:
         return None
-    data = np.asarray(msg.data, dtype=np.uint8)
+    if msg.step < msg.width * channels or len(msg.data) < msg.height * msg.step:
+        return None
+    data = np.asarray(msg.data, dtype=np.uint8)[: msg.height * msg.step]
     rows = data.reshape(msg.height, msg.step)[:, : msg.width * channels]
     image = rows.reshape(msg.height, msg.width, channels)
     if msg.encoding == "bgr8":
@@ -70,11 +74,15 @@ def jpeg(rgb: np.ndarray, width_px: int, quality: int) -> bytes:
 
 
 def cloud_xyz(msg: Any, max_points: int) -> list[tuple[float, float, float]]:
-    """x, y, z of a PointCloud2 with float32 x/y/z fields, thinned to ``max_points``."""
+    """x, y, z of a PointCloud2 with float32 x/y/z fields, thinned to ``max_points``;
+    none when a field lies past ``point_step`` or the data is shorter than its points."""
     offsets = {f.name: f.offset for f in msg.fields if f.datatype == _POINT_FIELD_FLOAT32}
     if not {"x", "y", "z"} <= offsets.keys() or msg.point_step == 0 or max_points == 0:
         return []
     n = msg.width * msg.height
+    if (max(offsets[a] for a in "xyz") + 4 > msg.point_step
+            or len(msg.data) < n * msg.point_step):
+        return []
     raw = np.asarray(msg.data, dtype=np.uint8)[: n * msg.point_step].reshape(n, msg.point_step)
     stride = max(1, math.ceil(n / max_points))
     raw = raw[::stride]

@@ -64,3 +64,21 @@ def test_cloud_points_are_read_from_their_field_offsets_and_thinned() -> None:
                          point_step=16, row_step=160, data=points.view(np.uint8).reshape(-1))
     assert cloud_xyz(msg, 100) == [(float(i), 2.0 * i, 0.5) for i in range(10)]
     assert cloud_xyz(msg, 5) == [(float(i), 2.0 * i, 0.5) for i in range(0, 10, 2)]
+
+
+def test_images_and_clouds_whose_sizes_do_not_add_up_are_skipped() -> None:
+    short = interfaces.new("sensor_msgs/msg/Image", height=4, width=6, encoding="rgb8",
+                           step=18, data=np.zeros(40, dtype=np.uint8))
+    assert image_rgb(short) is None
+    narrow = interfaces.new("sensor_msgs/msg/Image", height=4, width=6, encoding="rgb8",
+                            step=12, data=np.zeros(48, dtype=np.uint8))
+    assert image_rgb(narrow) is None
+    fields = [interfaces.new("sensor_msgs/msg/PointField", name=n, offset=o, datatype=7,
+                             count=1) for n, o in (("x", 0), ("y", 4), ("z", 8))]
+    cloud = interfaces.new("sensor_msgs/msg/PointCloud2", height=1, width=10, fields=fields,
+                           point_step=12, row_step=120, data=np.zeros(100, dtype=np.uint8))
+    assert cloud_xyz(cloud, 100) == []
+    overlapping = interfaces.new("sensor_msgs/msg/PointCloud2", height=1, width=2,
+                                 fields=fields, point_step=8, row_step=16,
+                                 data=np.zeros(16, dtype=np.uint8))
+    assert cloud_xyz(overlapping, 100) == []
