@@ -412,6 +412,7 @@ def _gcs_args(p: argparse.ArgumentParser) -> None:
 
 def _gcs_run(args: argparse.Namespace) -> int:
     from ground_station.player import BagPlayer
+    from quadmission.pacing import RealTimePacer
     from quadmission.run_services import GcsOptions, RunServices
     from runtime import DeterministicExecutor
     from sim.arena import load_arena
@@ -432,11 +433,9 @@ def _gcs_run(args: argparse.Namespace) -> int:
     try:
         with services.attach(ex, parts, args.replay.parent, arena):
             _stderr(f"replaying {player.path} at {args.rtf:g}x; Ctrl-C stops")
-            wall0 = time.monotonic()
+            pacer = RealTimePacer(args.rtf)
             while (offset := player.next_offset_ns()) is not None:
-                ahead = offset / 1e9 / args.rtf - (time.monotonic() - wall0)
-                if ahead > 0:
-                    time.sleep(ahead)
+                pacer.pace(offset)
                 player.step()
             _stderr(f"replayed {player.played} messages; the page stays up until Ctrl-C")
             while True:

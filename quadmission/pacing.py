@@ -40,6 +40,10 @@ class RealTimePacer:
             raise ValueError(f"rtf must be > 0, got {self.rtf}")
 
     def update(self, t_ns: int, scene: Scene) -> None:
+        self.pace(t_ns)
+
+    def pace(self, t_ns: int) -> None:
+        """Sleep until host time has caught up with simulated time ``t_ns`` [ns]."""
         now = self.host_clock()
         if self._origin is None:
             if self.origin_host_s is None:
