@@ -17,6 +17,7 @@ from typing import Any
 import cv2
 
 from quadmission.errors import OptionsError
+from quadmission.precision_landing import precision_landing
 from quadmission.report import write_report
 from quadmission.square_flight import square
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
@@ -136,6 +137,7 @@ def arena_tour(options: ScenarioOptions) -> dict[str, Any]:
 
 SCENARIOS: dict[str, Scenario] = {
     "arena-tour": arena_tour,
+    "precision-landing": precision_landing,
     "square": square,
 }
 #: The most complete scenario there is; ``make sim`` runs it.
