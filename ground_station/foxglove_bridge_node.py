@@ -33,10 +33,14 @@ class FoxgloveBridgeNode(Node):
         self.host = self.params.host
         self.port = self.server.port
         self.channels: dict[str, Channel] = {}
-        self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
-                            discovery_period_s=self.params.discovery_period_s,
-                            topics=self.params.topics,
-                            on_new_topic=self._on_new_topic, on_sample=self._on_sample)
+        try:
+            self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
+                                discovery_period_s=self.params.discovery_period_s,
+                                topics=self.params.topics,
+                                on_new_topic=self._on_new_topic, on_sample=self._on_sample)
+        except BaseException:
+            self.server.stop()  # a refused topics entry does not keep the port bound
+            raise
 
     @property
     def url(self) -> str:

@@ -33,10 +33,14 @@ class BagRecorderNode(Node):
                 raise BagError(f"{NODE_NAME}: no bag folder; set its 'folder' parameter")
             folder = Path(self.params.folder)
         self.bag = BagWriter(folder, flush_period_s=self.params.flush_period_s)
-        self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
-                            discovery_period_s=self.params.discovery_period_s,
-                            topics=self.params.topics,
-                            on_new_topic=self._on_new_topic, on_sample=self.bag.write)
+        try:
+            self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
+                                discovery_period_s=self.params.discovery_period_s,
+                                topics=self.params.topics,
+                                on_new_topic=self._on_new_topic, on_sample=self.bag.write)
+        except BaseException:
+            self.bag.close()  # a refused topics entry leaves a closed, empty bag
+            raise
 
     def _on_new_topic(self, topic: str, msgtype: str) -> int:
         self.get_logger().debug("recording %s (%s)", topic, msgtype)

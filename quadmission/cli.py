@@ -126,6 +126,28 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
     _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
 
 
+def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> None:
+    """Run services a launch cannot attach are refused, not silently dropped: over DDS
+    and around a launch file's simulator they are nodes of the launch file instead."""
+    from quadmission.errors import OptionsError
+
+    if not 0 <= args.domain_id <= 232:
+        raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
+    dds = args.transport == "dds"
+    if not (dds or has_simulator):
+        return
+    asked = [flag for flag, on in (("--record", args.record), ("--foxglove", args.foxglove),
+                                   ("--gcs", args.gcs),
+                                   ("--rtf", args.rtf is not None and not dds)) if on]
+    if asked:
+        where = "--transport dds" if dds else "a launch file with a simulator, in process"
+        raise OptionsError(
+            f"{' '.join(asked)}: not available with {where}; add the nodes to the launch "
+            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder', "
+            "ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
+            "ground_station.gcs_server_node:GroundStationServerNode)")
+
+
 def _launch_dds(args: argparse.Namespace, description: Any) -> int:
     from runtime.dds.launcher import process_specs, run_launch
 
@@ -144,6 +166,7 @@ def _launch_run(args: argparse.Namespace) -> int:
     from runtime.launch import run_in_process
 
     description = LaunchDescription.from_yaml(args.file)
+    _refuse_ignored_services(args, description.simulator is not None)
     if args.transport == "dds":
         return _launch_dds(args, description)
     ex = (DeterministicExecutor() if args.config_dir is None

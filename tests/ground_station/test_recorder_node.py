@@ -73,6 +73,7 @@ def test_a_malformed_topics_entry_is_named(tmp_path: Path) -> None:
     with pytest.raises(TopicTapError, match="'chatter': expected '/topic pkg/msg/Type'"):
         BagRecorderNode(tmp_path / "bag", context=ex.context,
                         parameter_overrides={"topics": ["chatter"]})
+    assert bag_info(tmp_path / "bag").indexed, "the refused recorder left its bag open"
 
 
 def test_a_launched_recorder_writes_where_its_parameter_says(tmp_path: Path) -> None:

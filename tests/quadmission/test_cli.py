@@ -13,7 +13,15 @@ from pathlib import Path
 import pytest
 
 from interfaces.errors import UnknownTypeError
-from quadmission.cli import COMMANDS, EXIT_CODES, Command, build_parser, main, project_errors
+from quadmission.cli import (
+    COMMANDS,
+    EXIT_BAD_INPUT,
+    EXIT_CODES,
+    Command,
+    build_parser,
+    main,
+    project_errors,
+)
 from quadmission.errors import ExperimentError
 from runtime import LaunchDescription
 from runtime.errors import LaunchError, ParameterError
@@ -213,3 +221,17 @@ def test_quadmission_launch_runs_the_example() -> None:
     heard = re.findall(r"\[listener\] heard 'hello (\d+)'", done.stderr)
     assert heard == [str(n) for n in range(1, round(2.0 * rate_hz) + 1)]
     assert json.loads(done.stdout)["sim_time_s"] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(("extra", "named"), [
+    (["--record"], "--record: not available with a launch file with a simulator"),
+    (["--rtf", "2"], "--rtf: not available with a launch file with a simulator"),
+    (["--transport", "dds", "--gcs", "--record"], "--record --gcs: not available with "
+                                                  "--transport dds"),
+    (["--transport", "dds", "--domain-id", "300"], "--domain-id 300 is outside 0..232"),
+])
+def test_launch_refuses_services_it_would_ignore(
+        extra: list[str], named: str, capsys: pytest.CaptureFixture[str]) -> None:
+    square = config_path("launch/square.yaml")
+    assert main(["launch", str(square), *extra]) == EXIT_BAD_INPUT
+    assert named in capsys.readouterr().err
