@@ -41,10 +41,15 @@ class MappingNode(Node):
         self.clouds_fused = 0
         self.clouds_dropped = 0  # no pose for the stamp
         self.last_drop = ""
+        #: (capture stamp [ns], position [m], orientation wxyz) of each fused cloud
+        self.fused_poses: list[tuple[int, tuple[float, ...], tuple[float, ...]]] = []
         self._last_ns: int | None = None
         self._published_version = -1
         self._pending = False
         self.pose_at = self.create_client(POSE_AT, "/fcu/pose_at")
+        self._valid_since_ns: int | None = None  # the FCU's position valid since then
+        self.create_subscription("quadmission_interfaces/msg/FcuStatus", "/fcu/status",
+                                 self._on_status, qos_profile_default)
         self.create_subscription("sensor_msgs/msg/PointCloud2", DEPTH_TOPIC, self._on_cloud,
                                  qos_profile_sensor_data)
         self.map_pub = self.create_publisher("sensor_msgs/msg/PointCloud2", MAP_TOPIC,
@@ -54,8 +59,22 @@ class MappingNode(Node):
         self.create_timer(1.0 / self.params.publish_rate_hz, self._publish)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
+    def _on_status(self, msg: Any) -> None:
+        if not msg.position_valid:
+            self._valid_since_ns = None
+        elif self._valid_since_ns is None:
+            self._valid_since_ns = Time.from_msg(msg.header.stamp).nanoseconds
+
+    def estimate_settled(self, stamp_ns: int) -> bool:
+        """Whether the FCU's position estimate had been valid for ``settle_s`` at
+        ``stamp_ns`` (before that, its pose can be metres and radians off)."""
+        return (self._valid_since_ns is not None
+                and stamp_ns - self._valid_since_ns >= int(self.params.settle_s * 1e9))
+
     def _on_cloud(self, msg: Any) -> None:
         stamp = Time.from_msg(msg.header.stamp)
+        if not self.estimate_settled(stamp.nanoseconds):
+            return
         period_ns = int(1e9 / self.params.process_rate_hz)
         if self._pending or (self._last_ns is not None
                              and stamp.nanoseconds - self._last_ns < period_ns):
@@ -80,6 +99,8 @@ class MappingNode(Node):
             return
         pose = response.odometry.pose.pose
         p, o = pose.position, pose.orientation
+        self.fused_poses.append((Time.from_msg(stamp).nanoseconds, (p.x, p.y, p.z),
+                                 (o.w, o.x, o.y, o.z)))
         world = camera_to_map(points, (p.x, p.y, p.z), (o.w, o.x, o.y, o.z),
                               self.params.depth_camera_position,
                               min_range=self.params.min_range, max_range=self.params.max_range)

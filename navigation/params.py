@@ -24,6 +24,9 @@ class MappingParams:
                              description="depth points nearer than this are dropped")
     max_range: float = param(unit="m", range=(0.1, 100.0),
                              description="depth points farther than this are dropped")
+    settle_s: float = param(unit="s", range=(0.0, 60.0),
+                            description="fuse only once the FCU's position has been valid "
+                                        "this long")
     min_z: float = param(unit="m", range=(-100.0, 100.0),
                          description="map points below this height (the floor) are dropped")
     depth_camera_position: tuple[float, ...] = param(
