@@ -157,12 +157,12 @@ def _search(edges: npt.NDArray[np.bool_], nx: int, ny: int, nz: int, steps: IntA
 def _line_free(free: npt.NDArray[np.bool_], origin: FloatArray, res: float, a: FloatArray,
                b: FloatArray, per_cube: int) -> bool:
     length = math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2)
-    n = int(math.ceil(length / res * per_cube)) + 1
+    n = math.ceil(length / res * per_cube) + 1
     for s in range(n + 1):
         t = s / n
-        i = int(math.floor((a[0] + t * (b[0] - a[0]) - origin[0]) / res))
-        j = int(math.floor((a[1] + t * (b[1] - a[1]) - origin[1]) / res))
-        k = int(math.floor((a[2] + t * (b[2] - a[2]) - origin[2]) / res))
+        i = math.floor((a[0] + t * (b[0] - a[0]) - origin[0]) / res)
+        j = math.floor((a[1] + t * (b[1] - a[1]) - origin[1]) / res)
+        k = math.floor((a[2] + t * (b[2] - a[2]) - origin[2]) / res)
         if (i < 0 or j < 0 or k < 0 or i >= free.shape[0] or j >= free.shape[1]
                 or k >= free.shape[2]):
             return False
@@ -291,7 +291,7 @@ def snap(graph: VoxelGraph, point: npt.ArrayLike, radius: float) -> int | None:
                           "outside the field")
     if graph.free[tuple(cell)]:
         return int(grid.flat(cell[None])[0])
-    r = int(math.ceil(radius / grid.resolution))
+    r = math.ceil(radius / grid.resolution)
     if r <= 0:
         return None
     lo = np.maximum(cell - r, 0)

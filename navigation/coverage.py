@@ -75,7 +75,7 @@ def coverage_lanes(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float,
     along = 0 if hi_a[0] - lo_a[0] >= hi_a[1] - lo_a[1] else 1
     across = 1 - along
     width = hi_a[across] - lo_a[across]
-    n = max(1, int(math.ceil(width / spacing - 1e-9)) + 1)
+    n = max(1, math.ceil(width / spacing - 1e-9) + 1)
     offsets = np.linspace(lo_a[across], hi_a[across], n) if n > 1 else np.array([lo_a[across]])
     points = []
     forward = True
@@ -89,10 +89,15 @@ def coverage_lanes(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float,
     lanes = np.asarray(points)
     if start is not None:  # begin at the corner nearest the start
         s = np.asarray(start, dtype=np.float64).reshape(2)
-        variants = [lanes, lanes[::-1]]
-        mirrored = lanes.copy()
-        mirrored[:, across] = lo_a[across] + hi_a[across] - mirrored[:, across]
-        variants += [mirrored, mirrored[::-1]]
+        variants = []
+        for flip_along in (False, True):
+            for flip_across in (False, True):
+                v = lanes.copy()
+                if flip_along:
+                    v[:, along] = lo_a[along] + hi_a[along] - v[:, along]
+                if flip_across:
+                    v[:, across] = lo_a[across] + hi_a[across] - v[:, across]
+                variants += [v, v[::-1]]
         lanes = min(variants, key=lambda v: float(np.linalg.norm(v[0] - s)))
     return lanes
 

@@ -94,7 +94,7 @@ def save_map(path: Path | str, points: npt.ArrayLike) -> Path:
     cloud = o3d.geometry.PointCloud()
     cloud.points = o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64).reshape(-1, 3))
     path.parent.mkdir(parents=True, exist_ok=True)
-    if not o3d.io.write_point_cloud(str(path), cloud, write_ascii=False):
+    if not o3d.io.write_point_cloud(path, cloud, write_ascii=False):
         raise MapFileError(f"{path}: open3d could not write the map")
     return path
 
@@ -108,7 +108,7 @@ def load_map(path: Path | str) -> FloatArray:
     _check_suffix(path)
     if not path.is_file():
         raise MapFileError(f"{path}: no such map file")
-    cloud = o3d.io.read_point_cloud(str(path))
+    cloud = o3d.io.read_point_cloud(path)
     points = np.asarray(cloud.points, dtype=np.float64)
     if len(points) == 0:
         raise MapFileError(f"{path}: no point in the map file (or not a readable "

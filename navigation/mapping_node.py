@@ -124,7 +124,8 @@ class MappingNode(Node):
         self.health_pub.publish(health_report(
             "mapping", level, message,
             {"voxels": len(self.map), "clouds_fused": self.clouds_fused,
-             "clouds_dropped": self.clouds_dropped, "last_drop": self.last_drop}, self.now().to_msg()))
+             "clouds_dropped": self.clouds_dropped,
+             "last_drop": self.last_drop}, self.now().to_msg()))
 
 
 __all__ = ["DEPTH_TOPIC", "MAP_TOPIC", "MappingNode"]

@@ -238,7 +238,7 @@ class NavigatorNode(Node):
     # -- navigate --------------------------------------------------------------------------
     async def _navigate(self, handle: ServerGoalHandle) -> Any:
         goal = handle.request
-        R = NAVIGATE.Result
+        R: Any = NAVIGATE.Result
         self.active = "navigate"
         target = np.array([goal.goal.x, goal.goal.y, goal.goal.z])
         radius = goal.reach_radius or self.params.goal_radius
@@ -285,7 +285,7 @@ class NavigatorNode(Node):
     # -- takeoff ---------------------------------------------------------------------------
     async def _takeoff(self, handle: ServerGoalHandle) -> Any:
         goal = handle.request
-        R = TAKEOFF.Result
+        R: Any = TAKEOFF.Result
         self.active = "takeoff"
         altitude = goal.altitude or self.params.cruise_altitude
         fc = await self.fc_takeoff.send_goal_async(
@@ -333,7 +333,7 @@ class NavigatorNode(Node):
 
     async def _explore(self, handle: ServerGoalHandle) -> Any:
         goal = handle.request
-        R = EXPLORE.Result
+        R: Any = EXPLORE.Result
         p = self.params
         self.active = "explore"
         start_ns = self.now().nanoseconds

@@ -40,7 +40,7 @@ from runtime import Node, ParameterError, qos_profile_default
 PLAN_PATH = interfaces.get_service("quadmission_interfaces/srv/PlanPath")
 PLAN_PATH_SERVICE = "/navigation/plan_path"
 MAP_FRAME = "map"
-_R = PLAN_PATH.Response
+_R: Any = PLAN_PATH.Response
 #: The one place where planning errors become result codes.
 RESULT_OF: dict[type[PlanningError], int] = {
     StartOccupied: _R.RESULT_START_OCCUPIED,

@@ -6,7 +6,9 @@ Pure and vectorised (numpy; no Python loop over cubes). The rules, each in one p
   corner (a fixed origin), each identified by its centre;
 - points outside the field are dropped;
 - boundary cubes (the outer layer on every side, floor and ceiling included) are
-  non-viable;
+  non-viable, and the walls, floor and ceiling beyond them count as obstacles for the
+  corridors (cubes outside the field as far as the footprint reaches hold
+  ``corridor_threshold`` points each), so paths keep the footprint's clearance from them;
 - cubes holding more than ``occupied_threshold`` points are non-viable;
 - optionally (``unknown_is_occupied``) cubes never observed are non-viable;
 - each cube's neighbours are the 8 horizontal ones at the same altitude plus the ones
@@ -55,7 +57,7 @@ OFFSETS: npt.NDArray[np.int64] = np.array(
      (0, 0, 1), (0, 0, -1)], dtype=np.int64)
 OPPOSITE: npt.NDArray[np.int64] = np.array([1, 0, 3, 2, 7, 6, 5, 4, 9, 8], dtype=np.int64)
 MAX_CUBES = 50_000_000  # beyond this the grid does not fit in memory: resolution too small
-GRAPH_VERSION = 1  # bump when the rules change: old cache files stop matching
+GRAPH_VERSION = 2  # bump when the rules change: old cache files stop matching
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,7 @@ class GraphParams:
         ``ceil(r / res)`` (a tiny tolerance keeps 0.4 / 0.2 at 2, not 3)."""
         res = self.resolution
         r = self.footprint_radius + self.safety_margin
-        return (int(math.ceil(r / res - 1e-9)), int(math.ceil(self.vertical_clearance / res - 1e-9)))
+        return (math.ceil(r / res - 1e-9), math.ceil(self.vertical_clearance / res - 1e-9))
 
 
 @dataclass(frozen=True)
@@ -140,7 +142,7 @@ class Grid:
         return np.asarray(self.origin) + (c + 0.5) * self.resolution
 
     def flat(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-        return np.ravel_multi_index(tuple(cells.T), self.shape)  # type: ignore[no-any-return]
+        return np.ravel_multi_index(tuple(cells.T), self.shape)
 
     def unflat(self, index: npt.ArrayLike) -> npt.NDArray[np.int64]:
         return np.stack(np.unravel_index(np.asarray(index, dtype=np.int64), self.shape),
@@ -230,12 +232,18 @@ def build_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.
             raise ValueError(f"observed cubes: shape {observed.shape}, grid {grid.shape}")
         viable &= observed
 
-    sat = np.zeros((nx + 1, ny + 1, nz + 1), dtype=np.int64)
-    sat[1:, 1:, 1:] = counts.cumsum(0).cumsum(1).cumsum(2)
     n, m = params.inflation_cubes
+    # the walls, floor and ceiling enclose the field: the cubes beyond it, as far as the
+    # footprint reaches, count as full (corridor_threshold points each)
+    padded = np.pad(counts.astype(np.int64), ((n, n), (n, n), (m, m)),
+                    constant_values=params.corridor_threshold)
+    px, py, pz = padded.shape
+    sat = np.zeros((px + 1, py + 1, pz + 1), dtype=np.int64)
+    sat[1:, 1:, 1:] = padded.cumsum(0).cumsum(1).cumsum(2)
+    padded_shape = (px, py, pz)
     pad = np.array([n, n, m], dtype=np.int64).reshape(3, 1, 1, 1)
-    cells = np.indices(grid.shape, dtype=np.int64)  # (3, nx, ny, nz)
-    own_box = _box_sums(sat, cells - pad, cells + pad, grid.shape)
+    cells = np.indices(grid.shape, dtype=np.int64) + pad  # (3, nx, ny, nz), padded indices
+    own_box = _box_sums(sat, cells - pad, cells + pad, padded_shape)
     free = viable & (own_box < params.corridor_threshold)
 
     edges = np.zeros((len(OFFSETS), nx, ny, nz), dtype=bool)
@@ -243,11 +251,11 @@ def build_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.
     for d, off in enumerate(OFFSETS):  # 10 directions, each vectorised over every cube
         o = off.reshape(3, 1, 1, 1)
         other = cells + o
-        in_grid = np.all((other >= 0) & (other < shape_a), axis=0)
+        in_grid = np.all((other - pad >= 0) & (other - pad < shape_a), axis=0)
         corridor = _box_sums(sat, np.minimum(cells, other) - pad, np.maximum(cells, other) + pad,
-                             grid.shape)
+                             padded_shape)
         ok = in_grid & free & (corridor < params.corridor_threshold)
-        oc = np.clip(other, 0, shape_a - 1)
+        oc = np.clip(other - pad, 0, shape_a - 1)
         ok &= free[oc[0], oc[1], oc[2]]
         edges[d] = ok
     return VoxelGraph(grid, params, counts, viable, free, edges)

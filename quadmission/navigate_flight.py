@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 import interfaces
+from navigation.errors import NavigationError
 from navigation.mapping_node import MappingNode
 from navigation.navigator_node import NAVIGATE, TAKEOFF, NavigatorNode
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
@@ -289,7 +290,7 @@ def _picture(path: Any, finder: PathFinderNode, legs: list[Leg], truth: Trajecto
     graph = None
     try:
         graph = finder.graph()
-    except Exception:  # noqa: BLE001 - a picture without the map is still a picture
+    except NavigationError:  # a picture without the map is still a picture
         graph = None
     if graph is not None:
         k = int((CRUISE_ALTITUDE - graph.grid.origin[2]) / graph.grid.resolution)
