@@ -221,7 +221,9 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
     options.progress(f"  {len(legs)} legs from pad {arena.start_pad} at {start}: "
                      f"{[leg.pad for leg in legs]}")
     with SceneRenderer(sitl.scene.model) as renderer:
-        sitl.extra_parts.extend(sensor_parts(sensors, renderer, sitl.scene, seed=options.seed))
+        # the depth camera renders only as often as the mapping node fuses clouds
+        sitl.extra_parts.extend(sensor_parts(sensors, renderer, sitl.scene, seed=options.seed,
+                                             depth_hz=mapping.params.process_rate_hz))
         sitl.extra_parts.append(_Progress(pilot, options.progress))
         result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.script.done))
     truth, crash = result.trajectory, result.crash
