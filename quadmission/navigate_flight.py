@@ -196,8 +196,10 @@ def _window(truth: Trajectory, t0: float, t1: float) -> np.ndarray:
 
 
 def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
-             save_map_to: str | None = None, limit_s: float = FLIGHT_LIMIT_S) -> dict[str, Any]:
-    """Fly from the start pad to every other pad (seeded order); write report and picture."""
+             save_map_to: str | None = None, limit_s: float = FLIGHT_LIMIT_S,
+             pads: list[int] | None = None) -> dict[str, Any]:
+    """Fly from the start pad to every other pad (seeded order; or to ``pads`` in that
+    order); write report.json and path.png into ``options.out``; return the report."""
     sitl = build_sitl(arena, seed=options.seed)
     start_companion(sitl)
     context = sitl.executor.context
@@ -209,7 +211,7 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
     start = arena.pad(arena.start_pad).center
     legs: list[Leg] = []
     prev = arena.start_pad
-    for pad_id in leg_order(arena, options.seed):
+    for pad_id in leg_order(arena, options.seed) if pads is None else pads:
         x, y = arena.pad(pad_id).center
         legs.append(Leg(prev, pad_id, (float(x), float(y), CRUISE_ALTITUDE)))
         prev = pad_id
