@@ -5,7 +5,7 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
 
 - ``/navigation/navigate``: plan from where the vehicle is to the goal, then follow the
   waypoints with ``reach`` (the flight-control layer interpolates setpoints and applies the
-  reach sphere); before a leg that turns by more than ``turn_first`` the vehicle turns to
+  reach sphere); before a leg that turns by more than ``turn_first_angle`` it turns to
   face it, so the forward depth camera maps what is ahead. Every ``replan_period_s`` it plans
   again from here; when the new path's length differs from what is left of the current one
   by more than ``replan_tolerance`` (the live map changed the path's cost), it switches. A
@@ -61,7 +61,6 @@ TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
 REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
 TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
 POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
-TURN_FIRST = math.radians(45.0)  # rad, turn to face a leg before flying it beyond this
 
 
 class FlyOutcome(Enum):
@@ -188,7 +187,7 @@ class NavigatorNode(Node):
             heading = math.atan2(wp[1] - here[1], wp[0] - here[0])
             if float(np.hypot(*(wp[:2] - here[:2]))) < 0.3:
                 heading = self.yaw
-            if abs(wrap_pi(heading - self.yaw)) > TURN_FIRST:
+            if abs(wrap_pi(heading - self.yaw)) > p.turn_first_angle:
                 ok, why = await self._run(self.turn, interfaces.new(TURN.Goal, yaw=heading),
                                           handle, stop)
                 if ok is None:

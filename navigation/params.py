@@ -93,6 +93,9 @@ class NavigatorParams:
     plan_attempts: int = param(range=(1, 100), description="plans tried before giving up")
     max_reach_failures: int = param(range=(0, 100),
                                     description="failed reaches (each re-planned) tolerated")
+    turn_first_angle: float = param(unit="rad", range=(0.0, 3.15),
+                                    description="turn to face a leg first beyond this angle "
+                                                "(3.15: never)")
     survey_turns: int = param(range=(0, 8), description="quarter turns after takeoff, to "
                                                          "map around with the depth camera")
     explore_paths_file: str = param(description="YAML of explore paths per arena and pad")
