@@ -80,6 +80,11 @@ class PathFinderNode(Node):
             field = self.declare_params(FieldParams)
         except ParameterError as exc:
             raise ParameterError(f"{exc}; {FIELD_SOURCE}") from None
+        if self.params.unknown_is_occupied:
+            raise ParameterError(
+                "true needs the cubes the depth camera observed, which /map/points does not "
+                "carry; use build_graph(observed=...) directly",
+                key="path_finder.unknown_is_occupied")
         self.field_min = np.asarray(field.field_min, dtype=np.float64)
         self.field_max = np.asarray(field.field_max, dtype=np.float64)
         self.static_points = (load_map(self.params.map_file) if self.params.map_file

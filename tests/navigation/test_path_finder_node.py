@@ -10,7 +10,7 @@ import pytest
 import interfaces
 from navigation.cloud_msgs import cloud_msg, cloud_points
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
-from runtime import DeterministicExecutor, Node, Time, qos_profile_default
+from runtime import DeterministicExecutor, Node, ParameterError, Time, qos_profile_default
 
 R = PLAN_PATH.Response
 FIELD = {"field_min": [0.0, 0.0, 0.0], "field_max": [6.0, 4.0, 2.0]}
@@ -105,3 +105,10 @@ def test_health_reports_the_map(rig) -> None:  # type: ignore[no-untyped-def]
     client.map_pub.publish(cloud_msg(WALL, Time(0).to_msg(), "map"))
     ex.spin_for(1.1)
     assert client.health.level == 0 and client.health.modules[0].name == "path_finder"
+
+
+def test_unknown_space_as_occupied_is_refused_without_observations() -> None:
+    ex = DeterministicExecutor()
+    with pytest.raises(ParameterError, match="unknown_is_occupied"):
+        PathFinderNode(context=ex.context,
+                       parameter_overrides=FIELD | {"unknown_is_occupied": True})
