@@ -17,6 +17,7 @@ from typing import Any
 import cv2
 
 from quadmission.errors import OptionsError
+from quadmission.navigate_flight import map_arena, navigate
 from quadmission.precision_landing import precision_landing
 from quadmission.report import write_report
 from quadmission.square_flight import square
@@ -138,6 +139,8 @@ def arena_tour(options: ScenarioOptions) -> dict[str, Any]:
 SCENARIOS: dict[str, Scenario] = {
     "arena-tour": arena_tour,
     "precision-landing": precision_landing,
+    "map-arena": map_arena,
+    "navigate": navigate,
     "square": square,
 }
 #: The most complete scenario there is; ``make sim`` runs it.
