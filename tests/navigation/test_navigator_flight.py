@@ -24,8 +24,10 @@ NAV_OVERRIDES = FIELD | {"survey_turns": 0, "turn_first_angle": 3.15, "cruise_al
 
 
 class Mission(Node):
+    """The test's client of the navigator (not the mission node, which has parameters)."""
+
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("mission", **kwargs)
+        super().__init__("navigator_client", **kwargs)
         self.map_pub = self.create_publisher("sensor_msgs/msg/PointCloud2", "/map/points",
                                              qos_profile_default)
         self.markers = self.create_publisher("quadmission_interfaces/msg/MarkerDetectionArray",
