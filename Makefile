@@ -49,6 +49,7 @@ typecheck: $(STAMP)
 
 ## make bench: every benchmark, each writing benchmarks/results/<name>.json
 bench: $(STAMP)
+	@$(BIN)/python -c 'import tcod, networkx' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	@for script in benchmarks/bench_*.py; do \
 	  name=$$(basename $$script .py); name=$${name#bench_}; \
 	  echo "== $$name"; \

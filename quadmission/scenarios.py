@@ -17,6 +17,7 @@ from typing import Any
 import cv2
 
 from quadmission.errors import OptionsError
+from quadmission.navigate_flight import map_arena, navigate
 from quadmission.report import write_report
 from quadmission.square_flight import square
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
@@ -134,6 +135,8 @@ def arena_tour(options: ScenarioOptions) -> dict[str, Any]:
 
 SCENARIOS: dict[str, Scenario] = {
     "arena-tour": arena_tour,
+    "map-arena": map_arena,
+    "navigate": navigate,
     "square": square,
 }
 #: The most complete scenario there is; ``make sim`` runs it.

@@ -1,0 +1,258 @@
+"""A* on the voxel graph against networkx and libtcod, on the default arena's mapped cloud.
+
+The cloud: the default arena seen by the simulated forward depth camera (its noise, its
+range) from a grid of hover points at two heights and eight headings, fused with the true
+poses into a 5 cm voxel map (``--map FILE`` uses a map file instead, e.g. the ``map.pcd`` of
+``quadmission sim --scenario map-arena``). For each resolution (0.2 m and 0.1 m):
+
+- graph build time for the cloud (median of 3) and for 1 M uniform random points;
+- A* corner to corner and on seeded random pairs of free cubes: ours (numba), networkx's
+  ``astar_path`` on the same graph (same edges, same Euclidean costs and heuristic: the
+  same cost to 1e-9 is checked) and libtcod's C A* (``tcod.path``, integer costs: edge
+  cost = round(1000 x metres), its own admissible heuristic; the same queries). Times are
+  per query, host seconds; ratios are medians of per-query ratios;
+- the line-of-sight shortcut: path length and waypoint reduction.
+
+Ratios (``speedup_vs_networkx_median`` = networkx / ours; ``time_ratio_vs_tcod_median`` =
+ours / tcod) are what to compare across machines; absolute times depend on the host.
+
+    python benchmarks/bench_astar.py --out benchmarks/results/astar.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import statistics
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navigation.astar import astar, path_length, shortcut
+from navigation.mapping import VoxelMap, camera_to_map, load_map
+from navigation.voxel_graph import OFFSETS, GraphParams, VoxelGraph, build_graph
+from sim.arena import ArenaSpec, default_arena
+from sim.render import DepthPointCloud, SceneRenderer
+from sim.scene import place_quadrotor
+from sim.world import Scene
+
+RESOLUTIONS = (0.2, 0.1)
+SEED = 0
+MAP_VOXEL = 0.05  # m
+CAMERA_OFFSET = (0.12, 0.0, 0.0)  # m, the depth camera in the body frame (config/mapping.yaml)
+
+
+def params(resolution: float) -> GraphParams:
+    """The path finder's settings (config/path_finder.yaml) at ``resolution``."""
+    return GraphParams(resolution=resolution, occupied_threshold=2, corridor_threshold=1,
+                       footprint_radius=0.35, safety_margin=0.05, vertical_clearance=0.2)
+
+
+def survey_cloud(arena: ArenaSpec, spacing: float = 2.0) -> np.ndarray:
+    """The arena as the depth camera sees it from a grid of hover points (true poses)."""
+    scene = Scene.build(arena)
+    vmap = VoxelMap(MAP_VOXEL)
+    fx, fy, _ = arena.field.size
+    with SceneRenderer(scene.model) as renderer:
+        camera = DepthPointCloud(renderer, scene.quad.depth_camera, noise_std=0.01, seed=SEED)
+        for z in (1.0, 2.0):
+            for x in np.arange(1.0, fx, spacing):
+                for y in np.arange(1.0, fy, spacing):
+                    for yaw in np.arange(8) * math.pi / 4:
+                        place_quadrotor(scene.model, scene.data, scene.index, (x, y, z), yaw)
+                        q = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+                        pts = camera_to_map(camera.points(scene.data), (x, y, z), q,
+                                            CAMERA_OFFSET, max_range=6.0)
+                        vmap.add(pts[pts[:, 2] >= 0.05])
+    return vmap.points()
+
+
+def timed(fn: Any, repeat: int = 1) -> tuple[float, Any]:
+    times, out = [], None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), out
+
+
+def networkx_graph(g: VoxelGraph) -> Any:
+    import networkx as nx
+
+    G = nx.Graph()
+    costs = g.step_costs
+    for d in range(0, len(OFFSETS), 2):  # one direction of each pair: the graph is symmetric
+        src = np.argwhere(g.edges[d])
+        a = g.grid.flat(src)
+        b = g.grid.flat(src + OFFSETS[d])
+        G.add_weighted_edges_from(zip(a.tolist(), b.tolist(), [float(costs[d])] * len(a),
+                                      strict=True))
+    return G
+
+
+def tcod_graph(g: VoxelGraph) -> Any:
+    """libtcod's graph of the same edges, axes (z, x, y) so that its heuristic's
+    cardinal/diagonal are the horizontal plane and ``z`` the vertical."""
+    import tcod.path
+
+    nx_, ny_, nz_ = g.grid.shape
+    graph = tcod.path.CustomGraph((nz_, nx_, ny_))
+    cost = np.ones((nz_, nx_, ny_), dtype=np.int32)
+    for d, off in enumerate(OFFSETS):
+        step = round(1000 * float(g.step_costs[d]))
+        graph.add_edge((int(off[2]), int(off[0]), int(off[1])), step, cost=cost,
+                       condition=np.ascontiguousarray(g.edges[d].transpose(2, 0, 1)))
+    unit = round(1000 * g.grid.resolution)
+    graph.set_heuristic(cardinal=unit, diagonal=round(1000 * g.grid.resolution * math.sqrt(2)),
+                        z=unit)
+    return graph
+
+
+def tcod_query(graph: Any, g: VoxelGraph, s: int, t: int) -> np.ndarray:
+    import tcod.path
+
+    sc, tc = g.grid.unflat(s), g.grid.unflat(t)
+    pf = tcod.path.Pathfinder(graph)
+    pf.add_root((int(sc[2]), int(sc[0]), int(sc[1])))
+    path = pf.path_to((int(tc[2]), int(tc[0]), int(tc[1])))
+    return path[:, [1, 2, 0]]  # back to (x, y, z)
+
+
+def corner_pair(g: VoxelGraph, altitude: float = 1.5) -> tuple[int, int]:
+    """The free cubes nearest the south-west and north-east corners at ``altitude``."""
+    free = np.argwhere(g.free)
+    centres = g.grid.center(free)
+    lo = np.asarray(g.grid.origin)
+    hi = lo + np.asarray(g.grid.shape) * g.grid.resolution
+    s = free[np.argmin(np.linalg.norm(centres - [lo[0], lo[1], altitude], axis=1))]
+    t = free[np.argmin(np.linalg.norm(centres - [hi[0], hi[1], altitude], axis=1))]
+    return int(g.grid.flat(s[None])[0]), int(g.grid.flat(t[None])[0])
+
+
+def random_pairs(g: VoxelGraph, n: int, rng: np.random.Generator) -> list[tuple[int, int]]:
+    """Pairs of free cubes between 0.5 and 2.5 m high, start and goal in the component of
+    the first one drawn (our search checks it: a pair with no path is redrawn)."""
+    centres_z = g.grid.center(g.grid.unflat(np.flatnonzero(g.free)))[:, 2]
+    pool = np.flatnonzero(g.free)[(centres_z > 0.5) & (centres_z < 2.5)]
+    pairs: list[tuple[int, int]] = []
+    while len(pairs) < n:
+        s, t = (int(v) for v in rng.choice(pool, 2, replace=False))
+        if astar(g, s, t).cells.size:
+            pairs.append((s, t))
+    return pairs
+
+
+def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], res: float,
+                     n_pairs: int, n_networkx: int, rng: np.random.Generator) -> dict[str, Any]:
+    p = params(res)
+    build_s, g = timed(lambda: build_graph(points, (0, 0, 0), field_max, p), repeat=3)
+    big = rng.uniform((0, 0, 0), field_max, (1_000_000, 3))
+    build_1m_s, _ = timed(lambda: build_graph(big, (0, 0, 0), field_max, p), repeat=3)
+    astar(g, *corner_pair(g))  # compile / warm up
+    pairs = [corner_pair(g), *random_pairs(g, n_pairs, rng)]
+
+    import networkx as nx
+
+    G_s, G = timed(lambda: networkx_graph(g))
+    centres = {}
+
+    def h(a: int, b: int) -> float:
+        for c in (a, b):
+            if c not in centres:
+                centres[c] = g.grid.center(g.grid.unflat(c))[0]
+        return float(np.linalg.norm(centres[a] - centres[b]))
+
+    T_s, T = timed(lambda: tcod_graph(g))
+    rows = []
+    for k, (s, t) in enumerate(pairs):
+        ours_s, res_ = timed(lambda s=s, t=t: astar(g, s, t), repeat=3)
+        tcod_s, tpath = timed(lambda s=s, t=t: tcod_query(T, g, s, t), repeat=3)
+        tcod_cost = path_length(g.grid.center(tpath))
+        row = {"pair": k, "ours_s": ours_s, "tcod_s": tcod_s, "cost_m": res_.cost,
+               "tcod_cost_m": tcod_cost, "expansions": res_.expansions}
+        if k < n_networkx:
+            nx_s, npath = timed(lambda s=s, t=t: nx.astar_path(G, s, t, heuristic=h,
+                                                                weight="weight"))
+            nx_cost = float(nx.path_weight(G, npath, weight="weight"))
+            row |= {"networkx_s": nx_s, "networkx_cost_m": nx_cost,
+                    "same_cost": abs(nx_cost - res_.cost) <= 1e-9}
+        centres_path = g.grid.center(g.grid.unflat(res_.cells))
+        short = shortcut(g, centres_path)
+        row |= {"waypoints": len(res_.cells), "shortcut_waypoints": len(short),
+                "shortcut_length_m": path_length(short)}
+        rows.append(row)
+    with_nx = [r for r in rows if "networkx_s" in r]
+    corner = rows[0]
+    return {
+        "resolution_m": res,
+        "grid_shape": list(g.grid.shape),
+        "free_cubes": int(g.free.sum()),
+        "edges": g.edge_count,
+        "build_s_median": build_s,
+        "build_1m_points_s_median": build_1m_s,
+        "networkx_graph_build_s": G_s,
+        "tcod_graph_build_s": T_s,
+        "queries": len(rows),
+        "networkx_queries": len(with_nx),
+        "corner_to_corner": {k: corner.get(k) for k in ("ours_s", "networkx_s", "tcod_s",
+                                                         "cost_m", "expansions")},
+        "ours_s_median": statistics.median(r["ours_s"] for r in rows),
+        "networkx_s_median": statistics.median(r["networkx_s"] for r in with_nx),
+        "tcod_s_median": statistics.median(r["tcod_s"] for r in rows),
+        "speedup_vs_networkx_median": statistics.median(r["networkx_s"] / r["ours_s"]
+                                                        for r in with_nx),
+        "time_ratio_vs_tcod_median": statistics.median(r["ours_s"] / r["tcod_s"] for r in rows),
+        "same_cost_as_networkx": all(r["same_cost"] for r in with_nx),
+        "max_cost_diff_vs_tcod_m": max(abs(r["tcod_cost_m"] - r["cost_m"]) for r in rows),
+        "shortcut": {
+            "length_ratio_median": statistics.median(r["shortcut_length_m"] / r["cost_m"]
+                                                     for r in rows if r["cost_m"] > 0),
+            "waypoint_ratio_median": statistics.median(r["shortcut_waypoints"] / r["waypoints"]
+                                                       for r in rows),
+        },
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--map", type=Path, default=None, help="PCD/PLY map instead of the survey")
+    ap.add_argument("--pairs", type=int, default=200, help="random pairs per resolution")
+    ap.add_argument("--networkx-pairs", default="201,21",
+                    help="queries also run on networkx, per resolution (it is slow at 0.1 m)")
+    args = ap.parse_args()
+    arena = default_arena()
+    fx, fy, fz = arena.field.size
+    t0 = time.perf_counter()
+    points = load_map(args.map) if args.map else survey_cloud(arena)
+    cloud_s = time.perf_counter() - t0
+    n_nx = [int(v) for v in args.networkx_pairs.split(",")]
+    rng = np.random.default_rng(SEED)
+    results = [bench_resolution(points, (fx, fy, fz), res, args.pairs, n_nx[i], rng)
+               for i, res in enumerate(RESOLUTIONS)]
+    out = {
+        "benchmark": "astar",
+        "cloud": str(args.map) if args.map else "default arena depth survey (true poses)",
+        "cloud_points": len(points),
+        "cloud_s": cloud_s,
+        "resolutions": results,
+        "speedup_vs_networkx_median": results[0]["speedup_vs_networkx_median"],
+        "time_ratio_vs_tcod_median": results[0]["time_ratio_vs_tcod_median"],
+        "build_1m_points_s_median": results[0]["build_1m_points_s_median"],
+        "host": {"python": platform.python_version(), "machine": platform.machine(),
+                 "cpus": os.cpu_count()},
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(out, indent=2) + "\n")
+    print(json.dumps({k: out[k] for k in ("speedup_vs_networkx_median",
+                                          "time_ratio_vs_tcod_median",
+                                          "build_1m_points_s_median")}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,427 @@
+"""The navigator (seed 003, sec. 3.3.2): takeoff, explore and navigate as actions.
+
+It flies only through the flight-control actions (``/flight_control/takeoff``, ``reach``,
+``turn``) and plans only through ``/navigation/plan_path``:
+
+- ``/navigation/navigate``: plan from where the vehicle is to the goal, then follow the
+  waypoints with ``reach`` (the flight-control layer interpolates setpoints and applies the
+  reach sphere); before a leg that turns by more than ``turn_first_angle`` it turns to
+  face it, so the forward depth camera maps what is ahead. Every ``replan_period_s`` it plans
+  again from here; when the new path's length differs from what is left of the current one
+  by more than ``replan_tolerance`` (the live map changed the path's cost), it switches. A
+  failed reach is re-planned from where the vehicle is, up to ``max_reach_failures``.
+- ``/navigation/explore``: the predefined exploration path of the arena and start pad
+  (``explore_paths_file``, with loop closures) or, when there is none or the goal gives an
+  area, boustrophedon lanes spaced by the down camera's footprint; each leg is planned like
+  a navigate goal; a waypoint with no path is skipped. It stops as soon as one of
+  ``stop_marker_ids`` is on ``/perception/markers`` (the vehicle then holds where it is).
+- ``/navigation/takeoff``: ``/flight_control/takeoff`` to the cruise altitude, then
+  ``survey_turns`` quarter turns so the depth camera maps all around.
+
+Parameters: ``config/navigator.yaml`` (+ ``arena``, ``start_pad`` and the field from the app).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+import interfaces
+from flight_control.frames import quat_to_yaw, wrap_pi
+from flight_control.params import FIELD_SOURCE, FieldParams
+from navigation.astar import path_length
+from navigation.coverage import (
+    CoverageGrid,
+    coverage_lanes,
+    footprint_half_size,
+    lane_spacing,
+    load_explore_paths,
+)
+from navigation.health import MODULE_HEALTH, health_report
+from navigation.params import NavigatorParams
+from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, path_msg, path_points
+from runtime import (
+    ActionClient,
+    ActionServer,
+    Node,
+    ParameterError,
+    ServerGoalHandle,
+    qos_profile_default,
+    qos_profile_sensor_data,
+)
+from runtime.parameters import config_path
+
+NAVIGATE = interfaces.get_action("quadmission_interfaces/action/Navigate")
+EXPLORE = interfaces.get_action("quadmission_interfaces/action/Explore")
+TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
+REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
+TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
+POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
+
+
+class FlyOutcome(Enum):
+    REACHED = "reached"
+    NO_PATH = "no_path"
+    FLIGHT_ERROR = "flight_error"
+    CANCELED = "canceled"
+    STOPPED = "stopped"  # the caller's stop condition (a marker, a time budget)
+
+
+@dataclass
+class FlyResult:
+    outcome: FlyOutcome
+    message: str
+
+
+def _point(x: float, y: float, z: float) -> Any:
+    return interfaces.new("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
+
+
+class NavigatorNode(Node):
+    """See the module docstring."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("navigator", **kwargs)
+        self.params = self.declare_params(NavigatorParams)
+        try:
+            field = self.declare_params(FieldParams)
+        except ParameterError as exc:
+            raise ParameterError(f"{exc}; {FIELD_SOURCE}") from None
+        self.field_min = np.asarray(field.field_min, dtype=np.float64)
+        self.field_max = np.asarray(field.field_max, dtype=np.float64)
+        paths_file = self.params.explore_paths_file
+        self.explore_paths = load_explore_paths(
+            paths_file if paths_file.startswith("/") else config_path(paths_file))
+        self.position: np.ndarray | None = None
+        self.yaw = 0.0
+        self.markers_seen: dict[int, int] = {}  # marker id -> last capture stamp [ns]
+        self.active = ""  # the running action, for health
+        self.last_message = ""
+        self.planner = self.create_client(PLAN_PATH, PLAN_PATH_SERVICE)
+        self.reach = ActionClient(self, REACH, "/flight_control/reach")
+        self.fc_takeoff = ActionClient(self, TAKEOFF, "/flight_control/takeoff")
+        self.turn = ActionClient(self, TURN, "/flight_control/turn")
+        self.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odometry,
+                                 qos_profile_sensor_data)
+        self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
+                                 "/perception/markers", self._on_markers, qos_profile_default)
+        self.navigate_server = ActionServer(self, NAVIGATE, "/navigation/navigate",
+                                            self._navigate)
+        self.explore_server = ActionServer(self, EXPLORE, "/navigation/explore", self._explore)
+        self.takeoff_server = ActionServer(self, TAKEOFF, "/navigation/takeoff", self._takeoff)
+        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
+                                                "~/health", qos_profile_default)
+        self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
+
+    # -- inputs ------------------------------------------------------------------------
+    def _on_odometry(self, msg: Any) -> None:
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        self.position = np.array([p.x, p.y, p.z])
+        self.yaw = float(quat_to_yaw(np.array([o.w, o.x, o.y, o.z])))
+
+    def _on_markers(self, msg: Any) -> None:
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        for d in msg.detections:
+            self.markers_seen[int(d.id)] = stamp
+
+    def _here(self) -> np.ndarray:
+        return self.position.copy() if self.position is not None else np.zeros(3)
+
+    # -- flight-control calls ------------------------------------------------------------
+    async def _plan(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray | None, str]:
+        request = interfaces.new(PLAN_PATH.Request, start=_point(*start), goal=_point(*goal))
+        response = await self.planner.call_async(request)
+        if not response.success:
+            return None, str(response.message)
+        return path_points(response.path), str(response.message)
+
+    def _reach_goal(self, target: np.ndarray, yaw: float, radius: float, speed: float,
+                    stop: bool) -> Any:
+        goal = interfaces.new(REACH.Goal, radius=radius, speed=speed, stop_at_target=stop)
+        goal.target.position = _point(*target)
+        goal.target.orientation = interfaces.new("geometry_msgs/msg/Quaternion", x=0.0, y=0.0,
+                                                 z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
+        return goal
+
+    async def _run(self, client: ActionClient, goal: Any, handle: ServerGoalHandle,
+                   stop: Any = None) -> tuple[bool | None, str]:
+        """Run a flight-control goal to its end: (succeeded, message); (None, why) when
+        our goal was canceled or ``stop()`` became true (the flight goal is canceled)."""
+        fc = await client.send_goal_async(goal)
+        if not fc.accepted:
+            response = await fc.get_result_async()
+            return False, f"rejected: {response.result.message}"
+        result = fc.get_result_async()
+        while not result.done():
+            if handle.is_cancel_requested or (stop is not None and stop()):
+                await fc.cancel_goal_async()
+                return None, "canceled" if handle.is_cancel_requested else "stopped"
+            await self.sleep(POLL_S)
+        r = result.result().result
+        return bool(r.success), str(r.message)
+
+    # -- following a planned path --------------------------------------------------------
+    async def _fly_to(self, goal: np.ndarray, handle: ServerGoalHandle, *, radius: float,
+                      speed: float, stop: Any = None, feedback: Any = None) -> FlyResult:
+        """Plan to ``goal`` and follow the path, re-planning as the module docstring says."""
+        p = self.params
+        path: np.ndarray | None = None
+        message = ""
+        for _ in range(p.plan_attempts):
+            path, message = await self._plan(self._here(), goal)
+            if path is not None:
+                break
+            await self.sleep(p.replan_period_s)
+        if path is None:
+            return FlyResult(FlyOutcome.NO_PATH, message)
+        failures = 0
+        i = 1
+        while i < len(path):
+            wp = path[i]
+            last = i == len(path) - 1
+            here = self._here()
+            heading = math.atan2(wp[1] - here[1], wp[0] - here[0])
+            if float(np.hypot(*(wp[:2] - here[:2]))) < 0.3:
+                heading = self.yaw
+            if abs(wrap_pi(heading - self.yaw)) > p.turn_first_angle:
+                ok, why = await self._run(self.turn, interfaces.new(TURN.Goal, yaw=heading),
+                                          handle, stop)
+                if ok is None:
+                    return FlyResult(FlyOutcome.CANCELED if why == "canceled"
+                                     else FlyOutcome.STOPPED, why)
+            fc = await self.reach.send_goal_async(self._reach_goal(
+                wp, heading, radius if last else p.waypoint_radius, speed, last))
+            if not fc.accepted:
+                response = await fc.get_result_async()
+                return FlyResult(FlyOutcome.FLIGHT_ERROR,
+                                 f"reach rejected: {response.result.message}")
+            result = fc.get_result_async()
+            next_plan_ns = self.now().nanoseconds + int(p.replan_period_s * 1e9)
+            switched = False
+            while not result.done():
+                if handle.is_cancel_requested or (stop is not None and stop()):
+                    await fc.cancel_goal_async()
+                    return FlyResult(FlyOutcome.CANCELED if handle.is_cancel_requested
+                                     else FlyOutcome.STOPPED, "stopped on the way")
+                if feedback is not None:
+                    feedback(path, i)
+                if self.now().nanoseconds >= next_plan_ns:
+                    next_plan_ns = self.now().nanoseconds + int(p.replan_period_s * 1e9)
+                    here = self._here()
+                    new, _ = await self._plan(here, goal)
+                    left = float(np.linalg.norm(path[i] - here)) + path_length(path[i:])
+                    if new is not None and abs(path_length(new) - left) > p.replan_tolerance:
+                        await fc.cancel_goal_async()
+                        path, i, switched = new, 1, True
+                        break
+                await self.sleep(POLL_S)
+            if switched:
+                continue
+            r = result.result().result
+            if r.success:
+                i += 1
+                continue
+            failures += 1
+            if failures > p.max_reach_failures:
+                return FlyResult(FlyOutcome.FLIGHT_ERROR, f"reach failed: {r.message}")
+            new, message = await self._plan(self._here(), goal)
+            if new is None:
+                return FlyResult(FlyOutcome.NO_PATH, message)
+            path, i = new, 1
+        return FlyResult(FlyOutcome.REACHED, "reached")
+
+    # -- navigate --------------------------------------------------------------------------
+    async def _navigate(self, handle: ServerGoalHandle) -> Any:
+        goal = handle.request
+        R: Any = NAVIGATE.Result
+        self.active = "navigate"
+        target = np.array([goal.goal.x, goal.goal.y, goal.goal.z])
+        radius = goal.reach_radius or self.params.goal_radius
+        speed = goal.speed or self.params.cruise_speed
+
+        def feedback(path: np.ndarray, i: int) -> None:
+            here = self._here()
+            fb = interfaces.new(NAVIGATE.Feedback, current_waypoint=i,
+                                distance_left=float(np.linalg.norm(path[i] - here))
+                                + path_length(path[i:]))
+            fb.path = path_msg(path, self.now().to_msg())
+            handle.publish_feedback(fb)
+
+        if not np.all(np.isfinite(target)):
+            fly = FlyResult(FlyOutcome.NO_PATH, "goal is not finite")
+        else:
+            fly = await self._fly_to(target, handle, radius=radius, speed=speed,
+                                     feedback=feedback)
+        if fly.outcome is FlyOutcome.REACHED and math.isfinite(goal.yaw):
+            ok, why = await self._run(self.turn, interfaces.new(TURN.Goal, yaw=goal.yaw), handle)
+            if not ok:
+                fly = FlyResult(FlyOutcome.CANCELED if ok is None else FlyOutcome.FLIGHT_ERROR,
+                                f"final turn: {why}")
+        code = {FlyOutcome.REACHED: R.RESULT_OK, FlyOutcome.NO_PATH: R.RESULT_NO_PATH,
+                FlyOutcome.FLIGHT_ERROR: R.RESULT_FLIGHT_ERROR,
+                FlyOutcome.CANCELED: R.RESULT_CANCELED,
+                FlyOutcome.STOPPED: R.RESULT_CANCELED}[fly.outcome]
+        return self._finish(handle, NAVIGATE, code, fly.outcome is FlyOutcome.REACHED,
+                            fly.message, position=_point(*self._here()))
+
+    def _finish(self, handle: ServerGoalHandle, action: Any, code: int, success: bool,
+                message: str, **fields: Any) -> Any:
+        self.active = ""
+        self.last_message = message
+        if success:
+            handle.succeed()
+        elif code == action.Result.RESULT_CANCELED:
+            handle.canceled()
+        else:
+            handle.abort()
+        return interfaces.new(action.Result, result=code, success=success, message=message,
+                              **fields)
+
+    # -- takeoff ---------------------------------------------------------------------------
+    async def _takeoff(self, handle: ServerGoalHandle) -> Any:
+        goal = handle.request
+        R: Any = TAKEOFF.Result
+        self.active = "takeoff"
+        altitude = goal.altitude or self.params.cruise_altitude
+        fc = await self.fc_takeoff.send_goal_async(
+            interfaces.new(TAKEOFF.Goal, altitude=altitude, speed=goal.speed))
+        response = await fc.get_result_async()
+        r = response.result
+        if not r.success:
+            return self._finish(handle, TAKEOFF, int(r.result), False, f"takeoff: {r.message}",
+                                position=r.position)
+        for q in range(self.params.survey_turns):
+            ok, why = await self._run(self.turn, interfaces.new(TURN.Goal, yaw=math.pi / 2.0,
+                                                                relative=True), handle)
+            if not ok:
+                code = R.RESULT_CANCELED if ok is None else R.RESULT_TIMEOUT
+                return self._finish(handle, TAKEOFF, code, False,
+                                    f"survey turn {q + 1}: {why}", position=_point(*self._here()))
+        return self._finish(handle, TAKEOFF, R.RESULT_OK, True,
+                            f"at {altitude:.2f} m, {self.params.survey_turns} survey turns",
+                            position=_point(*self._here()))
+
+    # -- explore ---------------------------------------------------------------------------
+    def explore_waypoints(self, area: np.ndarray, altitude: float) -> tuple[np.ndarray, str]:
+        """The explore path (N, 3) for an area ((M, 2) polygon; empty = the field) and where
+        it came from."""
+        p = self.params
+        if len(area) == 0:
+            predefined = self.explore_paths.get(p.arena, {}).get(p.start_pad)
+            if predefined is not None:
+                xy, source = predefined, f"explore path of {p.arena} pad {p.start_pad}"
+            else:
+                lo = self.field_min[:2] + p.wall_margin
+                hi = self.field_max[:2] - p.wall_margin
+                xy = coverage_lanes(lo, hi, self._spacing(altitude), self._here()[:2])
+                source = "coverage lanes over the field"
+        else:
+            xy = coverage_lanes(area.min(axis=0), area.max(axis=0), self._spacing(altitude),
+                                self._here()[:2])
+            source = "coverage lanes over the area"
+        return np.column_stack([xy, np.full(len(xy), altitude)]), source
+
+    def _spacing(self, altitude: float) -> float:
+        p = self.params
+        return lane_spacing(altitude, p.down_camera_fovy_deg, p.down_camera_aspect,
+                            p.lane_overlap)
+
+    async def _explore(self, handle: ServerGoalHandle) -> Any:
+        goal = handle.request
+        R: Any = EXPLORE.Result
+        p = self.params
+        self.active = "explore"
+        start_ns = self.now().nanoseconds
+        altitude = goal.altitude or p.cruise_altitude
+        area = np.array([[q.x, q.y] for q in goal.area], dtype=np.float64).reshape(-1, 2)
+        waypoints, source = self.explore_waypoints(area, altitude)
+        lo = area.min(axis=0) if len(area) else self.field_min[:2]
+        hi = area.max(axis=0) if len(area) else self.field_max[:2]
+        grid = CoverageGrid(lo, hi, p.coverage_cell)
+        half = footprint_half_size(altitude, p.down_camera_fovy_deg, p.down_camera_aspect)
+        wanted = {int(i) for i in goal.stop_marker_ids}
+        budget_ns = goal.time_budget.sec * 1_000_000_000 + goal.time_budget.nanosec
+        found: list[int] = []
+        state = {"budget": False}
+
+        def seen() -> list[int]:
+            return sorted(i for i, t in self.markers_seen.items() if t >= start_ns)
+
+        def stop() -> bool:
+            here = self._here()
+            grid.mark(here[:2], (half[0] * here[2] / altitude, half[1] * here[2] / altitude)
+                      if altitude > 0 else half, self.yaw)
+            if wanted & set(seen()):
+                return True
+            if budget_ns and self.now().nanoseconds - start_ns >= budget_ns:
+                state["budget"] = True
+                return True
+            return False
+
+        def elapsed() -> Any:
+            ns = self.now().nanoseconds - start_ns
+            return interfaces.new("builtin_interfaces/msg/Duration", sec=ns // 1_000_000_000,
+                                  nanosec=ns % 1_000_000_000)
+
+        skipped = 0
+        outcome: tuple[int, bool, str] | None = None
+        self.get_logger().info(f"explore: {len(waypoints)} waypoints ({source})")
+        for k, wp in enumerate(waypoints):
+            def feedback(_path: np.ndarray, _i: int, wp: np.ndarray = wp) -> None:
+                handle.publish_feedback(interfaces.new(
+                    EXPLORE.Feedback, coverage=grid.fraction, elapsed=elapsed(),
+                    markers_found=seen(), next_waypoint=_point(*wp)))
+
+            if stop():
+                break
+            fly = await self._fly_to(wp, handle, radius=p.waypoint_radius,
+                                     speed=p.cruise_speed, stop=stop, feedback=feedback)
+            if fly.outcome is FlyOutcome.NO_PATH:
+                skipped += 1
+                continue
+            if fly.outcome is FlyOutcome.CANCELED:
+                outcome = (R.RESULT_CANCELED, False, "canceled")
+                break
+            if fly.outcome is FlyOutcome.FLIGHT_ERROR:
+                outcome = (R.RESULT_FLIGHT_ERROR, False, f"waypoint {k + 1}: {fly.message}")
+                break
+            if fly.outcome is FlyOutcome.STOPPED:
+                break
+        found = seen()
+        if outcome is None:
+            if wanted & set(found):
+                hit = sorted(wanted & set(found))
+                outcome = (R.RESULT_MARKER_FOUND, True, f"marker {hit[0]} found ({source})")
+                await self._hold(handle)
+            elif state["budget"]:
+                outcome = (R.RESULT_TIME_BUDGET, False, "time budget used up")
+                await self._hold(handle)
+            else:
+                outcome = (R.RESULT_COVERED, True,
+                           f"{len(waypoints) - skipped}/{len(waypoints)} waypoints flown "
+                           f"({source}), {skipped} skipped without a path")
+        code, success, message = outcome
+        return self._finish(handle, EXPLORE, code, success, message, coverage=grid.fraction,
+                            markers_found=found, elapsed=elapsed())
+
+    async def _hold(self, handle: ServerGoalHandle) -> None:
+        """Stop where the vehicle is (a reach to here)."""
+        here = self._here()
+        await self._run(self.reach, self._reach_goal(here, self.yaw, self.params.goal_radius,
+                                                     self.params.cruise_speed, True), handle)
+
+    # -- health ----------------------------------------------------------------------------
+    def _publish_health(self) -> None:
+        ok = self.position is not None
+        self.health_pub.publish(health_report(
+            "navigator", MODULE_HEALTH.LEVEL_OK if ok else MODULE_HEALTH.LEVEL_WARN,
+            "" if ok else "no /fcu/odometry yet",
+            {"active": self.active or "idle", "last_message": self.last_message,
+             "planner_ready": self.planner.service_is_ready()}, self.now().to_msg()))
+
+
+__all__ = ["EXPLORE", "NAVIGATE", "TAKEOFF", "FlyOutcome", "NavigatorNode"]

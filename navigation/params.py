@@ -1,0 +1,120 @@
+"""The navigation nodes' parameters: types, units and ranges here, values in
+``config/mapping.yaml``, ``config/path_finder.yaml`` and ``config/navigator.yaml``. The
+field bounds (``field_min``/``field_max``) come from the app, as for flight_control."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from navigation.voxel_graph import GraphParams
+from runtime import param
+
+
+@dataclass(frozen=True)
+class MappingParams:
+    """Parameters of ``mapping``."""
+
+    voxel_size: float = param(unit="m", range=(0.01, 1.0), lo_open=False,
+                              description="map voxel side (one point per voxel)")
+    process_rate_hz: float = param(unit="Hz", range=(0.1, 100.0),
+                                   description="depth clouds fused per second at most")
+    publish_rate_hz: float = param(unit="Hz", range=(0.05, 50.0),
+                                   description="/map/points publish rate")
+    min_range: float = param(unit="m", range=(0.0, 100.0),
+                             description="depth points nearer than this are dropped")
+    max_range: float = param(unit="m", range=(0.1, 100.0),
+                             description="depth points farther than this are dropped")
+    settle_s: float = param(unit="s", range=(0.0, 60.0),
+                            description="fuse only once the FCU's position has been valid "
+                                        "this long")
+    min_z: float = param(unit="m", range=(-100.0, 100.0),
+                         description="map points below this height (the floor) are dropped")
+    depth_camera_position: tuple[float, ...] = param(
+        unit="m", range=(-2.0, 2.0),
+        description="depth camera optical centre in the body frame (FLU); axes = body axes")
+    map_file: str = param("", description="PCD/PLY map loaded at start; empty = none")
+    health_rate_hz: float = param(1.0, unit="Hz", range=(0.1, 10.0),
+                                  description="~/health publish rate")
+
+
+@dataclass(frozen=True)
+class PathFinderParams:
+    """Parameters of ``path_finder``."""
+
+    resolution: float = param(unit="m", range=(0.02, 2.0), description="cube side")
+    occupied_threshold: int = param(range=(0, 100000),
+                                    description="a cube with more points is non-viable")
+    corridor_threshold: int = param(range=(1, 100000),
+                                    description="an edge needs fewer points in its corridor")
+    footprint_radius: float = param(unit="m", range=(0.0, 5.0),
+                                    description="drone horizontal half-width")
+    safety_margin: float = param(unit="m", range=(0.0, 5.0),
+                                 description="added to the footprint")
+    vertical_clearance: float = param(unit="m", range=(0.0, 5.0),
+                                      description="corridor half-height")
+    unknown_is_occupied: bool = param(description="unobserved cubes are non-viable")
+    snap_radius: float = param(unit="m", range=(0.0, 5.0),
+                               description="start/goal snap to a free cube within this")
+    time_limit_s: float = param(unit="s", range=(0.001, 60.0),
+                                description="search time limit (host time)")
+    use_live_map: bool = param(description="plan on /map/points (else only map_file)")
+    map_file: str = param("", description="PCD/PLY map loaded at start; empty = none")
+    cache_dir: str = param("", description="graph cache folder; empty = no disk cache")
+    health_rate_hz: float = param(1.0, unit="Hz", range=(0.1, 10.0),
+                                  description="~/health publish rate")
+
+    def graph(self, clearance: float = 0.0) -> GraphParams:
+        """The graph parameters; a request's ``clearance`` > 0 replaces footprint + margin."""
+        radius, margin = ((clearance, 0.0) if clearance > 0.0
+                          else (self.footprint_radius, self.safety_margin))
+        return GraphParams(resolution=self.resolution,
+                           occupied_threshold=self.occupied_threshold,
+                           corridor_threshold=self.corridor_threshold,
+                           footprint_radius=radius, safety_margin=margin,
+                           vertical_clearance=self.vertical_clearance,
+                           unknown_is_occupied=self.unknown_is_occupied)
+
+
+@dataclass(frozen=True)
+class NavigatorParams:
+    """Parameters of ``navigator``."""
+
+    cruise_altitude: float = param(unit="m", range=(0.3, 10.0),
+                                   description="flight height (map z) of takeoff and explore")
+    cruise_speed: float = param(unit="m/s", range=(0.1, 5.0), description="reach speed")
+    waypoint_radius: float = param(unit="m", range=(0.02, 2.0),
+                                   description="an intermediate waypoint is reached inside it")
+    goal_radius: float = param(unit="m", range=(0.02, 2.0),
+                               description="the goal is reached inside it (goal's 0)")
+    replan_period_s: float = param(unit="s", range=(0.1, 60.0),
+                                   description="re-plan from here this often while flying")
+    replan_tolerance: float = param(unit="m", range=(0.0, 100.0),
+                                    description="switch path when its length differs more")
+    plan_attempts: int = param(range=(1, 100), description="plans tried before giving up")
+    max_reach_failures: int = param(range=(0, 100),
+                                    description="failed reaches (each re-planned) tolerated")
+    turn_first_angle: float = param(unit="rad", range=(0.0, 3.15),
+                                    description="turn to face a leg first beyond this angle "
+                                                "(3.15: never)")
+    survey_turns: int = param(range=(0, 8), description="quarter turns after takeoff, to "
+                                                         "map around with the depth camera")
+    explore_paths_file: str = param(description="YAML of explore paths per arena and pad")
+    lane_overlap: float = param(unit="1", range=(0.0, 0.9),
+                                description="coverage lanes overlap of the camera footprint")
+    down_camera_fovy_deg: float = param(unit="deg", range=(1.0, 179.0),
+                                        description="down camera vertical field of view")
+    down_camera_aspect: float = param(unit="1", range=(0.1, 10.0),
+                                      description="down camera width / height")
+    wall_margin: float = param(unit="m", range=(0.0, 5.0),
+                               description="coverage lanes stay this far from the walls")
+    coverage_cell: float = param(unit="m", range=(0.05, 5.0),
+                                 description="cell of the coverage estimate")
+    feedback_rate_hz: float = param(unit="Hz", range=(0.1, 50.0),
+                                    description="action feedback rate")
+    arena: str = param("", description="arena name (explore paths key); from the app")
+    start_pad: int = param(0, range=(0, 1000), description="start pad id; from the app")
+    health_rate_hz: float = param(1.0, unit="Hz", range=(0.1, 10.0),
+                                  description="~/health publish rate")
+
+
+__all__ = ["MappingParams", "NavigatorParams", "PathFinderParams"]

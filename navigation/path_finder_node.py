@@ -1,0 +1,185 @@
+"""The path finder (seed 003, sec. 3.3.2): ``/navigation/plan_path`` on the voxel graph.
+
+It converts messages and maps errors; the graph is :mod:`navigation.voxel_graph`, the search
+:mod:`navigation.astar`. The graph is built from ``map_file`` (when given) plus the live
+``/map/points`` (when ``use_live_map``), over the field the app gives
+(``field_min``/``field_max``), lazily: a request after the map changed rebuilds it (from
+the disk cache when ``cache_dir`` is set). Every :class:`~navigation.errors.PlanningError`
+becomes a ``PlanPath`` result code here, in :data:`RESULT_OF`, with the error's text.
+Parameters: ``config/path_finder.yaml``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import interfaces
+from flight_control.params import FIELD_SOURCE, FieldParams
+from navigation.astar import plan
+from navigation.cloud_msgs import cloud_points
+from navigation.errors import (
+    GoalOccupied,
+    GraphError,
+    NoPathFound,
+    OutOfBounds,
+    PlanningError,
+    PlanningTimedOut,
+    StartOccupied,
+)
+from navigation.health import MODULE_HEALTH, health_report
+from navigation.mapping import load_map
+from navigation.mapping_node import MAP_TOPIC
+from navigation.params import PathFinderParams
+from navigation.voxel_graph import VoxelGraph, build_graph, cached_graph
+from runtime import Node, ParameterError, qos_profile_default
+
+PLAN_PATH = interfaces.get_service("quadmission_interfaces/srv/PlanPath")
+PLAN_PATH_SERVICE = "/navigation/plan_path"
+MAP_FRAME = "map"
+_R: Any = PLAN_PATH.Response
+#: The one place where planning errors become result codes.
+RESULT_OF: dict[type[PlanningError], int] = {
+    StartOccupied: _R.RESULT_START_OCCUPIED,
+    GoalOccupied: _R.RESULT_GOAL_OCCUPIED,
+    OutOfBounds: _R.RESULT_OUT_OF_BOUNDS,
+    NoPathFound: _R.RESULT_NO_PATH,
+    PlanningTimedOut: _R.RESULT_NO_PATH,
+}
+
+
+def path_msg(points: np.ndarray, stamp: Any) -> Any:
+    """A nav_msgs/Path in the map frame through ``points`` (N, 3) [m]."""
+    header = interfaces.new("std_msgs/msg/Header", stamp=stamp, frame_id=MAP_FRAME)
+    poses = []
+    for p in points:
+        pose = interfaces.new("geometry_msgs/msg/PoseStamped", header=header)
+        pose.pose.position = interfaces.new("geometry_msgs/msg/Point", x=float(p[0]),
+                                            y=float(p[1]), z=float(p[2]))
+        pose.pose.orientation.w = 1.0
+        poses.append(pose)
+    return interfaces.new("nav_msgs/msg/Path", header=header, poses=poses)
+
+
+def path_points(msg: Any) -> np.ndarray:
+    """The (N, 3) positions [m] of a nav_msgs/Path."""
+    return np.array([[p.pose.position.x, p.pose.position.y, p.pose.position.z]
+                     for p in msg.poses], dtype=np.float64).reshape(-1, 3)
+
+
+class PathFinderNode(Node):
+    """See the module docstring."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("path_finder", **kwargs)
+        self.params = self.declare_params(PathFinderParams)
+        try:
+            field = self.declare_params(FieldParams)
+        except ParameterError as exc:
+            raise ParameterError(f"{exc}; {FIELD_SOURCE}") from None
+        if self.params.unknown_is_occupied:
+            raise ParameterError(
+                "true needs the cubes the depth camera observed, which /map/points does not "
+                "carry; use build_graph(observed=...) directly",
+                key="path_finder.unknown_is_occupied")
+        self.field_min = np.asarray(field.field_min, dtype=np.float64)
+        self.field_max = np.asarray(field.field_max, dtype=np.float64)
+        self.static_points = (load_map(self.params.map_file) if self.params.map_file
+                              else np.empty((0, 3)))
+        self.live_points = np.empty((0, 3))
+        self._graphs: dict[float, VoxelGraph] = {}  # by request clearance, for this map
+        self.map_version = 0
+        self.graph_builds = 0
+        self.requests = 0
+        self.last_error = ""
+        if self.params.use_live_map:
+            self.create_subscription("sensor_msgs/msg/PointCloud2", MAP_TOPIC, self._on_map,
+                                     qos_profile_default)
+        self.create_service(PLAN_PATH, PLAN_PATH_SERVICE, self._plan_path)
+        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
+                                                "~/health", qos_profile_default)
+        self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
+
+    def _on_map(self, msg: Any) -> None:
+        self.live_points = cloud_points(msg)
+        self._graphs.clear()
+        self.map_version += 1
+
+    def map_points(self) -> np.ndarray:
+        return np.vstack([self.static_points, self.live_points])
+
+    def graph(self, clearance: float = 0.0) -> VoxelGraph | None:
+        """The graph of the current map (None: no map yet). Raises GraphError."""
+        if clearance in self._graphs:
+            return self._graphs[clearance]
+        points = self.map_points()
+        if len(points) == 0:
+            return None
+        gp = self.params.graph(clearance)
+        if self.params.cache_dir:
+            graph, _ = cached_graph(points, self.field_min, self.field_max, gp,
+                                    Path(self.params.cache_dir))
+        else:
+            graph = build_graph(points, self.field_min, self.field_max, gp)
+        self.graph_builds += 1
+        self._graphs[clearance] = graph
+        return graph
+
+    def _plan_path(self, request: Any, response: Any) -> Any:
+        self.requests += 1
+        start = np.array([request.start.x, request.start.y, request.start.z])
+        goal = np.array([request.goal.x, request.goal.y, request.goal.z])
+        clearance = float(request.clearance)
+        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(goal))
+                and math.isfinite(clearance) and clearance >= 0.0):
+            response.result = _R.RESULT_OUT_OF_BOUNDS
+            response.message = "start, goal and clearance must be finite (clearance >= 0)"
+            return self._failed(response)
+        try:
+            graph = self.graph(clearance)
+        except GraphError as exc:
+            response.result = _R.RESULT_NO_MAP
+            response.message = f"no usable map: {exc}"
+            return self._failed(response)
+        if graph is None:
+            response.result = _R.RESULT_NO_MAP
+            response.message = "no map yet (no map_file and nothing on /map/points)"
+            return self._failed(response)
+        try:
+            planned = plan(graph, start, goal, snap_radius=self.params.snap_radius,
+                           time_limit_s=self.params.time_limit_s)
+        except PlanningError as exc:
+            response.result = RESULT_OF[type(exc)]
+            response.message = f"{type(exc).__name__}: {exc}"
+            return self._failed(response)
+        response.result = _R.RESULT_OK
+        response.success = True
+        response.message = (f"{len(planned.points)} waypoints, {planned.length:.2f} m "
+                            f"({planned.expansions} cubes expanded)")
+        response.path = path_msg(planned.points, self.now().to_msg())
+        response.length = planned.length
+        self.last_error = ""
+        return response
+
+    def _failed(self, response: Any) -> Any:
+        response.success = False
+        response.path = path_msg(np.empty((0, 3)), self.now().to_msg())
+        self.last_error = str(response.message)
+        return response
+
+    def _publish_health(self) -> None:
+        has_map = len(self.static_points) > 0 or len(self.live_points) > 0
+        level = MODULE_HEALTH.LEVEL_OK if has_map else MODULE_HEALTH.LEVEL_WARN
+        self.health_pub.publish(health_report(
+            "path_finder", level, "" if has_map else "no map yet",
+            {"map_points": len(self.static_points) + len(self.live_points),
+             "map_version": self.map_version, "graph_builds": self.graph_builds,
+             "requests": self.requests, "last_error": self.last_error},
+            self.now().to_msg()))
+
+
+__all__ = ["PLAN_PATH", "PLAN_PATH_SERVICE", "RESULT_OF", "PathFinderNode", "path_msg",
+           "path_points"]

@@ -1,0 +1,308 @@
+"""The seed's voxel graph of the free space, built from a point cloud (seed 003, sec. 3.3.2).
+
+Pure and vectorised (numpy; no Python loop over cubes). The rules, each in one place:
+
+- the field box is divided into cubes of side ``resolution`` from the field's minimum
+  corner (a fixed origin), each identified by its centre;
+- points outside the field are dropped;
+- boundary cubes (the outer layer on every side, floor and ceiling included) are
+  non-viable, and the walls, floor and ceiling beyond them count as obstacles for the
+  corridors (cubes outside the field as far as the footprint reaches hold
+  ``corridor_threshold`` points each), so paths keep the footprint's clearance from them;
+- cubes holding more than ``occupied_threshold`` points are non-viable;
+- optionally (``unknown_is_occupied``) cubes never observed are non-viable;
+- each cube's neighbours are the 8 horizontal ones at the same altitude plus the ones
+  directly above and below (:data:`OFFSETS`);
+- an edge joins two viable neighbours if and only if the corridor between them holds
+  fewer than ``corridor_threshold`` points; its cost is the Euclidean distance between
+  the centres.
+
+The corridor is the drone's footprint swept from one centre to the other, inflated the
+way EGO-Planner users ask for: the horizontal radius ``footprint_radius +
+safety_margin`` becomes ``n = ceil(r / res)`` cubes (``res * ceil(r / res)`` metres), the
+vertical half-height ``vertical_clearance`` becomes ``m = ceil(h / res)`` cubes, and the
+corridor is the box of cubes ``min(a, b) - (n, n, m)`` .. ``max(a, b) + (n, n, m)``. Points
+are counted per cube, so the box count comes from a 3-D summed-area table in O(1) per edge.
+Every point of a corridor's cubes is at least ``(n + 1/2) res`` (horizontally, Chebyshev)
+from the segment's ends: the box over-approximates the swept disc, never under.
+
+A cube is *free* when it is viable and its own box (``cube +- (n, n, m)``) holds fewer than
+``corridor_threshold`` points: the cubes a path may pass through (start, goal and the
+line-of-sight check of :mod:`navigation.astar`). Every edge joins two free cubes.
+
+Map frame (ENU), metres.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from navigation.errors import EmptyCloud, InvalidBounds, ResolutionTooSmall
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+#: Neighbour offsets (i, j, k): 8 horizontal, then up and down. Edge d of cube c joins c
+#: and c + OFFSETS[d]; OPPOSITE[d] is the same edge seen from the other end.
+OFFSETS: npt.NDArray[np.int64] = np.array(
+    [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0),
+     (1, 1, 0), (1, -1, 0), (-1, 1, 0), (-1, -1, 0),
+     (0, 0, 1), (0, 0, -1)], dtype=np.int64)
+OPPOSITE: npt.NDArray[np.int64] = np.array([1, 0, 3, 2, 7, 6, 5, 4, 9, 8], dtype=np.int64)
+MAX_CUBES = 50_000_000  # beyond this the grid does not fit in memory: resolution too small
+GRAPH_VERSION = 2  # bump when the rules change: old cache files stop matching
+
+
+@dataclass(frozen=True)
+class GraphParams:
+    """How a cloud becomes a graph. Metres; thresholds in points."""
+
+    resolution: float  # m, cube side
+    occupied_threshold: int = 2  # a cube with more points than this is non-viable
+    corridor_threshold: int = 1  # an edge needs fewer points than this in its corridor
+    footprint_radius: float = 0.35  # m, the drone's horizontal half-width
+    safety_margin: float = 0.05  # m, added to the footprint
+    vertical_clearance: float = 0.2  # m, half-height of the corridor
+    unknown_is_occupied: bool = False  # unobserved cubes are non-viable (needs ``observed``)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.resolution) and self.resolution > 0.0):
+            raise ResolutionTooSmall(f"resolution {self.resolution} m: must be > 0")
+        if self.occupied_threshold < 0 or self.corridor_threshold < 1:
+            raise ValueError(
+                f"GraphParams: occupied_threshold {self.occupied_threshold} must be >= 0 and "
+                f"corridor_threshold {self.corridor_threshold} >= 1")
+        for name in ("footprint_radius", "safety_margin", "vertical_clearance"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"GraphParams.{name}: {value} m must be >= 0")
+
+    @property
+    def inflation_cubes(self) -> tuple[int, int]:
+        """(n, m): the corridor's horizontal and vertical half-width in cubes,
+        ``ceil(r / res)`` (a tiny tolerance keeps 0.4 / 0.2 at 2, not 3)."""
+        res = self.resolution
+        r = self.footprint_radius + self.safety_margin
+        return (math.ceil(r / res - 1e-9), math.ceil(self.vertical_clearance / res - 1e-9))
+
+
+@dataclass(frozen=True)
+class Grid:
+    """The cube grid over the field box: origin = the field's minimum corner."""
+
+    origin: tuple[float, float, float]  # m
+    resolution: float  # m
+    shape: tuple[int, int, int]  # cubes along x, y, z
+
+    @classmethod
+    def over(cls, field_min: npt.ArrayLike, field_max: npt.ArrayLike, resolution: float) -> Grid:
+        lo = np.asarray(field_min, dtype=np.float64).reshape(3)
+        hi = np.asarray(field_max, dtype=np.float64).reshape(3)
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+            raise InvalidBounds(f"field bounds {lo.tolist()} .. {hi.tolist()} m: the minimum "
+                                "must be below the maximum on every axis")
+        if not (math.isfinite(resolution) and resolution > 0.0):
+            raise ResolutionTooSmall(f"resolution {resolution} m: must be > 0")
+        # a field side that is a multiple of the resolution must not gain a cube to rounding
+        shape = np.ceil((hi - lo) / resolution - 1e-9).astype(np.int64)
+        cubes = int(np.prod(shape.astype(np.float64)))
+        if cubes > MAX_CUBES:
+            raise ResolutionTooSmall(
+                f"resolution {resolution} m gives {cubes} cubes for the field "
+                f"{(hi - lo).tolist()} m; at most {MAX_CUBES} (use a coarser resolution)")
+        if np.any(shape < 3):
+            raise ResolutionTooSmall(
+                f"resolution {resolution} m gives {shape.tolist()} cubes for the field "
+                f"{(hi - lo).tolist()} m; each axis needs at least 3 (boundary + inside)")
+        return cls((float(lo[0]), float(lo[1]), float(lo[2])), float(resolution),
+                   (int(shape[0]), int(shape[1]), int(shape[2])))
+
+    @property
+    def size(self) -> int:
+        return self.shape[0] * self.shape[1] * self.shape[2]
+
+    def cell_of(self, points: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        """(N, 3) integer cube indices of map points (may be outside the grid)."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return np.floor((p - np.asarray(self.origin)) / self.resolution).astype(np.int64)
+
+    def inside(self, cells: npt.NDArray[np.int64]) -> BoolArray:
+        return np.all((cells >= 0) & (cells < np.asarray(self.shape)), axis=1)
+
+    def center(self, cells: npt.ArrayLike) -> FloatArray:
+        """Map-frame centres of (N, 3) cube indices."""
+        c = np.asarray(cells, dtype=np.float64).reshape(-1, 3)
+        return np.asarray(self.origin) + (c + 0.5) * self.resolution
+
+    def flat(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+        return np.ravel_multi_index(tuple(cells.T), self.shape)
+
+    def unflat(self, index: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        return np.stack(np.unravel_index(np.asarray(index, dtype=np.int64), self.shape),
+                        axis=-1).astype(np.int64)
+
+
+@dataclass(frozen=True, eq=False)
+class VoxelGraph:
+    """Cubes and edges. ``edges[d, i, j, k]``: an edge from cube (i, j, k) along
+    ``OFFSETS[d]`` (symmetric: the neighbour has the OPPOSITE edge)."""
+
+    grid: Grid
+    params: GraphParams
+    counts: npt.NDArray[np.int32]  # points per cube
+    viable: BoolArray  # the seed's viable cubes (nodes)
+    free: BoolArray  # viable and clear of points for the footprint (see module docstring)
+    edges: BoolArray  # (10, nx, ny, nz)
+
+    @property
+    def step_costs(self) -> FloatArray:
+        """Edge cost per direction [m]: the Euclidean distance between the centres."""
+        return np.linalg.norm(OFFSETS.astype(np.float64), axis=1) * self.grid.resolution
+
+    @property
+    def edge_count(self) -> int:
+        """Undirected edges."""
+        return int(self.edges.sum()) // 2
+
+    def neighbours(self, cell: tuple[int, int, int]) -> list[tuple[int, int, int]]:
+        """The cubes joined to ``cell`` by an edge."""
+        out = []
+        for d in np.flatnonzero(self.edges[(slice(None), *cell)]):
+            n = np.asarray(cell) + OFFSETS[d]
+            out.append((int(n[0]), int(n[1]), int(n[2])))
+        return out
+
+
+def _box_sums(sat: npt.NDArray[np.int64], lo: npt.NDArray[np.int64],
+              hi: npt.NDArray[np.int64], shape: tuple[int, int, int]) -> npt.NDArray[np.int64]:
+    """Sum of counts over the cube boxes [lo, hi] (inclusive, clipped to the grid), from a
+    summed-area table padded with a leading zero plane on each axis."""
+    shape_a = np.asarray(shape, dtype=np.int64).reshape((3,) + (1,) * (lo.ndim - 1))
+    a = np.clip(lo, 0, shape_a)  # padded index of the first cube = lo
+    b = np.clip(hi + 1, 0, shape_a)  # one past the last cube
+    x0, y0, z0 = a[0], a[1], a[2]
+    x1, y1, z1 = b[0], b[1], b[2]
+    return (sat[x1, y1, z1] - sat[x0, y1, z1] - sat[x1, y0, z1] - sat[x1, y1, z0]
+            + sat[x0, y0, z1] + sat[x0, y1, z0] + sat[x1, y0, z0] - sat[x0, y0, z0])
+
+
+def count_points(points: npt.ArrayLike, grid: Grid) -> npt.NDArray[np.int32]:
+    """Points per cube; points outside the field are dropped. Raises EmptyCloud when none
+    is left."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(p) == 0:
+        raise EmptyCloud("the point cloud is empty")
+    p = p[np.all(np.isfinite(p), axis=1)]
+    lo = np.asarray(grid.origin)
+    hi = lo + np.asarray(grid.shape) * grid.resolution
+    p = p[np.all((p >= lo) & (p < hi), axis=1)]
+    if len(p) == 0:
+        raise EmptyCloud(f"none of the cloud's points is inside the field {lo.tolist()} .. "
+                         f"{hi.tolist()} m")
+    flat = grid.flat(grid.cell_of(p))
+    counts = np.bincount(flat, minlength=grid.size).astype(np.int32)
+    return counts.reshape(grid.shape)
+
+
+def build_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
+                params: GraphParams, observed: BoolArray | None = None) -> VoxelGraph:
+    """The graph of ``points`` (N, 3) [m, map frame] over the field box, by the rules of
+    the module docstring. ``observed``: cubes seen by the sensor (grid shape), used when
+    ``params.unknown_is_occupied``."""
+    grid = Grid.over(field_min, field_max, params.resolution)
+    counts = count_points(points, grid)
+    nx, ny, nz = grid.shape
+    viable = counts <= params.occupied_threshold
+    boundary = np.zeros(grid.shape, dtype=bool)
+    boundary[[0, -1], :, :] = True
+    boundary[:, [0, -1], :] = True
+    boundary[:, :, [0, -1]] = True
+    viable &= ~boundary
+    if params.unknown_is_occupied:
+        if observed is None:
+            raise ValueError("unknown_is_occupied needs the observed cubes")
+        if observed.shape != grid.shape:
+            raise ValueError(f"observed cubes: shape {observed.shape}, grid {grid.shape}")
+        viable &= observed
+
+    n, m = params.inflation_cubes
+    # the walls, floor and ceiling enclose the field: the cubes beyond it, as far as the
+    # footprint reaches, count as full (corridor_threshold points each)
+    padded = np.pad(counts.astype(np.int64), ((n, n), (n, n), (m, m)),
+                    constant_values=params.corridor_threshold)
+    px, py, pz = padded.shape
+    sat = np.zeros((px + 1, py + 1, pz + 1), dtype=np.int64)
+    sat[1:, 1:, 1:] = padded.cumsum(0).cumsum(1).cumsum(2)
+    padded_shape = (px, py, pz)
+    pad = np.array([n, n, m], dtype=np.int64).reshape(3, 1, 1, 1)
+    cells = np.indices(grid.shape, dtype=np.int64) + pad  # (3, nx, ny, nz), padded indices
+    own_box = _box_sums(sat, cells - pad, cells + pad, padded_shape)
+    free = viable & (own_box < params.corridor_threshold)
+
+    edges = np.zeros((len(OFFSETS), nx, ny, nz), dtype=bool)
+    shape_a = np.asarray(grid.shape, dtype=np.int64).reshape(3, 1, 1, 1)
+    for d, off in enumerate(OFFSETS):  # 10 directions, each vectorised over every cube
+        o = off.reshape(3, 1, 1, 1)
+        other = cells + o
+        in_grid = np.all((other - pad >= 0) & (other - pad < shape_a), axis=0)
+        corridor = _box_sums(sat, np.minimum(cells, other) - pad, np.maximum(cells, other) + pad,
+                             padded_shape)
+        ok = in_grid & free & (corridor < params.corridor_threshold)
+        oc = np.clip(other - pad, 0, shape_a - 1)
+        ok &= free[oc[0], oc[1], oc[2]]
+        edges[d] = ok
+    return VoxelGraph(grid, params, counts, viable, free, edges)
+
+
+# -- cache ---------------------------------------------------------------------------------
+def cache_key(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
+              params: GraphParams, observed: BoolArray | None = None) -> str:
+    """A digest of everything the graph depends on: the cloud's bytes (float64), the field,
+    the parameters, the observed cubes and the rules' version."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(np.asarray(points, dtype=np.float64)).tobytes())
+    meta = {"min": np.asarray(field_min, dtype=np.float64).tolist(),
+            "max": np.asarray(field_max, dtype=np.float64).tolist(),
+            "params": asdict(params), "version": GRAPH_VERSION}
+    h.update(json.dumps(meta, sort_keys=True).encode())
+    if observed is not None:
+        h.update(np.packbits(observed).tobytes())
+    return h.hexdigest()[:32]
+
+
+def cached_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
+                 params: GraphParams, cache_dir: Path,
+                 observed: BoolArray | None = None) -> tuple[VoxelGraph, bool]:
+    """:func:`build_graph`, loaded from ``cache_dir`` when it was built before with the same
+    inputs, else built and saved there. Returns (graph, came from the cache)."""
+    key = cache_key(points, field_min, field_max, params, observed)
+    path = Path(cache_dir) / f"voxel_graph_{key}.npz"
+    if path.is_file():
+        try:
+            with np.load(path) as z:
+                grid = Grid(tuple(float(v) for v in z["origin"]),  # type: ignore[arg-type]
+                            float(z["resolution"]), tuple(int(v) for v in z["shape"]))  # type: ignore[arg-type]
+                return VoxelGraph(grid, params, z["counts"], z["viable"], z["free"],
+                                  z["edges"]), True
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache file: rebuild and overwrite it
+    graph = build_graph(points, field_min, field_max, params, observed)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez_compressed(tmp, origin=np.asarray(graph.grid.origin),
+                        resolution=np.asarray(graph.grid.resolution),
+                        shape=np.asarray(graph.grid.shape), counts=graph.counts,
+                        viable=graph.viable, free=graph.free, edges=graph.edges)
+    tmp.replace(path)
+    return graph, False
+
+
+__all__ = ["OFFSETS", "OPPOSITE", "GraphParams", "Grid", "VoxelGraph", "build_graph",
+           "cache_key", "cached_graph", "count_points"]

@@ -1,0 +1,131 @@
+"""The navigator flying through the real flight-control node on the scripted FCU (no
+MuJoCo): navigate around a wall on the path finder's graph, explore lanes, stop on a
+marker. The map is a cloud published on /map/points, as the mapping node publishes it."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+
+import interfaces
+from navigation.cloud_msgs import cloud_msg
+from navigation.navigator_node import EXPLORE, NAVIGATE, NavigatorNode
+from navigation.path_finder_node import PathFinderNode
+from runtime import ActionClient, Node, Time, qos_profile_default, qos_profile_sensor_data
+from tests.flight_control.rig import FIELD, Rig, make_rig
+
+# a wall at x = 5 m from y = 0 to 5 m, full height: the way round is north of y = 5
+WALL = np.array([(5.05, y, z) for y in np.arange(0.05, 5.0, 0.1)
+                 for z in np.arange(0.05, 4.0, 0.1)])
+NAV_OVERRIDES = FIELD | {"survey_turns": 0, "turn_first_angle": 3.15, "cruise_altitude": 1.5}
+
+
+class Mission(Node):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("mission", **kwargs)
+        self.map_pub = self.create_publisher("sensor_msgs/msg/PointCloud2", "/map/points",
+                                             qos_profile_default)
+        self.markers = self.create_publisher("quadmission_interfaces/msg/MarkerDetectionArray",
+                                             "/perception/markers", qos_profile_default)
+        self.navigate = ActionClient(self, NAVIGATE, "/navigation/navigate")
+        self.explore = ActionClient(self, EXPLORE, "/navigation/explore")
+        self.path: list[np.ndarray] = []
+        self.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odom,
+                                 qos_profile_sensor_data)
+
+    def _on_odom(self, msg: Any) -> None:
+        p = msg.pose.pose.position
+        self.path.append(np.array([p.x, p.y, p.z]))
+
+    def see_marker(self, marker_id: int) -> None:
+        det = interfaces.new("quadmission_interfaces/msg/MarkerDetection", id=marker_id,
+                             dictionary="DICT_7X7_1000")
+        self.markers.publish(interfaces.new(
+            "quadmission_interfaces/msg/MarkerDetectionArray",
+            header=interfaces.new("std_msgs/msg/Header", stamp=self.now().to_msg()),
+            detections=[det]))
+
+
+@pytest.fixture
+def stack() -> tuple[Rig, Mission]:
+    rig = make_rig(flying_at=(1.0, 1.0, 1.5))
+    ctx = rig.ex.context
+    finder = PathFinderNode(context=ctx, parameter_overrides=FIELD)
+    nav = NavigatorNode(context=ctx, parameter_overrides=NAV_OVERRIDES)
+    mission = Mission(context=ctx)
+    for node in (finder, nav, mission):
+        rig.ex.add_node(node)
+    mission.map_pub.publish(cloud_msg(WALL, Time(0).to_msg(), "map"))
+    rig.ex.spin_for(0.5)
+    return rig, mission
+
+
+def run_goal(rig: Rig, client: ActionClient, goal: Any, limit_s: float,
+             during: Any = None) -> Any:
+    handle = rig.wait(client.send_goal_async(goal), 2.0)
+    assert handle.accepted
+    result = handle.get_result_async()
+    t_end = rig.t() + limit_s
+    while not result.done() and rig.t() < t_end:
+        rig.ex.spin_for(0.5)
+        if during is not None:
+            during()
+    assert result.done(), f"no result after {limit_s} s"
+    return result.result().result
+
+
+def test_navigate_goes_round_the_wall(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    goal = interfaces.new(NAVIGATE.Goal, goal=interfaces.new(
+        "geometry_msgs/msg/Point", x=8.0, y=1.0, z=1.5), yaw=math.nan)
+    r = run_goal(rig, mission.navigate, goal, 60.0)
+    assert r.success and r.result == NAVIGATE.Result.RESULT_OK, r.message
+    assert math.dist((r.position.x, r.position.y, r.position.z), (8.0, 1.0, 1.5)) < 0.3
+    flown = np.array(mission.path)
+    crossing = flown[np.abs(flown[:, 0] - 5.05) < 0.6]  # beside the wall's x
+    assert len(crossing) and crossing[:, 1].min() > 5.0 + 0.35  # round its end, not through
+
+
+def test_navigate_to_a_goal_in_the_wall_says_no_path(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    goal = interfaces.new(NAVIGATE.Goal, goal=interfaces.new(
+        "geometry_msgs/msg/Point", x=5.05, y=2.0, z=1.5), yaw=math.nan)
+    r = run_goal(rig, mission.navigate, goal, 30.0)
+    assert not r.success and r.result == NAVIGATE.Result.RESULT_NO_PATH
+    assert "GoalOccupied" in r.message
+
+
+def area(x0: float, y0: float, x1: float, y1: float) -> list[Any]:
+    return [interfaces.new("geometry_msgs/msg/Point", x=x, y=y, z=0.0)
+            for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
+
+
+def test_explore_covers_an_area_with_lanes(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 4.0), altitude=1.5)
+    r = run_goal(rig, mission.explore, goal, 120.0)
+    assert r.success and r.result == EXPLORE.Result.RESULT_COVERED, r.message
+    assert r.coverage > 0.9
+
+
+def test_explore_stops_when_a_wanted_marker_is_seen(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 4.0), altitude=1.5,
+                          stop_marker_ids=[14, 19])
+    state = {"sent": False}
+
+    def marker_after_5_s() -> None:
+        if rig.t() > 5.0 and not state["sent"]:
+            mission.see_marker(12)  # not wanted: keeps going
+            mission.see_marker(19)
+            state["sent"] = True
+
+    start = rig.t()
+    r = run_goal(rig, mission.explore, goal, 120.0, during=marker_after_5_s)
+    assert r.success and r.result == EXPLORE.Result.RESULT_MARKER_FOUND, r.message
+    assert list(r.markers_found) == [12, 19]
+    assert rig.t() - start < 15.0  # stopped right away, not after the whole area
+    assert r.coverage < 0.9

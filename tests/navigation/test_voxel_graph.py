@@ -1,0 +1,182 @@
+"""The seed's graph rules (navigation/voxel_graph.py), one test per rule."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from navigation.errors import EmptyCloud, InvalidBounds, ResolutionTooSmall
+from navigation.voxel_graph import (
+    OFFSETS,
+    OPPOSITE,
+    GraphParams,
+    Grid,
+    build_graph,
+    cache_key,
+    cached_graph,
+)
+
+FIELD_MIN = (0.0, 0.0, 0.0)
+FIELD_MAX = (4.0, 4.0, 2.0)
+RES = 0.2
+# a single far point: the cloud is not empty, nothing near the middle of the field
+FAR = np.array([[3.85, 3.85, 1.85]])
+
+
+def params(**kw: object) -> GraphParams:
+    base = dict(resolution=RES, occupied_threshold=2, corridor_threshold=1,
+                footprint_radius=0.0, safety_margin=0.0, vertical_clearance=0.0)
+    base.update(kw)
+    return GraphParams(**base)  # type: ignore[arg-type]
+
+
+def centre(i: int, j: int, k: int) -> np.ndarray:
+    return (np.array([i, j, k]) + 0.5) * RES
+
+
+def test_boundary_cubes_are_not_viable_and_inner_ones_are() -> None:
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params())
+    nx, ny, nz = g.grid.shape
+    assert (nx, ny, nz) == (20, 20, 10)
+    for cell in [(0, 5, 5), (nx - 1, 5, 5), (5, 0, 5), (5, ny - 1, 5), (5, 5, 0), (5, 5, nz - 1)]:
+        assert not g.viable[cell], f"boundary cube {cell} is viable"
+        assert not g.edges[(slice(None), *cell)].any()
+    assert g.viable[1, 1, 1] and g.viable[10, 10, 5]
+
+
+def test_a_cube_with_more_points_than_the_threshold_is_not_viable() -> None:
+    at = centre(10, 10, 5)
+    three = np.vstack([FAR, np.repeat(at[None], 3, axis=0)])
+    two = np.vstack([FAR, np.repeat(at[None], 2, axis=0)])
+    p = params(occupied_threshold=2)
+    assert not build_graph(three, FIELD_MIN, FIELD_MAX, p).viable[10, 10, 5]
+    assert build_graph(two, FIELD_MIN, FIELD_MAX, p).viable[10, 10, 5]
+
+
+def test_points_outside_the_field_are_dropped() -> None:
+    outside = np.array([[-0.1, 2.0, 1.0], [2.0, 4.05, 1.0], [2.0, 2.0, 2.5]])
+    g = build_graph(np.vstack([FAR, outside]), FIELD_MIN, FIELD_MAX, params())
+    assert int(g.counts.sum()) == 1
+
+
+def test_neighbours_are_eight_horizontal_plus_up_and_down() -> None:
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params())
+    got = {tuple(int(v) for v in np.subtract(n, (10, 10, 5))) for n in g.neighbours((10, 10, 5))}
+    want = {(dx, dy, 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if (dx, dy) != (0, 0)}
+    assert got == want | {(0, 0, 1), (0, 0, -1)}
+    assert (1, 1, 1) not in got and (1, 0, 1) not in got  # no slanted vertical edges
+
+
+def test_up_and_down_edges_exist_and_are_symmetric() -> None:
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params())
+    up, down = 8, 9
+    assert tuple(OFFSETS[up]) == (0, 0, 1) and tuple(OFFSETS[down]) == (0, 0, -1)
+    assert g.edges[up, 10, 10, 5] and g.edges[down, 10, 10, 6]
+    for d in range(len(OFFSETS)):  # every edge has its reverse
+        src = np.argwhere(g.edges[d])
+        dst = src + OFFSETS[d]
+        assert g.edges[OPPOSITE[d]][tuple(dst.T)].all()
+
+
+def test_edge_cost_is_the_euclidean_distance_between_centres() -> None:
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params())
+    for d, off in enumerate(OFFSETS):
+        assert g.step_costs[d] == pytest.approx(np.linalg.norm(centre(*(np.array([5, 5, 5]) + off))
+                                                               - centre(5, 5, 5)))
+
+
+def test_a_corridor_too_narrow_for_the_footprint_has_no_edge() -> None:
+    # two walls of points along y at x = 1.0 and x = 2.0: a 1 m slot (5 cubes wide)
+    ys = np.arange(0.05, 4.0, 0.1)
+    zs = np.arange(0.05, 2.0, 0.1)
+    wall = np.array([(x, y, z) for x in (0.9, 2.1) for y in ys for z in zs])
+    mid = (7, 10, 5)  # x 1.4-1.6: the slot's centre cubes are 7 (x 1.4..1.6)
+    narrow = build_graph(wall, FIELD_MIN, FIELD_MAX, params(footprint_radius=0.35,
+                                                            safety_margin=0.05))
+    # inflation 0.2 * ceil(0.4 / 0.2) = 0.4 m: cube 7's box spans cubes 5..9 = x 1.0..2.0
+    assert narrow.params.inflation_cubes == (2, 0)
+    assert narrow.free[mid] and narrow.edges[2][mid]  # along the slot (+y): free
+    wide = build_graph(wall, FIELD_MIN, FIELD_MAX, params(footprint_radius=0.45,
+                                                          safety_margin=0.05))
+    assert wide.params.inflation_cubes == (3, 0)
+    assert not wide.free[mid] and not wide.edges[:, 7, 10, 5].any()
+
+
+def test_a_point_in_the_corridor_cuts_the_diagonal_edge_but_not_a_far_one() -> None:
+    a = (10, 10, 5)
+    point = centre(11, 10, 5)[None]  # beside the diagonal (10,10) -> (11,11)
+    g = build_graph(np.vstack([FAR, point]), FIELD_MIN, FIELD_MAX,
+                    params(occupied_threshold=5))
+    assert g.viable[11, 10, 5]  # below the cube threshold, so a node
+    assert not g.edges[4][a]  # (+1, +1): its corridor holds the point
+    assert g.edges[2][a]  # (0, +1) corridor is cubes 10 in x: clear
+    thresholds = build_graph(np.vstack([FAR, point]), FIELD_MIN, FIELD_MAX,
+                             params(occupied_threshold=5, corridor_threshold=2))
+    assert thresholds.edges[4][a]  # fewer than 2 points in it: allowed
+
+
+def test_vertical_clearance_blocks_the_cube_above_a_low_box() -> None:
+    top = np.array([(x, y, 0.95) for x in np.arange(1.05, 3.0, 0.1)
+                    for y in np.arange(1.05, 3.0, 0.1)])
+    g = build_graph(top, FIELD_MIN, FIELD_MAX, params(vertical_clearance=0.2))
+    assert not g.free[10, 10, 5]  # z 1.0..1.2: within 0.2 m of the top
+    assert g.free[10, 10, 6] and g.free[10, 10, 7]  # 1.2.. and above: clear
+    assert not g.edges[9][10, 10, 6]  # the down edge into the blocked cube
+
+
+def test_unknown_space_can_be_occupied() -> None:
+    grid = Grid.over(FIELD_MIN, FIELD_MAX, RES)
+    observed = np.zeros(grid.shape, dtype=bool)
+    observed[:10] = True
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params(unknown_is_occupied=True),
+                    observed=observed)
+    assert g.viable[5, 5, 5] and not g.viable[15, 5, 5]
+    with pytest.raises(ValueError, match="observed"):
+        build_graph(FAR, FIELD_MIN, FIELD_MAX, params(unknown_is_occupied=True))
+
+
+def test_inflation_rounds_up_to_whole_cubes() -> None:
+    assert params(footprint_radius=0.3, safety_margin=0.05).inflation_cubes == (2, 0)
+    assert params(footprint_radius=0.4, safety_margin=0.0).inflation_cubes == (2, 0)
+    assert params(footprint_radius=0.41, vertical_clearance=0.3).inflation_cubes == (3, 2)
+
+
+def test_errors_say_what_is_wrong() -> None:
+    with pytest.raises(EmptyCloud, match="empty"):
+        build_graph(np.empty((0, 3)), FIELD_MIN, FIELD_MAX, params())
+    with pytest.raises(EmptyCloud, match="inside the field"):
+        build_graph(np.array([[9.0, 9.0, 9.0]]), FIELD_MIN, FIELD_MAX, params())
+    with pytest.raises(ResolutionTooSmall, match="cubes"):
+        build_graph(FAR, FIELD_MIN, (2000.0, 2000.0, 100.0), params(resolution=0.01))
+    with pytest.raises(ResolutionTooSmall, match="> 0"):
+        params(resolution=0.0)
+    with pytest.raises(InvalidBounds, match="below the maximum"):
+        build_graph(FAR, FIELD_MAX, FIELD_MIN, params())
+
+
+def test_the_cache_returns_the_same_graph_and_keys_on_every_input(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    cloud = np.vstack([FAR, centre(10, 10, 5)[None]])
+    first, hit1 = cached_graph(cloud, FIELD_MIN, FIELD_MAX, params(), tmp_path)
+    again, hit2 = cached_graph(cloud, FIELD_MIN, FIELD_MAX, params(), tmp_path)
+    assert (hit1, hit2) == (False, True)
+    assert np.array_equal(first.edges, again.edges) and np.array_equal(first.free, again.free)
+    assert again.grid == first.grid
+    base = cache_key(cloud, FIELD_MIN, FIELD_MAX, params())
+    assert cache_key(cloud + 0.01, FIELD_MIN, FIELD_MAX, params()) != base
+    assert cache_key(cloud, FIELD_MIN, (4.0, 4.0, 2.2), params()) != base
+    assert cache_key(cloud, FIELD_MIN, FIELD_MAX, params(safety_margin=0.1)) != base
+    assert math.isclose(first.grid.resolution, RES)
+
+
+def test_walls_floor_and_ceiling_keep_the_footprint_away() -> None:
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params(footprint_radius=0.35, safety_margin=0.05,
+                                                      vertical_clearance=0.4))
+    n, m = g.params.inflation_cubes
+    assert (n, m) == (2, 2)
+    assert g.viable[1, 10, 5] and not g.free[1, 10, 5]  # 0.3 m from the west wall
+    assert g.free[2, 10, 5]  # 0.5 m: the footprint's box reaches the wall, not beyond
+    assert not g.free[18, 10, 5] and g.free[17, 10, 5]  # east wall, same rule
+    assert not g.free[10, 10, 1] and g.free[10, 10, 2]  # floor: 0.3 m vs 0.5 m
+    assert not g.free[10, 10, 8] and g.free[10, 10, 7]  # ceiling
