@@ -28,6 +28,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Any
 
 import cv2
 import numpy as np
@@ -73,29 +74,37 @@ class MarkerKind(Enum):
 
 
 class Preprocess(Enum):
-    """A preprocessing pass before detection."""
+    """A detection pass; :class:`ScannerSettings` lists them in order."""
 
     NONE = "none"  # the grey image as it is
-    CLAHE = "clahe"  # contrast-limited adaptive histogram equalisation
-    DENOISE = "denoise"  # Gaussian blur, then CLAHE (for shot noise in the dark)
-    UPSCALE = "upscale"  # 2x cubic upscale of a light blur (small markers, few px per module)
+    STRETCH = "stretch"  # contrast stretched (1st-99.5th percentile) and lightly blurred
+    SMALL = "small"  # each rejected candidate quad, cropped, upscaled and decoded again
 
 
 @dataclass(frozen=True)
 class ScannerSettings:
-    """How the scanner detects. ``passes`` are tried in order; the defaults are the
-    measured choice (Table 1 benchmark). ``opencv_defaults()`` is the seed's baseline."""
+    """How the scanner detects. ``passes`` are tried in order until every wanted marker
+    is found; the defaults are the measured choice (``benchmarks/bench_aruco_table1.py``:
+    dark frames are dim, ~25 grey levels between black and white, below OpenCV's
+    adaptive-threshold constant of 7 once blurred, so STRETCH; 3.5 cm markers at 1.2 m
+    are 12 px, 1.3 px per module, too few to decode, so SMALL upscales each candidate 3-5x
+    with a few thresholds and blurs). ``opencv_defaults()`` is the seed's baseline."""
 
-    passes: tuple[Preprocess, ...] = (Preprocess.NONE, Preprocess.DENOISE, Preprocess.UPSCALE)
+    passes: tuple[Preprocess, ...] = (Preprocess.NONE, Preprocess.STRETCH, Preprocess.SMALL)
     subpixel: bool = True  # CORNER_REFINE_SUBPIX
     adaptive_win_min: int = 3  # px, adaptive threshold windows (OpenCV: 3, 23, 10)
     adaptive_win_max: int = 53
     adaptive_win_step: int = 10
+    threshold_constant: float = 7.0  # grey levels below the local mean (OpenCV: 7)
     min_perimeter_rate: float = 0.02  # of the image's larger side (OpenCV: 0.03)
-    clahe_clip: float = 3.0
-    clahe_tile: int = 8
-    blur_sigma_px: float = 1.0
-    upscale: float = 2.0
+    stretch_blur_px: float = 0.7  # Gaussian sigma after the stretch
+    small_max_px: int = 80  # px, candidates up to this size are retried by SMALL
+    small_max_candidates: int = 20
+    # SMALL: (upscale, blur sigma after upscaling [px of the upscaled crop], threshold
+    # constant), tried in order for each candidate until one decodes
+    small_tries: tuple[tuple[float, float, float], ...] = (
+        (3.0, 0.0, 7.0), (3.0, 1.0, 3.0), (4.0, 0.0, 7.0), (4.0, 1.5, 7.0), (5.0, 0.0, 7.0),
+        (3.0, 0.0, 3.0), (5.0, 1.5, 3.0), (6.0, 2.0, 5.0))
 
     def __post_init__(self) -> None:
         if not self.passes:
@@ -109,8 +118,8 @@ class ScannerSettings:
         if not 0.0 < self.min_perimeter_rate < 4.0:
             raise ValueError(
                 f"ScannerSettings.min_perimeter_rate: {self.min_perimeter_rate} not in (0, 4)")
-        if self.upscale < 1.0:
-            raise ValueError(f"ScannerSettings.upscale: {self.upscale} must be >= 1")
+        if any(scale < 1.0 for scale, _, _ in self.small_tries):
+            raise ValueError("ScannerSettings.small_tries: each upscale must be >= 1")
 
     @classmethod
     def opencv_defaults(cls) -> ScannerSettings:
@@ -193,16 +202,30 @@ def _dictionary() -> cv2.aruco.Dictionary:
     return cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_7X7_1000)
 
 
-def _detector(settings: ScannerSettings) -> cv2.aruco.ArucoDetector:
+def _detector(settings: ScannerSettings, constant: float | None = None,
+              min_perimeter_rate: float | None = None) -> cv2.aruco.ArucoDetector:
     params = cv2.aruco.DetectorParameters()
     if settings != ScannerSettings.opencv_defaults():
         params.adaptiveThreshWinSizeMin = settings.adaptive_win_min
         params.adaptiveThreshWinSizeMax = settings.adaptive_win_max
         params.adaptiveThreshWinSizeStep = settings.adaptive_win_step
+        params.adaptiveThreshConstant = settings.threshold_constant
         params.minMarkerPerimeterRate = settings.min_perimeter_rate
+    if constant is not None:
+        params.adaptiveThreshConstant = constant
+    if min_perimeter_rate is not None:
+        params.minMarkerPerimeterRate = min_perimeter_rate
     if settings.subpixel:
         params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
     return cv2.aruco.ArucoDetector(_dictionary(), params)
+
+
+def stretch(grey: Image) -> Image:
+    """Contrast stretch: the 1st percentile to 0, the 99.5th to 255."""
+    lo, hi = np.percentile(grey, (1.0, 99.5))
+    scale = 255.0 / max(float(hi - lo), 1.0)
+    out = np.clip((grey.astype(np.float32) - float(lo)) * scale, 0, 255)
+    return np.asarray(out, dtype=np.uint8)
 
 
 def to_grey(image: npt.ArrayLike) -> Image:
@@ -223,41 +246,69 @@ class ArucoScanner:
     def __init__(self, settings: ScannerSettings | None = None) -> None:
         self.settings = settings or ScannerSettings()
         self._detector = _detector(self.settings)
-        self._clahe = cv2.createCLAHE(clipLimit=self.settings.clahe_clip,
-                                      tileGridSize=(self.settings.clahe_tile,) * 2)
+        self._candidates = _detector(self.settings, constant=3.0)
+        self._small = {c: _detector(self.settings, constant=c, min_perimeter_rate=0.1)
+                       for c in {c for _, _, c in self.settings.small_tries}}
 
-    def _prepared(self, grey: Image, how: Preprocess) -> tuple[Image, float]:
+    @staticmethod
+    def _collect(found: dict[int, FloatArray], mode: ScanMode, corners: Any, ids: Any,
+                 scale: float = 1.0, origin: tuple[float, float] = (0.0, 0.0)) -> None:
+        if ids is None:
+            return
+        for marker_id, c in zip(ids.ravel(), corners, strict=True):
+            mid = int(marker_id)
+            if mode.accepts(mid) and mid not in found:
+                # pixel centres: (u + 0.5) / s - 0.5 maps the scaled grid back
+                pts = (np.asarray(c, dtype=np.float64).reshape(4, 2) + 0.5) / scale - 0.5
+                found[mid] = pts + np.asarray(origin)
+
+    def _small_pass(self, grey: Image, rejected: Sequence[Any], mode: ScanMode,
+                    found: dict[int, FloatArray], want: set[int] | None) -> None:
         s = self.settings
-        if how is Preprocess.NONE:
-            return grey, 1.0
-        if how is Preprocess.CLAHE:
-            return np.asarray(self._clahe.apply(grey), dtype=np.uint8), 1.0
-        blurred = cv2.GaussianBlur(grey, (0, 0), s.blur_sigma_px)
-        if how is Preprocess.DENOISE:
-            return np.asarray(self._clahe.apply(blurred), dtype=np.uint8), 1.0
-        big = cv2.resize(blurred, None, fx=s.upscale, fy=s.upscale,
-                         interpolation=cv2.INTER_CUBIC)
-        return np.asarray(big, dtype=np.uint8), s.upscale
+        h, w = grey.shape
+        for quad in list(rejected)[: s.small_max_candidates]:
+            q = np.asarray(quad, dtype=np.float64).reshape(4, 2)
+            (x0, y0), (x1, y1) = q.min(axis=0), q.max(axis=0)
+            size = max(x1 - x0, y1 - y0)
+            if size > s.small_max_px:
+                continue
+            xa, ya = int(max(0.0, x0 - size)), int(max(0.0, y0 - size))
+            xb, yb = int(min(w, x1 + size + 1)), int(min(h, y1 + size + 1))
+            crop = grey[ya:yb, xa:xb]
+            for scale, blur, constant in s.small_tries:
+                big = cv2.resize(crop, None, fx=scale, fy=scale, interpolation=cv2.INTER_CUBIC)
+                if blur > 0.0:
+                    big = cv2.GaussianBlur(big, (0, 0), blur)
+                corners, ids, _ = self._small[constant].detectMarkers(big)
+                before = len(found)
+                self._collect(found, mode, corners, ids, scale, (xa, ya))
+                if len(found) > before:
+                    break
+            if found and (want is None or want <= found.keys()):
+                return
 
     def find(self, image: npt.ArrayLike, mode: ScanMode = ScanMode.BOTH,
              wanted: Iterable[int] | None = None) -> dict[int, FloatArray]:
         """``{id: corners (4, 2) px}`` of the accepted markers in ``image``.
 
-        Passes run in order; a pass stops the search once it found every ``wanted`` ID
-        (any accepted marker when ``wanted`` is None)."""
+        Passes run in order; the search stops once every ``wanted`` ID is found (any
+        accepted marker when ``wanted`` is None)."""
         grey = to_grey(image)
         want = None if wanted is None else set(wanted)
         found: dict[int, FloatArray] = {}
+        rejected: list[Any] = []
         for how in self.settings.passes:
-            prepared, scale = self._prepared(grey, how)
-            corners, ids, _ = self._detector.detectMarkers(prepared)
-            if ids is not None:
-                for marker_id, c in zip(ids.ravel(), corners, strict=True):
-                    mid = int(marker_id)
-                    if mode.accepts(mid) and mid not in found:
-                        # pixel centres: (u + 0.5) / s - 0.5 maps the scaled grid back
-                        pts = (np.asarray(c, dtype=np.float64).reshape(4, 2) + 0.5) / scale - 0.5
-                        found[mid] = pts
+            if how is Preprocess.NONE:
+                corners, ids, rej = self._detector.detectMarkers(grey)
+                self._collect(found, mode, corners, ids)
+                rejected.extend(rej)
+            elif how is Preprocess.STRETCH:
+                smooth = cv2.GaussianBlur(stretch(grey), (0, 0), self.settings.stretch_blur_px)
+                corners, ids, rej = self._candidates.detectMarkers(smooth)
+                self._collect(found, mode, corners, ids)
+                rejected = list(rej) + rejected
+            else:
+                self._small_pass(stretch(grey), rejected, mode, found, want)
             if found and (want is None or want <= found.keys()):
                 break
         return found
@@ -356,5 +407,6 @@ __all__ = [
     "marker_yaw_in_body",
     "measure",
     "optical_to_body",
+    "stretch",
     "to_grey",
 ]

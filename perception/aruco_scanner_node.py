@@ -21,7 +21,7 @@ Parameters: ``config/aruco_scanner.yaml``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -33,6 +33,7 @@ from perception.aruco import (
     ArucoScanner,
     Marker,
     MarkerKind,
+    Preprocess,
     ScanMode,
     ScannerSettings,
     annotate,
@@ -75,6 +76,7 @@ class ScannerParams:
     health_rate_hz: float = param(unit="Hz", range=(0.1, 10.0))
     image_timeout_s: float = param(unit="s", range=(0.1, 10.0))
     low_light: bool = param(description="measured preprocessing passes, else OpenCV defaults")
+    small_markers: bool = param(description="the SMALL pass for markers of a few px per module")
 
     def __post_init__(self) -> None:
         validate_parameters(self)
@@ -150,6 +152,8 @@ class ArucoScannerNode(Node):
         self.mode = self.params.mode
         self.enabled = self.params.enabled
         settings = ScannerSettings() if self.params.low_light else ScannerSettings.opencv_defaults()
+        if self.params.low_light and not self.params.small_markers:
+            settings = replace(settings, passes=(Preprocess.NONE, Preprocess.STRETCH))
         self.scanner = ArucoScanner(settings)
         self.camera: np.ndarray | None = None  # K, from camera_info
         self.frames = 0

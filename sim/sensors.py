@@ -25,7 +25,9 @@ from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, Time, qos_profile_sensor_data
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
+from sim.camera_model import CameraSensorModel, camera_model_params, motion_blur_px
 from sim.render import CameraIntrinsics, DepthPointCloud, Image, Points, SceneRenderer
+from sim.scene import quad_state
 from sim.world import Scene, divides
 
 DOWN_IMAGE_TOPIC = "/camera/down/image_raw"
@@ -177,6 +179,7 @@ class DownCamera:
     rate_hz: float
     name: str = "down_camera"
     frames_rendered: int = 0
+    sensor: CameraSensorModel | None = None  # None: the rendered frame as it is
 
     def update(self, t_ns: int, scene: Scene) -> None:
         stamp = Time(t_ns)
@@ -184,8 +187,20 @@ class DownCamera:
             self.node.down_info.publish(camera_info_msg(self.intrinsics, stamp, DOWN_FRAME))
         if self.node.down_image.get_subscription_count():
             image = self.renderer.down_image(scene.data)
+            if self.sensor is not None:
+                image = self.sensor.apply(image, self._blur_px(scene, self.sensor.exposure_s))
             self.frames_rendered += 1
             self.node.down_image.publish(image_msg(image, stamp, DOWN_FRAME))
+
+
+    def _blur_px(self, scene: Scene, exposure_s: float) -> tuple[float, float]:
+        state = quad_state(scene.data, scene.index)
+        w, x, y, z = state.quaternion
+        r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+        return motion_blur_px(r.T @ state.velocity, state.angular_velocity,
+                              float(state.position[2]), self.intrinsics.fy, exposure_s)
 
 
 @dataclass
@@ -244,9 +259,11 @@ def sensor_parts(
         return configured
 
     noise = params.depth_camera.noise_std if depth_noise_std is None else depth_noise_std
+    sensor = CameraSensorModel(camera_model_params(), scene.arena.lighting, seed + 3)
     return [
         DownCamera(node, renderer, CameraIntrinsics.from_camera(scene.quad.down_camera),
-                   rate_hz=rate("down_camera.rate_hz", params.down_camera.rate_hz, camera_hz)),
+                   rate_hz=rate("down_camera.rate_hz", params.down_camera.rate_hz, camera_hz),
+                   sensor=sensor),
         DepthCamera(node, DepthPointCloud(renderer, scene.quad.depth_camera,
                                           noise_std=noise, seed=seed),
                     rate_hz=rate("depth_camera.rate_hz", params.depth_camera.rate_hz, depth_hz)),

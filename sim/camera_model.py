@@ -1,0 +1,147 @@
+"""The down camera's image sensor, applied to the rendered frame.
+
+MuJoCo renders what the scene looks like under the arena's lighting preset; a camera
+turns that light into numbers, and in the dark that is where markers are lost (seed 003
+Table 1). :class:`CameraSensorModel` treats the rendered RGB value as the light reaching
+each pixel and runs it through a sensor:
+
+1. photo-electrons: ``e = value / 255 * electrons_per_ms * exposure_ms``, where
+   ``electrons_per_ms`` is how much light the preset's scene really gives (a dark room
+   gives ~100x less than a lit one; the render only dims it ~3.4x, for people to see);
+2. optional motion blur: the image moves during the exposure by the vehicle's rates
+   (:func:`motion_blur_px`), a line kernel of that length;
+3. shot noise (Poisson on ``e``) and read noise (Gaussian, ``read_noise_e``);
+4. gain (``gain`` x the full-well scale: ``full_well_e`` electrons fill 255 at gain 1);
+5. 8-bit quantisation: round and clip to 0-255.
+
+Exposure and gain are the preset's (``config/sim_camera_model.yaml``), as an auto-exposure
+settles in that light: in ``light`` a short exposure at unit gain; in ``dark`` the longest
+exposure the frame rate and blur allow and a high gain, so the picture is bright but
+grainy. The noise comes from a generator seeded by the caller: same seed, same frames.
+Pure: numpy and OpenCV; no MuJoCo.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from runtime.parameters import load_parameters, param, validate_parameters
+from sim.arena import Lighting
+
+Image = npt.NDArray[np.uint8]
+CAMERA_MODEL_NODE_NAME = "sim_camera_model"  # its section in config/sim_camera_model.yaml
+
+
+@dataclass(frozen=True)
+class ExposureParams:
+    """How the camera is exposed under one lighting preset."""
+
+    electrons_per_ms: float = param(unit="e-/ms", range=(0.0, 1e7), lo_open=True)
+    """Photo-electrons per millisecond for a rendered value of 255 in this light."""
+    exposure_ms: float = param(unit="ms", range=(0.01, 1000.0))
+    """Exposure time."""
+    gain: float = param(range=(1.0, 1000.0))
+    """Analog gain over the full-well scale."""
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+
+
+@dataclass(frozen=True)
+class CameraModelParams:
+    """The sensor (``config/sim_camera_model.yaml``)."""
+
+    light: ExposureParams
+    dark: ExposureParams
+    enabled: bool = param(description="false: the rendered frame as it is")
+    full_well_e: float = param(unit="e-", range=(1.0, 1e7))
+    """Electrons that fill the 8-bit range at gain 1."""
+    read_noise_e: float = param(unit="e-", range=(0.0, 1000.0))
+    """Gaussian read noise per pixel (RMS)."""
+    motion_blur: bool = param(description="blur by the vehicle's motion during the exposure")
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+
+    def exposure(self, lighting: Lighting) -> ExposureParams:
+        return self.light if lighting is Lighting.LIGHT else self.dark
+
+
+def camera_model_params() -> CameraModelParams:
+    """:class:`CameraModelParams` from ``config/sim_camera_model.yaml``."""
+    return load_parameters(CameraModelParams, CAMERA_MODEL_NODE_NAME)
+
+
+def motion_blur_px(velocity_body: npt.ArrayLike, rates_body: npt.ArrayLike, height: float,
+                   focal_px: float, exposure_s: float) -> tuple[float, float]:
+    """How far [px] the down camera's image moves during one exposure: ``(du, dv)``.
+
+    ``velocity_body`` [m/s] and ``rates_body`` [rad/s] are FLU; the camera looks down
+    with image up = body forward, image right = body right, at ``height`` [m] above the
+    floor. Translation moves the floor by ``v / height`` rad/s; a roll rate p tilts the
+    view to the right (the floor moves left in the image), a pitch rate q forward.
+    """
+    v = np.asarray(velocity_body, dtype=np.float64).reshape(3)
+    w = np.asarray(rates_body, dtype=np.float64).reshape(3)
+    h = max(height, 0.05)
+    # the floor's apparent motion in the image: vehicle forward -> floor moves down (+v)
+    du = (v[1] / h + w[0]) * focal_px * exposure_s  # left motion or right roll: floor right
+    dv = (v[0] / h - w[1]) * focal_px * exposure_s  # forward motion: floor moves down
+    return float(du), float(dv)
+
+
+def _line_kernel(du: float, dv: float) -> npt.NDArray[np.float32] | None:
+    length = math.hypot(du, dv)
+    if length < 0.5:
+        return None
+    size = math.ceil(length) | 1
+    kernel = np.zeros((size, size), dtype=np.float32)
+    c = (size - 1) / 2.0
+    steps = max(2, math.ceil(length * 2))
+    for s in np.linspace(-0.5, 0.5, steps):
+        x, y = c + s * du, c + s * dv
+        kernel[round(y), round(x)] += 1.0
+    return np.asarray(kernel / kernel.sum(), dtype=np.float32)
+
+
+class CameraSensorModel:
+    """Turns rendered frames into camera frames (see the module docstring)."""
+
+    def __init__(self, params: CameraModelParams, lighting: Lighting, seed: int) -> None:
+        self.params = params
+        self.lighting = lighting
+        self.exposure = params.exposure(lighting)
+        self._rng = np.random.default_rng(seed)
+
+    @property
+    def exposure_s(self) -> float:
+        return self.exposure.exposure_ms / 1000.0
+
+    def apply(self, rendered: Image, blur_px: tuple[float, float] = (0.0, 0.0)) -> Image:
+        """The camera's 8-bit frame of a rendered RGB ``uint8`` frame."""
+        if not self.params.enabled:
+            return rendered
+        if rendered.dtype != np.uint8:
+            raise ValueError(f"rendered: expected uint8, got {rendered.dtype}")
+        e = self.exposure
+        electrons = rendered.astype(np.float32) * np.float32(
+            e.electrons_per_ms * e.exposure_ms / 255.0)
+        if self.params.motion_blur:
+            kernel = _line_kernel(*blur_px)
+            if kernel is not None:
+                electrons = cv2.filter2D(electrons, -1, kernel, borderType=cv2.BORDER_REFLECT)
+        noisy = self._rng.poisson(electrons).astype(np.float32)
+        if self.params.read_noise_e > 0.0:
+            noisy += self._rng.normal(0.0, self.params.read_noise_e,
+                                      noisy.shape).astype(np.float32)
+        dn = noisy * np.float32(e.gain * 255.0 / self.params.full_well_e)
+        return np.asarray(np.clip(np.rint(dn), 0, 255), dtype=np.uint8)
+
+
+__all__ = ["CAMERA_MODEL_NODE_NAME", "CameraModelParams", "CameraSensorModel",
+           "ExposureParams", "camera_model_params", "motion_blur_px"]
