@@ -41,7 +41,7 @@ def run_one(out: Path, seed: int) -> dict[str, Any]:
 
     try:
         report = fly_mission(ScenarioOptions(out=out, seed=seed, random_arena=True))
-    except Exception as exc:  # noqa: BLE001 - a broken run is a failed run, with its reason
+    except Exception as exc:  # a broken run is a failed run, with its reason
         return {"seed": seed, "ok": False, "verdict": f"ERROR: {type(exc).__name__}: {exc}",
                 "score": None, "planned": None, "wall_time_s": None, "rtf": None}
     plan = report.get("plan") or {}

@@ -49,7 +49,7 @@ def rig() -> tuple[DeterministicExecutor, MissionNode, Station]:
 
 def test_state_is_published_and_commands_out_of_place_are_rejected_with_the_reason(
         rig: tuple[DeterministicExecutor, MissionNode, Station]) -> None:
-    ex, mission, station = rig
+    ex, _, station = rig
     assert station.states and station.states[-1].state == "idle"
     assert station.states[-1].phase == 0  # PHASE_IDLE
     station.send(COMMAND.COMMAND_PAUSE)
