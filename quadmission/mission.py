@@ -9,8 +9,10 @@ finder, the navigator, precision landing, the mission state machine
 publishes before the run: the field, the pads, the start pad, the target robot, and to
 the operator the robots' points tables. Nothing else crosses from the simulator.
 
-The run ends when the state machine reaches a termination state (then flies on a few
-seconds, so the last touchdown is judged at rest) or at ``MISSION_LIMIT_S``. Ground truth
+The run ends when the state machine reaches a termination state or at
+``MISSION_LIMIT_S``. After a landing it runs a few seconds more, so the last touchdown is
+judged at rest; after a stop it ends there: the vehicle is the pilot's from then on (seed
+003, 3.3.3), and a simulator has no pilot. Ground truth
 is read only here, to judge it (:mod:`quadmission.mission_eval`): ``report.json`` (see
 :func:`fly_mission`), ``path.png``, ``altitude.png``, ``timeline.png`` and the robot
 pictures the operator received (``robot_<n>_raw.jpg``, ``robot_<n>_annotated.jpg``).
@@ -254,8 +256,8 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         sitl.extra_parts.append(played)
         result = sitl.run(limit_s, stop=StopWhen(lambda: mission.mission.finished))
         runs = [result]
-        if result.crash is None:
-            runs.append(sitl.run(SETTLE_S))
+        if result.crash is None and mission.mission.state != "stopped":
+            runs.append(sitl.run(SETTLE_S))  # on the ground: judge the touchdown at rest
     truth = Trajectory(*(np.concatenate([getattr(r.trajectory, f) for r in runs])
                          for f in ("t", "position", "quaternion", "velocity")))
     crash = next((r.crash for r in runs if r.crash is not None), None)
