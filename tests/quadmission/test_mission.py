@@ -17,6 +17,8 @@ import pytest
 from quadmission.mission import Act, Step, fly_mission
 from quadmission.scenarios import ScenarioOptions
 
+pytestmark = pytest.mark.slow
+
 SCRIPT = (Step("mission.explore", 2.0, Act.PAUSE), Step("paused", 3.0, Act.RESUME),
           Step("mission.explore", 3.0, Act.CUT_VIO))
 
