@@ -208,7 +208,8 @@ def _state_entered_s(node: MissionNode, prefix: str) -> float | None:
 
 
 def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
-                limit_s: float = MISSION_LIMIT_S) -> dict[str, Any]:
+                limit_s: float = MISSION_LIMIT_S,
+                operator_overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """Fly the contest; write report.json, the pictures and the robot pictures into
     ``options.out``; return the report.
 
@@ -219,7 +220,9 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
     touchdown_error_m, inside_pad, t_s}]; ``pads_skipped`` [{pad, reason}]; ``distance_m``,
     ``flight_time_s``; ``rmse_m`` {x, y, z} (setpoint vs flown); ``crashed``; ``states``
     [{t_s, state}]; ``host`` {wall_time_s, rtf}. Same seed, same report but ``host``.
-    ``script``: operator commands and faults played against the mission's states.
+    ``script``: operator commands and faults played against the mission's states;
+    ``operator_overrides``: the simulated operator's parameters (e.g. a shorter
+    ``mission_time_s`` for a short sequence).
     """
     published = options.load_arena()  # also written to out/arena.yaml
     arena = flown_arena(published, options.remove_pad)
@@ -241,7 +244,7 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         mission := MissionNode(context=context, parameter_overrides=pads | {
             "target_robot": target}),
         operator := OperatorNode(context=context, parameter_overrides=pads
-                                 | robots_overrides(published)),
+                                 | robots_overrides(published) | (operator_overrides or {})),
         recorder := SetpointRecorder(context=context),
         buttons := ScriptedOperator(context=context),
     ]
