@@ -6,7 +6,8 @@ poses into a 5 cm voxel map (``--map FILE`` uses a map file instead, e.g. the ``
 ``quadmission sim --scenario map-arena``). For each resolution (0.2 m and 0.1 m):
 
 - graph build time for the cloud (median of 3) and for 1 M uniform random points;
-- A* corner to corner and on seeded random pairs of free cubes: ours (numba), networkx's
+- A* corner to corner and on seeded random pairs of free cubes: ours (numba; the seed's
+  Euclidean heuristic, and the octile option, same optimal cost), networkx's
   ``astar_path`` on the same graph (same edges, same Euclidean costs and heuristic: the
   same cost to 1e-9 is checked) and libtcod's C A* (``tcod.path``, integer costs: edge
   cost = round(1000 x metres), its own admissible heuristic; the same queries). Times are
@@ -27,13 +28,14 @@ import math
 import os
 import platform
 import statistics
+import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from navigation.astar import astar, path_length, shortcut
+from navigation.astar import Heuristic, Workspace, astar, path_length, shortcut
 from navigation.mapping import VoxelMap, camera_to_map, load_map
 from navigation.voxel_graph import OFFSETS, GraphParams, VoxelGraph, build_graph
 from sim.arena import ArenaSpec, default_arena
@@ -41,7 +43,6 @@ from sim.render import DepthPointCloud, SceneRenderer
 from sim.scene import place_quadrotor
 from sim.world import Scene
 
-RESOLUTIONS = (0.2, 0.1)
 SEED = 0
 MAP_VOXEL = 0.05  # m
 CAMERA_OFFSET = (0.12, 0.0, 0.0)  # m, the depth camera in the body frame (config/mapping.yaml)
@@ -53,7 +54,7 @@ def params(resolution: float) -> GraphParams:
                        footprint_radius=0.35, safety_margin=0.05, vertical_clearance=0.2)
 
 
-def survey_cloud(arena: ArenaSpec, spacing: float = 2.0) -> np.ndarray:
+def survey_cloud(arena: ArenaSpec, spacing: float = 2.5) -> np.ndarray:
     """The arena as the depth camera sees it from a grid of hover points (true poses)."""
     scene = Scene.build(arena)
     vmap = VoxelMap(MAP_VOXEL)
@@ -153,7 +154,9 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
     build_s, g = timed(lambda: build_graph(points, (0, 0, 0), field_max, p), repeat=3)
     big = rng.uniform((0, 0, 0), field_max, (1_000_000, 3))
     build_1m_s, _ = timed(lambda: build_graph(big, (0, 0, 0), field_max, p), repeat=3)
-    astar(g, *corner_pair(g))  # compile / warm up
+    ws = Workspace(g.grid.size)
+    for h in Heuristic:
+        astar(g, *corner_pair(g), heuristic=h, workspace=ws)  # compile / warm up
     pairs = [corner_pair(g), *random_pairs(g, n_pairs, rng)]
 
     import networkx as nx
@@ -170,11 +173,15 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
     T_s, T = timed(lambda: tcod_graph(g))
     rows = []
     for k, (s, t) in enumerate(pairs):
-        ours_s, res_ = timed(lambda s=s, t=t: astar(g, s, t), repeat=3)
+        ours_s, res_ = timed(lambda s=s, t=t: astar(g, s, t, workspace=ws), repeat=3)
+        oct_s, res_oct = timed(lambda s=s, t=t: astar(g, s, t, heuristic=Heuristic.OCTILE,
+                                                      workspace=ws), repeat=3)
         tcod_s, tpath = timed(lambda s=s, t=t: tcod_query(T, g, s, t), repeat=3)
         tcod_cost = path_length(g.grid.center(tpath))
         row = {"pair": k, "ours_s": ours_s, "tcod_s": tcod_s, "cost_m": res_.cost,
-               "tcod_cost_m": tcod_cost, "expansions": res_.expansions}
+               "tcod_cost_m": tcod_cost, "expansions": res_.expansions,
+               "octile_s": oct_s, "octile_cost_m": res_oct.cost,
+               "octile_expansions": res_oct.expansions}
         if k < n_networkx:
             nx_s, npath = timed(lambda s=s, t=t: nx.astar_path(G, s, t, heuristic=h,
                                                                 weight="weight"))
@@ -199,8 +206,9 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
         "tcod_graph_build_s": T_s,
         "queries": len(rows),
         "networkx_queries": len(with_nx),
-        "corner_to_corner": {k: corner.get(k) for k in ("ours_s", "networkx_s", "tcod_s",
-                                                         "cost_m", "expansions")},
+        "corner_to_corner": {k: corner.get(k) for k in (
+            "ours_s", "octile_s", "networkx_s", "tcod_s", "cost_m", "expansions",
+            "octile_expansions")},
         "ours_s_median": statistics.median(r["ours_s"] for r in rows),
         "networkx_s_median": statistics.median(r["networkx_s"] for r in with_nx),
         "tcod_s_median": statistics.median(r["tcod_s"] for r in rows),
@@ -208,6 +216,17 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
                                                         for r in with_nx),
         "time_ratio_vs_tcod_median": statistics.median(r["ours_s"] / r["tcod_s"] for r in rows),
         "same_cost_as_networkx": all(r["same_cost"] for r in with_nx),
+        "octile": {
+            "ours_s_median": statistics.median(r["octile_s"] for r in rows),
+            "speedup_vs_networkx_median": statistics.median(r["networkx_s"] / r["octile_s"]
+                                                            for r in with_nx),
+            "time_ratio_vs_tcod_median": statistics.median(r["octile_s"] / r["tcod_s"]
+                                                           for r in rows),
+            "same_cost_as_euclidean": all(abs(r["octile_cost_m"] - r["cost_m"]) <= 1e-9
+                                          for r in rows),
+            "expansions_ratio_median": statistics.median(
+                r["octile_expansions"] / r["expansions"] for r in rows),
+        },
         "max_cost_diff_vs_tcod_m": max(abs(r["tcod_cost_m"] - r["cost_m"]) for r in rows),
         "shortcut": {
             "length_ratio_median": statistics.median(r["shortcut_length_m"] / r["cost_m"]
@@ -223,18 +242,23 @@ def main() -> None:
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--map", type=Path, default=None, help="PCD/PLY map instead of the survey")
     ap.add_argument("--pairs", type=int, default=200, help="random pairs per resolution")
+    ap.add_argument("--resolutions", default="0.2,0.1", help="cube sides [m]")
     ap.add_argument("--networkx-pairs", default="201,21",
                     help="queries also run on networkx, per resolution (it is slow at 0.1 m)")
     args = ap.parse_args()
     arena = default_arena()
     fx, fy, fz = arena.field.size
     t0 = time.perf_counter()
+    print("cloud ...", file=sys.stderr)
     points = load_map(args.map) if args.map else survey_cloud(arena)
     cloud_s = time.perf_counter() - t0
     n_nx = [int(v) for v in args.networkx_pairs.split(",")]
     rng = np.random.default_rng(SEED)
-    results = [bench_resolution(points, (fx, fy, fz), res, args.pairs, n_nx[i], rng)
-               for i, res in enumerate(RESOLUTIONS)]
+    resolutions = [float(v) for v in args.resolutions.split(",")]
+    results = []
+    for i, res in enumerate(resolutions):
+        print(f"resolution {res} m: {len(points)} cloud points", file=sys.stderr)
+        results.append(bench_resolution(points, (fx, fy, fz), res, args.pairs, n_nx[i], rng))
     out = {
         "benchmark": "astar",
         "cloud": str(args.map) if args.map else "default arena depth survey (true poses)",
@@ -244,6 +268,8 @@ def main() -> None:
         "speedup_vs_networkx_median": results[0]["speedup_vs_networkx_median"],
         "time_ratio_vs_tcod_median": results[0]["time_ratio_vs_tcod_median"],
         "build_1m_points_s_median": results[0]["build_1m_points_s_median"],
+        "octile_speedup_vs_networkx_median": results[0]["octile"]["speedup_vs_networkx_median"],
+        "octile_time_ratio_vs_tcod_median": results[0]["octile"]["time_ratio_vs_tcod_median"],
         "host": {"python": platform.python_version(), "machine": platform.machine(),
                  "cpus": os.cpu_count()},
     }
@@ -251,6 +277,8 @@ def main() -> None:
     args.out.write_text(json.dumps(out, indent=2) + "\n")
     print(json.dumps({k: out[k] for k in ("speedup_vs_networkx_median",
                                           "time_ratio_vs_tcod_median",
+                                          "octile_speedup_vs_networkx_median",
+                                          "octile_time_ratio_vs_tcod_median",
                                           "build_1m_points_s_median")}))
 
 

@@ -1,4 +1,5 @@
-"""A* on the voxel graph (seed 003, sec. 3.3.2): optimal, with the Euclidean heuristic.
+"""A* on the voxel graph (seed 003, sec. 3.3.2): optimal, with the Euclidean heuristic
+(the seed's; :attr:`Heuristic.OCTILE`, tighter for the graph's moves, is the option).
 
 Pure: numpy and numba (the inner loop is compiled; no runtime imports). The search keeps
 an indexed binary heap (decrease-key, so the heap never holds more than one entry per
@@ -100,14 +101,32 @@ def _heap_pop(hn: IntArray, hk: FloatArray, pos: IntArray, size: int) -> tuple[i
     return top, size
 
 
+class Heuristic(IntEnum):
+    """Admissible, consistent heuristics for the graph's moves (both keep A* optimal)."""
+
+    EUCLIDEAN = 0  # the seed's: straight-line distance between the centres
+    OCTILE = 1  # octile in the horizontal plane + |dz|: exact on an empty grid, tighter
+
+
 @njit(cache=True)
-def _search(edges: npt.NDArray[np.bool_], nx: int, ny: int, nz: int, steps: IntArray,
+def _h(kind: int, dx: int, dy: int, dz: int, res: float) -> float:
+    if kind == 0:
+        return res * math.sqrt(dx * dx + dy * dy + dz * dz)
+    ax = abs(dx)
+    ay = abs(dy)
+    lo = min(ax, ay)
+    return res * (max(ax, ay) - lo + math.sqrt(2.0) * lo + abs(dz))
+
+
+@njit(cache=True)
+def _search(bits: npt.NDArray[np.uint16], nx: int, ny: int, nz: int, steps: IntArray,
             costs: FloatArray, res: float, goal: int, g: FloatArray, parent: IntArray,
-            hn: IntArray, hk: FloatArray, pos: IntArray, state: IntArray,
-            best: FloatArray, max_expansions: int) -> int:
+            hn: IntArray, hk: FloatArray, pos: IntArray, touched: IntArray, state: IntArray,
+            best: FloatArray, max_expansions: int, kind: int) -> int:
     """Run A* from the open set in (hn, hk, pos, state[0] = size) for at most
     ``max_expansions`` expansions. ``pos[c]``: -1 unseen, -2 closed, else heap index.
-    ``state`` = [heap size, expansions so far, best cube]; ``best[0]`` its heuristic."""
+    ``state`` = [heap size, expansions so far, best cube, cubes touched]; ``best[0]`` the
+    best cube's heuristic; ``touched[:state[3]]``: the cubes whose g was set."""
     size = state[0]
     gx = goal // (ny * nz)
     gy = (goal // nz) % ny
@@ -129,25 +148,29 @@ def _search(edges: npt.NDArray[np.bool_], nx: int, ny: int, nz: int, steps: IntA
         cx = cur // (ny * nz)
         cy = (cur // nz) % ny
         cz = cur % nz
-        h = res * math.sqrt((cx - gx) ** 2 + (cy - gy) ** 2 + (cz - gz) ** 2)
+        h = _h(kind, cx - gx, cy - gy, cz - gz, res)
         if h < best[0]:
             best[0] = h
             state[2] = cur
         gc = g[cur]
+        b = bits[cur]
         for d in range(n_dir):
-            if not edges[d, cx, cy, cz]:
+            if not (b >> d) & 1:
                 continue
             nb = cur + steps[d]
             if pos[nb] == -2:
                 continue
             ng = gc + costs[d]
             if ng < g[nb]:
+                if g[nb] == np.inf:
+                    touched[state[3]] = nb
+                    state[3] += 1
                 g[nb] = ng
                 parent[nb] = cur
                 bx = nb // (ny * nz)
                 by = (nb // nz) % ny
                 bz = nb % nz
-                hb = res * math.sqrt((bx - gx) ** 2 + (by - gy) ** 2 + (bz - gz) ** 2)
+                hb = _h(kind, bx - gx, by - gy, bz - gz, res)
                 size = _heap_push(hn, hk, pos, size, nb, ng + hb)
     state[0] = size
     return 1
@@ -208,33 +231,64 @@ def _trace(parent: IntArray, end: int) -> IntArray:
     return np.asarray(out[::-1], dtype=np.int64)
 
 
+class Workspace:
+    """The search's arrays for a grid of ``size`` cubes, reused from one search to the next
+    (each search resets only the cubes it touched). One search at a time."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.g = np.full(size, np.inf)
+        self.parent = np.full(size, -1, dtype=np.int64)
+        self.pos = np.full(size, -1, dtype=np.int64)
+        self.hn = np.empty(size, dtype=np.int64)
+        self.hk = np.empty(size, dtype=np.float64)
+        self.touched = np.empty(size, dtype=np.int64)
+
+    def reset(self, count: int) -> None:
+        t = self.touched[:count]
+        self.g[t] = np.inf
+        self.parent[t] = -1
+        self.pos[t] = -1
+
+
 def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | None = None,
-          time_limit_s: float | None = None) -> SearchResult:
+          time_limit_s: float | None = None, heuristic: Heuristic = Heuristic.EUCLIDEAN,
+          workspace: Workspace | None = None) -> SearchResult:
     """A* between two cubes (flat indices). Returns FOUND with the optimal path, EXHAUSTED
     (empty path), or LIMIT with the path to the closed cube nearest the goal. No checks on
-    start and goal (see :func:`plan`)."""
-    nx, ny, nz = graph.grid.shape
-    size = nx * ny * nz
+    start and goal (see :func:`plan`). ``workspace``: reuse its arrays (no allocation)."""
+    _, ny, nz = graph.grid.shape
     steps = (OFFSETS[:, 0] * ny * nz + OFFSETS[:, 1] * nz + OFFSETS[:, 2]).astype(np.int64)
     costs = graph.step_costs
-    g = np.full(size, np.inf)
-    parent = np.full(size, -1, dtype=np.int64)
-    pos = np.full(size, -1, dtype=np.int64)
-    hn = np.empty(size, dtype=np.int64)
-    hk = np.empty(size, dtype=np.float64)
-    g[start] = 0.0
-    state = np.array([0, 0, start], dtype=np.int64)
+    ws = workspace if workspace is not None else Workspace(graph.grid.size)
+    if ws.size != graph.grid.size:
+        raise ValueError(f"workspace for {ws.size} cubes, graph has {graph.grid.size}")
+    ws.g[start] = 0.0
+    ws.touched[0] = start
+    state = np.array([0, 0, start, 1], dtype=np.int64)
     best = np.array([np.inf])
-    state[0] = _heap_push(hn, hk, pos, 0, start, 0.0)
+    state[0] = _heap_push(ws.hn, ws.hk, ws.pos, 0, start, 0.0)
+    try:
+        return _run(graph, ws, goal, steps, costs, state, best, max_expansions, time_limit_s,
+                    heuristic)
+    finally:
+        ws.reset(int(state[3]))
+
+
+def _run(graph: VoxelGraph, ws: Workspace, goal: int, steps: IntArray, costs: FloatArray,
+         state: IntArray, best: FloatArray, max_expansions: int | None,
+         time_limit_s: float | None, heuristic: Heuristic) -> SearchResult:
+    nx, ny, nz = graph.grid.shape
     limit = max_expansions if max_expansions is not None else np.iinfo(np.int64).max
     deadline = None if time_limit_s is None else time.perf_counter() + time_limit_s
     while True:
         chunk = limit - int(state[1])
         if deadline is not None:
             chunk = min(chunk, CHUNK_EXPANSIONS)
-        status = SearchStatus(_search(graph.edges, nx, ny, nz, steps, costs,
-                                      graph.grid.resolution, goal, g, parent, hn, hk, pos,
-                                      state, best, chunk))
+        status = SearchStatus(_search(graph.edge_bits, nx, ny, nz, steps, costs,
+                                      graph.grid.resolution, goal, ws.g, ws.parent, ws.hn,
+                                      ws.hk, ws.pos, ws.touched, state, best, chunk,
+                                      int(heuristic)))
         if status is not SearchStatus.LIMIT:
             break
         if int(state[1]) >= limit or (deadline is not None and time.perf_counter() >= deadline):
@@ -243,7 +297,7 @@ def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | Non
     if status is SearchStatus.EXHAUSTED:
         return SearchResult(np.empty(0, dtype=np.int64), math.inf, expansions, status)
     end = goal if status is SearchStatus.FOUND else int(state[2])
-    return SearchResult(_trace(parent, end), float(g[end]), expansions, status)
+    return SearchResult(_trace(ws.parent, end), float(ws.g[end]), expansions, status)
 
 
 def shortcut(graph: VoxelGraph, points: npt.ArrayLike) -> FloatArray:
@@ -310,7 +364,8 @@ def snap(graph: VoxelGraph, point: npt.ArrayLike, radius: float) -> int | None:
 def plan(graph: VoxelGraph, start: npt.ArrayLike, goal: npt.ArrayLike, *,
          snap_radius: float = 0.0, max_expansions: int | None = None,
          time_limit_s: float | None = None, partial: bool = False,
-         use_shortcut: bool = True) -> PlannedPath:
+         use_shortcut: bool = True, heuristic: Heuristic = Heuristic.EUCLIDEAN,
+         workspace: Workspace | None = None) -> PlannedPath:
     """Plan from ``start`` to ``goal`` [m, map frame]. Waypoints are the cube centres
     between the exact start and goal points, shortened by :func:`shortcut`. Raises
     OutOfBounds, StartOccupied, GoalOccupied, NoPathFound or PlanningTimedOut (whose
@@ -325,7 +380,8 @@ def plan(graph: VoxelGraph, start: npt.ArrayLike, goal: npt.ArrayLike, *,
     if g is None:
         raise GoalOccupied(f"goal {np.round(g_pt, 3).tolist()} m is in or too close to an "
                            "obstacle (no free cube there)")
-    result = astar(graph, s, g, max_expansions=max_expansions, time_limit_s=time_limit_s)
+    result = astar(graph, s, g, max_expansions=max_expansions, time_limit_s=time_limit_s,
+                   heuristic=heuristic, workspace=workspace)
     if result.status is SearchStatus.EXHAUSTED:
         raise NoPathFound(f"no path from {np.round(s_pt, 3).tolist()} to "
                           f"{np.round(g_pt, 3).tolist()} m: the goal is not connected to the "
@@ -344,5 +400,16 @@ def plan(graph: VoxelGraph, start: npt.ArrayLike, goal: npt.ArrayLike, *,
     return PlannedPath(points, path_length(points), result.cost, result.expansions)
 
 
-__all__ = ["PlannedPath", "SearchResult", "SearchStatus", "astar", "path_length", "plan",
-           "segment_free", "shortcut", "snap"]
+__all__ = [
+    "Heuristic",
+    "PlannedPath",
+    "SearchResult",
+    "SearchStatus",
+    "Workspace",
+    "astar",
+    "path_length",
+    "plan",
+    "segment_free",
+    "shortcut",
+    "snap",
+]

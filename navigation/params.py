@@ -53,6 +53,8 @@ class PathFinderParams:
     vertical_clearance: float = param(unit="m", range=(0.0, 5.0),
                                       description="corridor half-height")
     unknown_is_occupied: bool = param(description="unobserved cubes are non-viable")
+    heuristic: str = param(choices=("euclidean", "octile"),
+                           description="A* heuristic: the seed's Euclidean, or octile")
     snap_radius: float = param(unit="m", range=(0.0, 5.0),
                                description="start/goal snap to a free cube within this")
     time_limit_s: float = param(unit="s", range=(0.001, 60.0),

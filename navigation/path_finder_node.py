@@ -19,7 +19,7 @@ import numpy as np
 
 import interfaces
 from flight_control.params import FIELD_SOURCE, FieldParams
-from navigation.astar import plan
+from navigation.astar import Heuristic, Workspace, plan
 from navigation.cloud_msgs import cloud_points
 from navigation.errors import (
     GoalOccupied,
@@ -91,6 +91,8 @@ class PathFinderNode(Node):
                               else np.empty((0, 3)))
         self.live_points = np.empty((0, 3))
         self._graphs: dict[float, VoxelGraph] = {}  # by request clearance, for this map
+        self._workspace: Workspace | None = None  # search arrays, reused while the grid holds
+        self.heuristic = Heuristic[self.params.heuristic.upper()]
         self.map_version = 0
         self.graph_builds = 0
         self.requests = 0
@@ -149,8 +151,11 @@ class PathFinderNode(Node):
             response.message = "no map yet (no map_file and nothing on /map/points)"
             return self._failed(response)
         try:
+            if self._workspace is None or self._workspace.size != graph.grid.size:
+                self._workspace = Workspace(graph.grid.size)
             planned = plan(graph, start, goal, snap_radius=self.params.snap_radius,
-                           time_limit_s=self.params.time_limit_s)
+                           time_limit_s=self.params.time_limit_s, heuristic=self.heuristic,
+                           workspace=self._workspace)
         except PlanningError as exc:
             response.result = RESULT_OF[type(exc)]
             response.message = f"{type(exc).__name__}: {exc}"

@@ -39,6 +39,7 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -165,6 +166,14 @@ class VoxelGraph:
     def step_costs(self) -> FloatArray:
         """Edge cost per direction [m]: the Euclidean distance between the centres."""
         return np.linalg.norm(OFFSETS.astype(np.float64), axis=1) * self.grid.resolution
+
+    @cached_property
+    def edge_bits(self) -> npt.NDArray[np.uint16]:
+        """Per cube (flat index), bit d set when edge d exists: one load per expansion."""
+        bits = np.zeros(self.grid.size, dtype=np.uint16)
+        for d in range(len(OFFSETS)):
+            bits |= self.edges[d].reshape(-1).astype(np.uint16) << d
+        return bits
 
     @property
     def edge_count(self) -> int:

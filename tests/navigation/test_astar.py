@@ -3,6 +3,8 @@ line-of-sight shortcut."""
 
 from __future__ import annotations
 
+import math
+
 import networkx as nx
 import numpy as np
 import pytest
@@ -10,7 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from navigation.astar import (
+    Heuristic,
     SearchStatus,
+    Workspace,
     astar,
     path_length,
     plan,
@@ -68,6 +72,12 @@ def test_astar_cost_equals_networkx_and_every_step_is_an_edge(seed: int, n: int,
     s, t = (int(v) for v in rng.choice(free, 2, replace=False))
     G = to_networkx(g)
     result = astar(g, s, t)
+    shared = Workspace(g.grid.size)
+    for heuristic in (Heuristic.OCTILE, Heuristic.EUCLIDEAN):  # reused arrays, same answer
+        again = astar(g, s, t, heuristic=heuristic, workspace=shared)
+        assert again.cost == pytest.approx(result.cost, abs=1e-9) or (
+            math.isinf(again.cost) and math.isinf(result.cost))
+    assert np.isinf(shared.g).all() and (shared.pos == -1).all()  # reset after each search
     try:
         want = nx.astar_path_length(G, s, t, weight="weight")
     except (nx.NetworkXNoPath, nx.NodeNotFound):
