@@ -12,10 +12,12 @@ goal of the layer below, each goal's result an input of the machine.
   SEQUENCE, each answered on ``/mission/events`` (accepted or rejected, with the reason);
 - ``/mission/state`` (MissionState: the nested state, the pad in hand, the score so far)
   on every change and at ``state_rate_hz``; ``/mission/events`` (MissionEvent);
-- ``/mission/robot`` (RobotFound, the pictures): in ``mission.report_robot`` the node
-  hovers ``report_hover_s`` collecting ``/perception/robot_found`` of the target robot
-  (up to ``picture_timeout_s`` more until one comes), then sends them to the operator
-  (without any, the robot's ID and the vehicle's position, with a warning);
+- ``/mission/robot`` (RobotFound, the pictures): from the start of the exploration the
+  node keeps the latest ``max_pictures`` ``/perception/robot_found`` of the target robot
+  (the exploration stops past the robot, which may be out of view by then); in
+  ``mission.report_robot`` it hovers ``report_hover_s`` (up to ``picture_timeout_s``
+  more until a first one comes), then sends them to the operator (without any, the
+  robot's ID and the vehicle's position, with a warning);
 - alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` (position estimate invalid ->
   localisation lost; the battery warnings), each of ``health_topics`` (ERROR -> module
   error; no report for ``silence_timeout_s`` -> module silent), the sequence timeout.
@@ -164,6 +166,8 @@ class MissionNode(Node):
         self.publish_state()
 
     def _on_robot(self, msg: Any) -> None:
+        """Pictures of the target robot, from the exploration (the one that stopped it is
+        often the best: the vehicle stops past the robot) to the end of the report."""
         if self._collecting and int(msg.marker_id) == self.mission.config.target_robot:
             self.pictures.append(msg)
             del self.pictures[:-self.params.max_pictures]
@@ -285,6 +289,8 @@ class MissionNode(Node):
         self._run(self._explore(target_robot))
 
     async def _explore(self, target_robot: int) -> bool:
+        self.pictures.clear()
+        self._collecting = True
         result = await self._goal("explore", interfaces.new(
             EXPLORE.Goal, altitude=self.params.cruise_altitude, stop_marker_ids=[target_robot]))
         if result is None:
@@ -299,7 +305,6 @@ class MissionNode(Node):
         self._run(self._send_pictures())
 
     async def _send_pictures(self) -> bool:
-        self.pictures.clear()
         self._collecting = True
         await self.sleep(self.params.report_hover_s)
         waited = 0.0
@@ -377,7 +382,6 @@ class MissionNode(Node):
 
     def cancel(self) -> None:
         self._token += 1
-        self._collecting = False
         if self._active is not None:
             client, handle = self._active
             self._active = None
