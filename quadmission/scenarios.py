@@ -144,4 +144,4 @@ SCENARIOS: dict[str, Scenario] = {
     "square": square,
 }
 #: The most complete scenario there is; ``make sim`` runs it.
-DEFAULT_SCENARIO = "square"
+DEFAULT_SCENARIO = "mission"
