@@ -7,8 +7,9 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
   waypoints with ``reach`` (the flight-control layer interpolates setpoints and applies the
   reach sphere); before a leg that turns by more than ``turn_first_angle`` it turns to
   face it, so the forward depth camera maps what is ahead. Every ``replan_period_s`` it plans
-  again from here; when the new path's length differs from what is left of the current one
-  by more than ``replan_tolerance`` (the live map changed the path's cost), it switches. A
+  again from here; when the leg being flown is no longer clear (the planner cannot go
+  straight to its end) or the new path's length differs from what is left of the current
+  one by more than ``replan_tolerance`` (the live map changed the path's cost), it switches. A
   failed reach is re-planned from where the vehicle is, up to ``max_reach_failures``.
 - ``/navigation/explore``: the predefined exploration path of the arena and start pad
   (``explore_paths_file``, with loop closures) or, when there is none or the goal gives an
@@ -212,9 +213,13 @@ class NavigatorNode(Node):
                 if self.now().nanoseconds >= next_plan_ns:
                     next_plan_ns = self.now().nanoseconds + int(p.replan_period_s * 1e9)
                     here = self._here()
+                    # the leg being flown is still clear when the planner goes straight there
+                    leg, _ = await self._plan(here, path[i])
+                    blocked = leg is None or len(leg) > 2
                     new, _ = await self._plan(here, goal)
                     left = float(np.linalg.norm(path[i] - here)) + path_length(path[i:])
-                    if new is not None and abs(path_length(new) - left) > p.replan_tolerance:
+                    if new is not None and (blocked or abs(path_length(new) - left)
+                                            > p.replan_tolerance):
                         await fc.cancel_goal_async()
                         path, i, switched = new, 1, True
                         break

@@ -129,3 +129,27 @@ def test_explore_stops_when_a_wanted_marker_is_seen(stack) -> None:  # type: ign
     assert list(r.markers_found) == [12, 19]
     assert rig.t() - start < 15.0  # stopped right away, not after the whole area
     assert r.coverage < 0.9
+
+
+def test_a_pillar_seen_late_on_the_leg_makes_it_replan_round_it(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    # a thin pillar on the straight line y = 6.5 m, published once the leg has started
+    pillar = np.array([(x, y, z) for x in (2.95, 3.05) for y in np.arange(6.35, 6.7, 0.1)
+                       for z in np.arange(0.05, 4.0, 0.1)])
+    rig.fcu.position = np.array([0.8, 6.5, 1.5])
+    rig.ex.spin_for(0.5)
+    goal = interfaces.new(NAVIGATE.Goal, goal=interfaces.new(
+        "geometry_msgs/msg/Point", x=9.0, y=6.5, z=1.5), yaw=math.nan)
+    state = {"seen": False}
+
+    def pillar_seen_at_1_m() -> None:
+        if not state["seen"] and rig.fcu.position[0] > 1.2:
+            mission.map_pub.publish(cloud_msg(np.vstack([WALL, pillar]), Time(0).to_msg(),
+                                              "map"))
+            state["seen"] = True
+
+    r = run_goal(rig, mission.navigate, goal, 60.0, during=pillar_seen_at_1_m)
+    assert r.success, r.message
+    flown = np.array(mission.path)
+    beside = flown[np.abs(flown[:, 0] - 3.0) < 0.1]
+    assert len(beside) and np.min(np.abs(beside[:, 1] - 6.5)) > 0.35  # never through it
