@@ -95,10 +95,16 @@ def motion_blur_px(velocity_body: npt.ArrayLike, rates_body: npt.ArrayLike, heig
     return float(du), float(dv)
 
 
+MAX_BLUR_PX = 64.0  # longer smears are cut to this (a tumbling vehicle sees nothing anyway)
+
+
 def _line_kernel(du: float, dv: float) -> npt.NDArray[np.float32] | None:
     length = math.hypot(du, dv)
-    if length < 0.5:
+    if not math.isfinite(length) or length < 0.5:
         return None
+    if length > MAX_BLUR_PX:
+        du, dv = du * MAX_BLUR_PX / length, dv * MAX_BLUR_PX / length
+        length = MAX_BLUR_PX
     size = math.ceil(length) | 1
     kernel = np.zeros((size, size), dtype=np.float32)
     c = (size - 1) / 2.0
@@ -134,7 +140,9 @@ class CameraSensorModel:
         if self.params.motion_blur:
             kernel = _line_kernel(*blur_px)
             if kernel is not None:
-                electrons = cv2.filter2D(electrons, -1, kernel, borderType=cv2.BORDER_REFLECT)
+                # large kernels go through the DFT: round-off can dip just below zero
+                electrons = np.maximum(
+                    cv2.filter2D(electrons, -1, kernel, borderType=cv2.BORDER_REFLECT), 0.0)
         noisy = self._rng.poisson(electrons).astype(np.float32)
         if self.params.read_noise_e > 0.0:
             noisy += self._rng.normal(0.0, self.params.read_noise_e,

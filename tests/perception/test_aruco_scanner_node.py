@@ -1,0 +1,117 @@
+"""The scanner node through its topics: rendered frames in, markers out with the capture
+stamp; the mode whitelist; the enable service; health."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+import interfaces
+from perception.aruco_scanner_node import MARKERS_TOPIC, ArucoScannerNode
+from runtime import DeterministicExecutor, Node, Time, qos_profile_default, qos_profile_sensor_data
+from sim.sensors import DOWN_FRAME, DOWN_IMAGE_TOPIC, DOWN_INFO_TOPIC, camera_info_msg, image_msg
+
+MARKER: Any = interfaces.get_message("quadmission_interfaces/msg/MarkerDetection")
+
+
+class _Camera(Node):
+    """Publishes given frames as the down camera would, and listens to the scanner."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("test_camera", **kwargs)
+        self.image = self.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
+                                           qos_profile_sensor_data)
+        self.info = self.create_publisher("sensor_msgs/msg/CameraInfo", DOWN_INFO_TOPIC,
+                                          qos_profile_sensor_data)
+        self.markers: list[Any] = []
+        self.health: list[Any] = []
+        self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
+                                 MARKERS_TOPIC, self.markers.append, qos_profile_default)
+        self.create_subscription("quadmission_interfaces/msg/HealthReport",
+                                 "/aruco_scanner/health", self.health.append,
+                                 qos_profile_default)
+        self.enable = self.create_client(interfaces.get_service("std_srvs/srv/SetBool"),
+                                         "/aruco_scanner/enable")
+
+    def send(self, frame: np.ndarray, intrinsics: Any, stamp_ns: int) -> None:
+        stamp = Time(stamp_ns)
+        self.info.publish(camera_info_msg(intrinsics, stamp, DOWN_FRAME))
+        self.image.publish(image_msg(frame, stamp, DOWN_FRAME))
+
+
+@pytest.fixture(scope="module")
+def frames():
+    from sim.arena import default_arena
+    from sim.render import CameraIntrinsics, SceneRenderer
+    from sim.scene import place_quadrotor, set_robot_poses
+    from sim.world import Scene
+
+    arena = default_arena()
+    scene = Scene.build(arena)
+    set_robot_poses(scene.data, scene.index, arena, 0.0)
+    with SceneRenderer(scene.model) as renderer:
+        x, y = arena.pad(4).center
+        place_quadrotor(scene.model, scene.data, scene.index, (x - 0.3, y, 1.5))
+        pad = renderer.down_image(scene.data)
+        rx, ry = arena.robots[0].path[0]
+        place_quadrotor(scene.model, scene.data, scene.index, (rx, ry, 1.6))
+        robot = renderer.down_image(scene.data)
+    return {"intrinsics": CameraIntrinsics.from_camera(scene.quad.down_camera), "pad": pad,
+            "robot": robot, "robot_id": arena.robots[0].marker_id}
+
+
+def _rig(**overrides: Any) -> tuple[DeterministicExecutor, _Camera, ArucoScannerNode]:
+    ex = DeterministicExecutor()
+    scanner = ArucoScannerNode(context=ex.context, parameter_overrides=overrides)
+    camera = _Camera(context=ex.context)
+    ex.add_node(scanner)
+    ex.add_node(camera)
+    ex.spin_for(0.05)
+    return ex, camera, scanner
+
+
+def test_markers_carry_the_capture_stamp_kind_and_offset(frames):
+    ex, camera, _ = _rig()
+    stamp_ns = 1_234_567_890
+    camera.send(frames["pad"], frames["intrinsics"], stamp_ns)
+    ex.spin_for(0.1)
+    (msg,) = camera.markers
+    assert Time.from_msg(msg.header.stamp).nanoseconds == stamp_ns
+    (d,) = msg.detections
+    assert Time.from_msg(d.header.stamp).nanoseconds == stamp_ns
+    assert (d.id, d.kind) == (4, MARKER.KIND_PAD)
+    # the vehicle heads east (yaw 0) 0.3 m west of the pad: the pad is 0.3 m ahead
+    assert d.offset_x == pytest.approx(0.3, abs=0.01)
+    assert d.offset_y == pytest.approx(0.0, abs=0.01)
+    assert d.height == pytest.approx(1.5 - 0.06 - 0.01, abs=0.02)
+
+
+def test_mode_robots_ignores_pads_and_reports_the_robot(frames):
+    ex, camera, _ = _rig(mode="robots")
+    camera.send(frames["pad"], frames["intrinsics"], 100_000_000)
+    ex.spin_for(0.1)
+    camera.send(frames["robot"], frames["intrinsics"], 200_000_000)
+    ex.spin_for(0.1)
+    assert [len(m.detections) for m in camera.markers] == [0, 1]
+    d = camera.markers[1].detections[0]
+    assert (d.id, d.kind) == (frames["robot_id"], MARKER.KIND_ROBOT)
+
+
+def test_disabled_it_publishes_nothing_and_says_so(frames):
+    ex, camera, scanner = _rig()
+    future = camera.enable.call_async(interfaces.new("std_srvs/srv/SetBool_Request", data=False))
+    ex.spin_for(0.05)
+    assert future.result().success and not scanner.enabled
+    camera.send(frames["pad"], frames["intrinsics"], 100_000_000)
+    ex.spin_for(1.1)
+    assert camera.markers == []
+    assert camera.health[-1].modules[0].message == "disabled"
+
+
+def test_health_reports_a_missing_camera():
+    ex, camera, _ = _rig()
+    ex.spin_for(2.1)
+    assert camera.health[-1].level == 2  # ERROR
+    assert "no image" in camera.health[-1].modules[0].message

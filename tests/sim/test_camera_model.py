@@ -1,0 +1,65 @@
+"""sim/camera_model.py: the sensor turns rendered frames into 8-bit camera frames;
+same seed, same frames; the dark preset is dim and noisy; motion smears."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sim.arena import Lighting
+from sim.camera_model import CameraSensorModel, camera_model_params, motion_blur_px
+
+# a rendered-like frame: black and white stripes on mid grey
+FRAME = np.full((60, 80, 3), 128, dtype=np.uint8)
+FRAME[:, 20:30] = 0
+FRAME[:, 50:60] = 255
+PARAMS = replace(camera_model_params(), motion_blur=True)
+
+
+def test_same_seed_same_frame_other_seed_other_noise():
+    a = CameraSensorModel(PARAMS, Lighting.LIGHT, 1).apply(FRAME)
+    b = CameraSensorModel(PARAMS, Lighting.LIGHT, 1).apply(FRAME)
+    c = CameraSensorModel(PARAMS, Lighting.LIGHT, 2).apply(FRAME)
+    assert a.dtype == np.uint8 and a.shape == FRAME.shape
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_dark_is_dimmer_and_noisier_relative_to_its_contrast():
+    light = CameraSensorModel(PARAMS, Lighting.LIGHT, 1).apply(FRAME).astype(float)
+    dark = CameraSensorModel(PARAMS, Lighting.DARK, 1).apply(FRAME).astype(float)
+
+    def snr(img: np.ndarray) -> float:
+        contrast = img[:, 50:60].mean() - img[:, 20:30].mean()
+        return float(contrast / img[:, 35:45].std())
+
+    assert dark[:, 50:60].mean() < 0.5 * light[:, 50:60].mean()
+    assert snr(dark) < 0.5 * snr(light)
+
+
+def test_light_keeps_the_frame_close():
+    light = CameraSensorModel(PARAMS, Lighting.LIGHT, 1).apply(FRAME).astype(float)
+    assert np.abs(light - FRAME).mean() < 6.0
+
+
+def test_disabled_is_the_render():
+    off = CameraSensorModel(replace(PARAMS, enabled=False), Lighting.DARK, 1)
+    assert off.apply(FRAME) is FRAME
+
+
+def test_motion_blur_smears_edges_along_the_motion():
+    model = CameraSensorModel(replace(PARAMS, read_noise_e=0.0), Lighting.LIGHT, 1)
+    sharp = model.apply(FRAME).astype(float)
+    smeared = model.apply(FRAME, blur_px=(12.0, 0.0)).astype(float)
+    # across the stripes (along u) the edge spreads; the stripe centre stays dark-ish
+    assert smeared[:, 18].mean() < sharp[:, 18].mean() - 20
+    assert smeared[:, 25].mean() > sharp[:, 25].mean() + 20
+
+
+def test_blur_geometry():
+    # forward at 1 m/s, 1 m up, 400 px focal, 10 ms: the floor moves 4 px down the image
+    assert motion_blur_px([1, 0, 0], [0, 0, 0], 1.0, 400.0, 0.01) == pytest.approx((0.0, 4.0))
+    # flying left: the floor moves right
+    assert motion_blur_px([0, 1, 0], [0, 0, 0], 2.0, 400.0, 0.01)[0] == pytest.approx(2.0)
