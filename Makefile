@@ -41,7 +41,7 @@ test: $(STAMP)
 	$(BIN)/mypy
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
 
-## make sim: set up .venv, then fly the square through the companion stack (default arena),
+## make sim: set up .venv, then fly the contest mission through every node (default arena),
 ## recording its topics to OUT/bag (rosbag2 MCAP)
 sim: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission sim --record --out $(OUT)

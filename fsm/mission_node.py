@@ -3,17 +3,21 @@
 It is the machine's :class:`~fsm.mission_machine.MissionDriver`: each request becomes a
 goal of the layer below, each goal's result an input of the machine.
 
-- actions: ``/flight_control/takeoff`` and ``land`` (with ``/flight_control/arm``),
-  ``/navigation/explore``, ``navigate`` and ``precision_land``; a request always
-  replaces the previous one, whose goal is canceled (cancel reaches the active child),
-  and a result that comes back after its state was left is dropped;
+- actions: ``/navigation/takeoff`` from the start pad (it maps around after the climb),
+  ``/flight_control/takeoff`` from the sequence's pads, ``/flight_control/land`` (with
+  ``/flight_control/arm``), ``/navigation/explore``, ``navigate`` and ``precision_land``;
+  a request always replaces the previous one, whose goal is canceled (cancel reaches
+  the active child), and a result that comes back after its state was left is dropped;
 - ``/mission/command`` (MissionCommand): START, PAUSE, RESUME, ABORT, RETURN_HOME and
   SEQUENCE, each answered on ``/mission/events`` (accepted or rejected, with the reason);
 - ``/mission/state`` (MissionState: the nested state, the pad in hand, the score so far)
   on every change and at ``state_rate_hz``; ``/mission/events`` (MissionEvent);
-- ``/mission/robot`` (RobotFound, the pictures): in ``mission.report_robot`` the node
-  hovers ``report_hover_s`` collecting ``/perception/robot_found`` of the target robot,
-  then sends them to the operator;
+- ``/mission/robot`` (RobotFound, the pictures): from the start of the exploration the
+  node keeps the latest ``max_pictures`` ``/perception/robot_found`` of the target robot
+  (the exploration stops past the robot, which may be out of view by then); in
+  ``mission.report_robot`` it hovers ``report_hover_s`` (up to ``picture_timeout_s``
+  more until a first one comes), then sends them to the operator (without any, the
+  robot's ID and the vehicle's position, with a warning);
 - alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` (position estimate invalid ->
   localisation lost; the battery warnings), each of ``health_topics`` (ERROR -> module
   error; no report for ``silence_timeout_s`` -> module silent), the sequence timeout.
@@ -43,6 +47,7 @@ from runtime import (
     QoSProfile,
     qos_profile_default,
     qos_profile_latched,
+    qos_profile_sensor_data,
 )
 from runtime.action import ClientGoalHandle, GoalStatus
 
@@ -71,6 +76,7 @@ LATCHED = qos_profile_latched
 EVENTS_QOS = QoSProfile(depth=100)
 
 ACTIONS: dict[str, tuple[Any, str]] = {
+    "survey_takeoff": (TAKEOFF, "/navigation/takeoff"),  # climb, then turn round: mapping
     "takeoff": (TAKEOFF, "/flight_control/takeoff"),
     "land": (LAND, "/flight_control/land"),
     "reach": (REACH, "/flight_control/reach"),
@@ -128,7 +134,7 @@ class MissionNode(Node):
         self.create_subscription(f"{QM}/msg/FcuStatus", "/fcu/status", self._on_status,
                                  qos_profile_default)
         self.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odometry,
-                                 qos_profile_default)
+                                 qos_profile_sensor_data)
         for topic in self.params.health_topics:
             self.create_subscription(f"{QM}/msg/HealthReport", topic,
                                      partial(self._on_health, topic), qos_profile_default)
@@ -160,6 +166,8 @@ class MissionNode(Node):
         self.publish_state()
 
     def _on_robot(self, msg: Any) -> None:
+        """Pictures of the target robot, from the exploration (the one that stopped it is
+        often the best: the vehicle stops past the robot) to the end of the report."""
         if self._collecting and int(msg.marker_id) == self.mission.config.target_robot:
             self.pictures.append(msg)
             del self.pictures[:-self.params.max_pictures]
@@ -266,7 +274,10 @@ class MissionNode(Node):
                     await self.sleep(1.0)
                 else:
                     return self.mission.action_failed(f"arm: {message}")
-            result = await self._goal("takeoff", interfaces.new(
+            # from the start pad the navigator's take-off also maps all around; from a
+            # sequence pad the flight-control take-off is enough
+            first = self.mission.state == "mission.takeoff"
+            result = await self._goal("survey_takeoff" if first else "takeoff", interfaces.new(
                 TAKEOFF.Goal, altitude=self.params.cruise_altitude))
         if result is None:
             return False
@@ -278,6 +289,8 @@ class MissionNode(Node):
         self._run(self._explore(target_robot))
 
     async def _explore(self, target_robot: int) -> bool:
+        self.pictures.clear()
+        self._collecting = True
         result = await self._goal("explore", interfaces.new(
             EXPLORE.Goal, altitude=self.params.cruise_altitude, stop_marker_ids=[target_robot]))
         if result is None:
@@ -292,13 +305,32 @@ class MissionNode(Node):
         self._run(self._send_pictures())
 
     async def _send_pictures(self) -> bool:
-        self.pictures.clear()
         self._collecting = True
         await self.sleep(self.params.report_hover_s)
+        waited = 0.0
+        while not self.pictures and waited < self.params.picture_timeout_s:
+            await self.sleep(0.1)
+            waited += 0.1
         self._collecting = False
+        if not self.pictures:  # the operator still needs to know which robot it is
+            target = self.mission.config.target_robot
+            self.emit(MissionEvent(
+                EventKind.ERROR, f"no picture of robot {target} from perception after "
+                f"{self.params.report_hover_s + waited:.0f} s: its ID and our position sent",
+                Severity.WARN, marker_id=target))
+            self.pictures.append(self._robot_without_picture(target))
         for msg in self.pictures:
             self.robot_pub.publish(msg)
         return self.mission.pictures_sent()
+
+    def _robot_without_picture(self, marker_id: int) -> Any:
+        x, y, _ = self.position if self.position is not None else (math.nan, math.nan, 0.0)
+        msg = interfaces.new(f"{QM}/msg/RobotFound", marker_id=marker_id,
+                             position_std=math.nan, sightings=0)
+        msg.header = _header(self.now().to_msg())
+        msg.pose.position = _point(x, y, 0.0)
+        msg.pose.orientation.w = 1.0
+        return msg
 
     def navigate(self, target: tuple[float, float]) -> None:
         self._run(self._navigate(target))
@@ -350,7 +382,6 @@ class MissionNode(Node):
 
     def cancel(self) -> None:
         self._token += 1
-        self._collecting = False
         if self._active is not None:
             client, handle = self._active
             self._active = None

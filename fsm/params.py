@@ -67,6 +67,8 @@ class MissionParams:
                                       description="wait this long for the operator's sequence")
     report_hover_s: float = param(unit="s", range=(0.0, 60.0),
                                   description="hover over the robot collecting its pictures")
+    picture_timeout_s: float = param(unit="s", range=(0.0, 600.0),
+                                     description="then wait this long more for a picture")
     max_pictures: int = param(range=(1, 20), description="robot pictures sent")
     battery_low_warning: int = param(range=(1, 3),
                                      description="px4 WARNING_* that means return and land")

@@ -48,6 +48,8 @@ INFO_TOPIC = "/camera/down/camera_info"
 MARKERS_TOPIC = "/perception/markers"
 ROBOT_FOUND_TOPIC = "/perception/robot_found"
 POSE_AT_SERVICE = "/fcu/pose_at"
+POSE_AT_RETRIES = 5  # a frame is processed when captured; the odometry of that instant
+POSE_AT_RETRY_S = 0.02  # s, comes over the link a few ms later: ask again this often
 MAP_FRAME = "map"
 
 MARKER: Any = interfaces.get_message("quadmission_interfaces/msg/MarkerDetection")
@@ -255,6 +257,11 @@ class ArucoScannerNode(Node):
                             annotated: np.ndarray) -> None:
         request = interfaces.new(POSE_AT.Request, stamp=Time(stamp_ns).to_msg())
         response = await self.pose_at.call_async(request)
+        for _ in range(POSE_AT_RETRIES):  # the frame can be ahead of the odometry
+            if response.success:
+                break
+            await self.sleep(POSE_AT_RETRY_S)
+            response = await self.pose_at.call_async(request)
         if not response.success:
             self.get_logger().warn(f"robot {marker.id}: no pose at capture time: "
                                    f"{response.message}")

@@ -17,6 +17,7 @@ from typing import Any
 import cv2
 
 from quadmission.errors import OptionsError
+from quadmission.mission import mission_scenario
 from quadmission.navigate_flight import map_arena, navigate
 from quadmission.precision_landing import precision_landing
 from quadmission.report import write_report
@@ -138,10 +139,11 @@ def arena_tour(options: ScenarioOptions) -> dict[str, Any]:
 
 SCENARIOS: dict[str, Scenario] = {
     "arena-tour": arena_tour,
-    "precision-landing": precision_landing,
     "map-arena": map_arena,
+    "mission": mission_scenario,
     "navigate": navigate,
+    "precision-landing": precision_landing,
     "square": square,
 }
 #: The most complete scenario there is; ``make sim`` runs it.
-DEFAULT_SCENARIO = "square"
+DEFAULT_SCENARIO = "mission"

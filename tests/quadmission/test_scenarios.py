@@ -72,7 +72,7 @@ class SquareRun:
 @pytest.fixture(scope="module")
 def square_run(tmp_path_factory: pytest.TempPathFactory) -> SquareRun:
     out = tmp_path_factory.mktemp("square")
-    code, stderr = _cli(["sim", "--out", str(out)])  # the default scenario, as `make sim`
+    code, stderr = _cli(["sim", "--scenario", "square", "--out", str(out)])
     return SquareRun(code, stderr, _strict_json(out / "report.json"), out)
 
 
@@ -163,7 +163,8 @@ def test_a_goal_the_flight_control_layer_rejects_ends_the_flight_as_failed(
 def test_a_square_that_fits_nowhere_is_refused_with_the_reason(tmp_path: Path) -> None:
     arena_file = tmp_path / "boxed.yaml"
     arena_file.write_text(BOXED_IN)
-    code, stderr = _cli(["sim", "--arena", str(arena_file), "--out", str(tmp_path / "o")])
+    code, stderr = _cli(["sim", "--scenario", "square", "--arena", str(arena_file), "--out",
+                         str(tmp_path / "o")])
     assert code == 2
     refused = [line for line in stderr.splitlines() if line.startswith("REFUSED: ")]
     assert len(refused) == 1, stderr
@@ -248,7 +249,8 @@ def test_the_fit_refuses_a_boxed_in_start_pad() -> None:
 
 
 def test_a_random_arena_square_lands(tmp_path: Path) -> None:
-    code, stderr = _cli(["sim", "--random-arena", "--seed", "2", "--out", str(tmp_path)])
+    code, stderr = _cli(["sim", "--scenario", "square", "--random-arena", "--seed", "2",
+                         "--out", str(tmp_path)])
     report = _strict_json(tmp_path / "report.json")
     assert code == 0 and report["outcome"] == "landed", stderr[-2000:]
     assert report["seed"] == 2 and report["random_arena"]

@@ -1,0 +1,95 @@
+"""The contest mission in seeded random arenas: success rate, score ratio, wall time.
+
+    python benchmarks/bench_mission.py --out benchmarks/results/mission.json
+    python benchmarks/bench_mission.py --seeds 1-5 --jobs 2 --out /tmp/m.json
+
+Runs ``quadmission sim --scenario mission --random-arena --seed N`` for each seed
+(default 1-20), each into its own folder next to the JSON result (report.json, pictures),
+in ``--jobs`` processes. A run succeeds when the mission completed, every pad of its
+sequence was landed inside, and nothing crashed (the report's ``ok``). Reported: the
+success rate (issue target: at least 18/20, goal 20/20), the mean score ratio (true score
+over the operator's planned points), and the p50 / max wall time per run, with the real-
+time factor. Quality figures first; wall times depend on the host and its load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+TARGET_SUCCESSES = 18  # of 20 (the issue's); the goal is all of them
+
+
+def _seeds(text: str) -> list[int]:
+    if "-" in text:
+        first, last = (int(v) for v in text.split("-", 1))
+        return list(range(first, last + 1))
+    return [int(v) for v in text.split(",")]
+
+
+def run_one(out: Path, seed: int) -> dict[str, Any]:
+    from quadmission.mission import fly_mission
+    from quadmission.scenarios import ScenarioOptions
+
+    try:
+        report = fly_mission(ScenarioOptions(out=out, seed=seed, random_arena=True))
+    except Exception as exc:  # a broken run is a failed run, with its reason
+        return {"seed": seed, "ok": False, "verdict": f"ERROR: {type(exc).__name__}: {exc}",
+                "score": None, "planned": None, "wall_time_s": None, "rtf": None}
+    plan = report.get("plan") or {}
+    return {"seed": seed, "arena": report["arena"], "ok": report["ok"],
+            "result": report["result"], "reason": report["reason"],
+            "verdict": report["verdict"], "score": report["score"],
+            "planned": plan.get("points"), "greedy": (plan.get("greedy") or {}).get("points"),
+            "max_score": report["max_score"], "crashed": report["crashed"],
+            "landings": len(report["landings"]),
+            "inside": sum(d["inside_pad"] for d in report["landings"]),
+            "sim_time_s": report["sim_time_s"],
+            "wall_time_s": report["host"]["wall_time_s"], "rtf": report["host"]["rtf"]}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/mission.json"))
+    parser.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 3,7")
+    parser.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")
+    parser.add_argument("--runs", type=Path, default=Path("runs/mission_seeds"),
+                        help="folder for each run's report.json and pictures")
+    args = parser.parse_args()
+    seeds = _seeds(args.seeds)
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        futures = [pool.submit(run_one, args.runs / f"seed_{seed}", seed) for seed in seeds]
+        runs = []
+        for seed, future in zip(seeds, futures, strict=True):
+            runs.append(future.result())
+            print(f"seed {seed:2d}: {runs[-1]['verdict']}", flush=True)
+    ratios = [r["score"] / r["planned"] for r in runs if r["planned"]]
+    walls = [r["wall_time_s"] for r in runs if r["wall_time_s"] is not None]
+    successes = sum(bool(r["ok"]) for r in runs)
+    result = {
+        "target_successes": f"{TARGET_SUCCESSES}/20",
+        "successes": successes, "runs_total": len(runs),
+        "success_rate": round(successes / len(runs), 3) if runs else None,
+        "mean_score_ratio": round(float(np.mean(ratios)), 3) if ratios else None,
+        "wall_time_s": {"p50": round(float(np.median(walls)), 1) if walls else None,
+                        "max": round(max(walls), 1) if walls else None},
+        "rtf_p50": round(float(np.median([r["rtf"] for r in runs if r["rtf"]])), 3)
+        if any(r["rtf"] for r in runs) else None,
+        "jobs": args.jobs,
+        "runs": runs,
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
+    print(json.dumps({k: v for k, v in result.items() if k != "runs"}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,90 @@
+"""The mission node and the operator node through their topics, without the simulator:
+commands are answered on /mission/events, /mission/state follows the machine, preflight
+refuses to start when a module does not answer, and the operator starts the mission."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+import interfaces
+from fsm.mission_node import COMMAND, COMMAND_TOPIC, EVENTS_TOPIC, STATE_TOPIC, MissionNode
+from fsm.operator_node import OperatorNode
+from runtime import DeterministicExecutor, Node, qos_profile_default, qos_profile_latched
+
+PADS = {"pad_ids": [1, 2, 3], "pad_x": [1.5, 3.0, 7.0], "pad_y": [1.5, 7.5, 10.5],
+        "start_pad": 1}
+KIND: Any = interfaces.get_message("quadmission_interfaces/msg/MissionEvent")
+
+
+class Station(Node):
+    """A ground station page: sends commands, keeps what the mission publishes."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("station", **kwargs)
+        self.states: list[Any] = []
+        self.events: list[Any] = []
+        self.pub = self.create_publisher(COMMAND, COMMAND_TOPIC, qos_profile_default)
+        self.create_subscription("quadmission_interfaces/msg/MissionState", STATE_TOPIC,
+                                 self.states.append, qos_profile_latched)
+        self.create_subscription("quadmission_interfaces/msg/MissionEvent", EVENTS_TOPIC,
+                                 self.events.append, qos_profile_default)
+
+    def send(self, command: int, **fields: Any) -> None:
+        self.pub.publish(interfaces.new(COMMAND, command=command, **fields))
+
+
+@pytest.fixture
+def rig() -> tuple[DeterministicExecutor, MissionNode, Station]:
+    ex = DeterministicExecutor()
+    mission = MissionNode(context=ex.context, parameter_overrides=PADS | {
+        "preflight_timeout_s": 2.0})
+    station = Station(context=ex.context)
+    ex.add_node(mission)
+    ex.add_node(station)
+    ex.spin_for(0.5)
+    return ex, mission, station
+
+
+def test_state_is_published_and_commands_out_of_place_are_rejected_with_the_reason(
+        rig: tuple[DeterministicExecutor, MissionNode, Station]) -> None:
+    ex, _, station = rig
+    assert station.states and station.states[-1].state == "idle"
+    assert station.states[-1].phase == 0  # PHASE_IDLE
+    station.send(COMMAND.COMMAND_PAUSE)
+    station.send(0)
+    ex.spin_for(0.5)
+    rejected = [e for e in station.events if e.kind == KIND.KIND_COMMAND_REJECTED]
+    assert [e.message.split(":")[0] for e in rejected] == ["PAUSE rejected",
+                                                           "unknown command 0"]
+    assert "nothing to pause in state idle" in rejected[0].message
+
+
+def test_preflight_refuses_to_start_naming_every_module_that_did_not_answer(
+        rig: tuple[DeterministicExecutor, MissionNode, Station]) -> None:
+    ex, mission, station = rig
+    station.send(COMMAND.COMMAND_START)
+    ex.spin_for(3.0)
+    assert [s for _, s in mission.timeline] == ["idle", "preflight", "stopped"]
+    reason = station.states[-1].stop_reason
+    assert reason.startswith("preflight_failed in preflight")
+    for missing in ("navigate server not available", "/flight_control/health did not answer",
+                    "/fcu/status did not answer"):
+        assert missing in reason
+    assert station.states[-1].phase == 10  # PHASE_ABORTED
+    assert any(e.kind == KIND.KIND_MODULE_FAULT for e in station.events)
+
+
+def test_the_operator_starts_the_mission_once_it_shows_idle() -> None:
+    ex = DeterministicExecutor()
+    mission = MissionNode(context=ex.context, parameter_overrides=PADS)
+    operator = OperatorNode(context=ex.context, parameter_overrides=PADS | {
+        "robot_ids": [19], "robot_points": [5, 10, 20], "start_after_s": 1.0})
+    ex.add_node(mission)
+    ex.add_node(operator)
+    ex.spin_for(0.8)
+    assert mission.mission.state == "idle"
+    ex.spin_for(0.6)
+    assert mission.mission.state == "preflight"
+    assert operator.tables == {19: {1: 5, 2: 10, 3: 20}}
