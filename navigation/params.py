@@ -57,8 +57,9 @@ class PathFinderParams:
                            description="A* heuristic: the seed's Euclidean, or octile")
     snap_radius: float = param(unit="m", range=(0.0, 5.0),
                                description="start/goal snap to a free cube within this")
-    time_limit_s: float = param(unit="s", range=(0.001, 60.0),
-                                description="search time limit (host time)")
+    max_expansions: int = param(range=(1000, 100_000_000),
+                                description="search limit in cubes expanded (a count, not host "
+                                            "time, so the same map gives the same plan)")
     use_live_map: bool = param(description="plan on /map/points (else only map_file)")
     map_file: str = param("", description="PCD/PLY map loaded at start; empty = none")
     cache_dir: str = param("", description="graph cache folder; empty = no disk cache")

@@ -154,7 +154,7 @@ class PathFinderNode(Node):
             if self._workspace is None or self._workspace.size != graph.grid.size:
                 self._workspace = Workspace(graph.grid.size)
             planned = plan(graph, start, goal, snap_radius=self.params.snap_radius,
-                           time_limit_s=self.params.time_limit_s, heuristic=self.heuristic,
+                           max_expansions=self.params.max_expansions, heuristic=self.heuristic,
                            workspace=self._workspace)
         except PlanningError as exc:
             response.result = RESULT_OF[type(exc)]

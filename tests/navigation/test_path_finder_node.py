@@ -112,3 +112,18 @@ def test_unknown_space_as_occupied_is_refused_without_observations() -> None:
     with pytest.raises(ParameterError, match="unknown_is_occupied"):
         PathFinderNode(context=ex.context,
                        parameter_overrides=FIELD | {"unknown_is_occupied": True})
+
+
+def test_the_search_limit_is_a_count_so_a_long_detour_times_out_the_same_way_every_time() -> None:
+    ex = DeterministicExecutor()
+    finder = PathFinderNode(context=ex.context,
+                            parameter_overrides=FIELD | {"max_expansions": 1000})
+    client = Client(context=ex.context)
+    ex.add_node(finder)
+    ex.add_node(client)
+    client.map_pub.publish(cloud_msg(WALL, Time(0).to_msg(), "map"))
+    ex.spin_for(0.1)
+    replies = [ask(ex, client, (1.0, 1.0, 1.0), (5.0, 1.0, 1.0)) for _ in range(2)]
+    for r in replies:
+        assert not r.success and "PlanningTimedOut" in r.message, r.message
+    assert replies[0].message == replies[1].message
