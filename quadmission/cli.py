@@ -529,6 +529,8 @@ def main(argv: Sequence[str] | None = None, commands: Sequence[Command] = COMMAN
     args = build_parser(commands).parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
+    if not args.verbose:  # the state machine library narrates every callback at INFO
+        logging.getLogger("transitions").setLevel(logging.WARNING)
     try:
         code = int(args.handler(args))
         sys.stdout.flush()  # a closed pipe shows here, not at exit

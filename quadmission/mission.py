@@ -50,6 +50,7 @@ from quadmission.errors import OptionsError
 from quadmission.mission_eval import Landing, distance_m, landing, score, touchdown_summary
 from quadmission.mission_plots import MissionPicture, save_altitude, save_path, save_timeline
 from quadmission.report import write_report
+from quadmission.run_services import attach_services
 from quadmission.square_eval import SetpointRecorder, rounded, tracking
 from runtime import Node, qos_profile_default
 from runtime.parameters import load_parameters
@@ -252,7 +253,8 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         sitl.executor.add_node(node)
     options.progress(f"  target robot {target}, start pad {published.start_pad}"
                      + (f", pad {options.remove_pad} removed" if options.remove_pad else ""))
-    with SceneRenderer(sitl.scene.model) as renderer:
+    with SceneRenderer(sitl.scene.model) as renderer, \
+            attach_services(options, sitl.executor, sitl.extra_parts, sitl.scene.arena, sitl.scene):
         sitl.extra_parts.extend(sensor_parts(sensors, renderer, sitl.scene, seed=options.seed))
         sitl.extra_parts.append(_Progress(mission, options.progress))
         played = _Script(mission, buttons, companion.vio, list(script))
