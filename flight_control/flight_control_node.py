@@ -36,6 +36,7 @@ from flight_control.command_protocol import CommandProtocol
 from flight_control.flight_actions import LAND, REACH, TAKEOFF, TURN, motion_actions, point, xyz
 from flight_control.frames import quat_rotate, quat_to_yaw
 from flight_control.goal_checks import GoalError, VehicleState, battery_critical, check_vehicle
+from flight_control.health import health_report
 from flight_control.params import FIELD_SOURCE, FieldParams, FlightControlParams
 from runtime import Node, ParameterError, qos_profile_default, qos_profile_sensor_data
 
@@ -265,16 +266,9 @@ class FlightControlNode(Node):
             "streaming": self.setpoint is not None,
             "setpoint_rate_hz": self.measured_rate_hz,
         }
-        health = interfaces.new(
-            "quadmission_interfaces/msg/ModuleHealth", name="flight_control", level=int(level),
-            message="; ".join(problems + warnings), last_update=now.to_msg(),
-            values=[interfaces.new("diagnostic_msgs/msg/KeyValue", key=k,
-                                   value=str(v).lower() if isinstance(v, bool) else str(v))
-                    for k, v in values.items()])
-        self.health_pub.publish(interfaces.new(
-            "quadmission_interfaces/msg/HealthReport",
-            header=interfaces.new("std_msgs/msg/Header", stamp=now.to_msg()),
-            level=int(level), modules=[health]))
+        self.health_pub.publish(health_report("flight_control", level,
+                                              "; ".join(problems + warnings), values,
+                                              now.to_msg()))
 
 
 __all__ = ["ARM", "DISARM", "LAND", "REACH", "TAKEOFF", "TURN", "FlightControlNode"]

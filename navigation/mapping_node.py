@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from flight_control.health import MODULE_HEALTH, health_report
 from navigation.cloud_msgs import cloud_msg, cloud_points
-from navigation.health import MODULE_HEALTH, health_report
 from navigation.mapping import VoxelMap, camera_to_map, load_map, save_map
 from navigation.params import MappingParams
 from runtime import Node, Time, qos_profile_default, qos_profile_sensor_data

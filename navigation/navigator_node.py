@@ -33,6 +33,7 @@ import numpy as np
 
 import interfaces
 from flight_control.frames import quat_to_yaw, wrap_pi
+from flight_control.health import MODULE_HEALTH, health_report
 from flight_control.params import FIELD_SOURCE, FieldParams
 from navigation.astar import path_length
 from navigation.coverage import (
@@ -42,7 +43,6 @@ from navigation.coverage import (
     lane_spacing,
     load_explore_paths,
 )
-from navigation.health import MODULE_HEALTH, health_report
 from navigation.params import NavigatorParams
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, path_msg, path_points
 from runtime import (

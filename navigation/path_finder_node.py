@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from flight_control.health import MODULE_HEALTH, health_report
 from flight_control.params import FIELD_SOURCE, FieldParams
 from navigation.astar import Heuristic, Workspace, plan
 from navigation.cloud_msgs import cloud_points
@@ -30,7 +31,6 @@ from navigation.errors import (
     PlanningTimedOut,
     StartOccupied,
 )
-from navigation.health import MODULE_HEALTH, health_report
 from navigation.mapping import load_map
 from navigation.mapping_node import MAP_TOPIC
 from navigation.params import PathFinderParams

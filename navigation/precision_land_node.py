@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from flight_control.health import health_report
 from navigation.precision_landing import (
     Fail,
     Failure,
@@ -335,15 +336,8 @@ class PrecisionLandNode(Node):
         level = HEALTH.LEVEL_ERROR if problems else HEALTH.LEVEL_OK
         values = {"strategy": self.params.strategy.value, "active": str(self.active).lower(),
                   "last_outcome": self.last_outcome}
-        health = interfaces.new(
-            HEALTH, name=NODE_NAME, level=int(level), message="; ".join(problems),
-            last_update=now.to_msg(),
-            values=[interfaces.new("diagnostic_msgs/msg/KeyValue", key=k, value=str(v))
-                    for k, v in values.items()])
-        self.health_pub.publish(interfaces.new(
-            "quadmission_interfaces/msg/HealthReport",
-            header=interfaces.new("std_msgs/msg/Header", stamp=now.to_msg()),
-            level=int(level), modules=[health]))
+        self.health_pub.publish(health_report(NODE_NAME, level, "; ".join(problems), values,
+                                              now.to_msg()))
 
 
 __all__ = ["ACTION_NAME", "NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]

@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 
 import interfaces
+from flight_control.health import health_report
 from perception.aruco import (
     DICTIONARY_NAME,
     ArucoScanner,
@@ -311,15 +312,7 @@ class ArucoScannerNode(Node):
         values = {"enabled": str(self.enabled).lower(), "mode": self.mode.value,
                   "frames": self.frames, "frames_with_markers": self.frames_with_markers,
                   "detections": self.detections, "robots_seen": len(self.robots)}
-        health = interfaces.new(
-            HEALTH, name=NODE_NAME, level=int(level), message=message,
-            last_update=now.to_msg(),
-            values=[interfaces.new("diagnostic_msgs/msg/KeyValue", key=k, value=str(v))
-                    for k, v in values.items()])
-        self.health_pub.publish(interfaces.new(
-            "quadmission_interfaces/msg/HealthReport",
-            header=interfaces.new("std_msgs/msg/Header", stamp=now.to_msg()),
-            level=int(level), modules=[health]))
+        self.health_pub.publish(health_report(NODE_NAME, level, message, values, now.to_msg()))
 
 
 __all__ = ["MARKERS_TOPIC", "NODE_NAME", "ROBOT_FOUND_TOPIC", "ArucoScannerNode",

@@ -1,4 +1,5 @@
-"""HealthReport messages for the navigation nodes (as flight_control publishes its own)."""
+"""HealthReport messages: one module's health, as every companion node publishes it on
+``/<node>/health``."""
 
 from __future__ import annotations
 
