@@ -136,7 +136,10 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
     dds = args.transport == "dds"
     if not (dds or has_simulator):
         return
-    asked = [flag for flag, on in (("--record", args.record), ("--foxglove", args.foxglove),
+    # in process, the recorder and the Foxglove bridge tap the executor around the
+    # simulator as they do around a scenario; pacing and the page need the sim loop's parts
+    asked = [flag for flag, on in (("--record", args.record and dds),
+                                   ("--foxglove", args.foxglove and dds),
                                    ("--gcs", args.gcs),
                                    ("--rtf", args.rtf is not None and not dds)) if on]
     if asked:
@@ -172,7 +175,8 @@ def _launch_run(args: argparse.Namespace) -> int:
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))
     if description.simulator is not None:
-        outcome = run_in_process(description, ex, args.duration or 600.0)
+        with _run_services(args).attach(ex, [], args.out):
+            outcome = run_in_process(description, ex, args.duration or 600.0)
         print(f"launch: {outcome.reason} at {outcome.sim_time_s:.1f} s", file=sys.stderr)
         print(json.dumps({"exit_code": outcome.exit_code, "reason": outcome.reason,
                           "sim_time_s": outcome.sim_time_s}))

@@ -224,7 +224,7 @@ def test_quadmission_launch_runs_the_example() -> None:
 
 
 @pytest.mark.parametrize(("extra", "named"), [
-    (["--record"], "--record: not available with a launch file with a simulator"),
+    (["--gcs"], "--gcs: not available with a launch file with a simulator"),
     (["--rtf", "2"], "--rtf: not available with a launch file with a simulator"),
     (["--transport", "dds", "--gcs", "--record"], "--record --gcs: not available with "
                                                   "--transport dds"),

@@ -16,19 +16,30 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from rosbags.highlevel import AnyReader
 
+import interfaces
 from quadmission.square_launch import sitl
-from runtime import DeterministicExecutor, LaunchDescription
-from runtime.launch import run_in_process
+from runtime import DeterministicExecutor
 
 ROOT = Path(__file__).resolve().parents[2]
 SQUARE = ROOT / "config" / "launch" / "square.yaml"
 
 
-def test_square_launch_lands_in_process() -> None:
-    outcome = run_in_process(LaunchDescription.from_yaml(SQUARE), DeterministicExecutor(),
-                             240.0)
-    assert (outcome.exit_code, outcome.reason) == (0, "landed")
+def test_square_launch_lands_in_process_and_records_its_topics(tmp_path: Path) -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "quadmission.cli", "launch", str(SQUARE), "--duration", "240",
+         "--record", "--out", str(tmp_path)],
+        cwd=ROOT, capture_output=True, text=True, timeout=900,
+        env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert json.loads(out.stdout)["reason"] == "landed"
+    with AnyReader([tmp_path / "bag"], default_typestore=interfaces.typestore()) as reader:
+        topics = {c.topic for c in reader.connections}
+        stamps = [t for _, t, _ in reader.messages(
+            [c for c in reader.connections if c.topic == "/fcu/status"])]
+    assert {"/fcu/status", "/fcu/setpoint", "/fcu/odometry"} <= topics
+    assert (stamps[-1] - stamps[0]) / 1e9 > 20.0  # the whole flight, not its start
 
 
 def test_square_launch_lands_over_dds_processes() -> None:
