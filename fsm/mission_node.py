@@ -71,6 +71,9 @@ STATE_TOPIC = "/mission/state"
 EVENTS_TOPIC = "/mission/events"
 COMMAND_TOPIC = "/mission/command"
 ROBOT_TOPIC = "/mission/robot"
+#: The operator's optimal landing sequence as it proposes it (the ground station's editor
+#: starts from it), latched, before it sends the sequence on the command topic.
+PROPOSAL_TOPIC = "/mission/sequence_proposal"
 #: Late joiners (a ground station page opened mid-run) get the latest state and pictures.
 LATCHED = qos_profile_latched
 EVENTS_QOS = QoSProfile(depth=100)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 import interfaces
-from fsm.mission_node import COMMAND_TOPIC, ROBOT_TOPIC, STATE_TOPIC
+from fsm.mission_node import COMMAND_TOPIC, PROPOSAL_TOPIC, ROBOT_TOPIC, STATE_TOPIC
 from fsm.operator import Problem, Tour, budget_s, leg_costs, solve_exact, solve_greedy
 from fsm.params import FIELD_SOURCE, OperatorParams, PadsParams, RobotsParams
 from runtime import Node, ParameterError, qos_profile_default, qos_profile_latched
@@ -77,6 +77,8 @@ class OperatorNode(Node):
         self._deciding = False
         self.plan_client = self.create_client(PLAN_PATH, "/navigation/plan_path")
         self.command_pub = self.create_publisher(COMMAND, COMMAND_TOPIC, qos_profile_default)
+        self.proposal_pub = self.create_publisher(f"{QM}/msg/LandingSequence", PROPOSAL_TOPIC,
+                                                  qos_profile_latched)
         self.create_subscription(f"{QM}/msg/RobotFound", ROBOT_TOPIC, self._on_robot,
                                  qos_profile_latched)
         self.create_subscription(f"{QM}/msg/MissionState", STATE_TOPIC, self._on_state,
@@ -147,6 +149,7 @@ class OperatorNode(Node):
                                   pad_points=[table[i] for i in exact.pads],
                                   robot_marker_id=marker)
         sequence.header.stamp = self.now().to_msg()
+        self.proposal_pub.publish(sequence)
         self.send(COMMAND.COMMAND_SEQUENCE, f"best of {len(ids)} pads for robot {marker}",
                   sequence)
 

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 import interfaces
+from fsm.mission_node import COMMAND_TOPIC, PROPOSAL_TOPIC
 from ground_station.commands import OperatorCommand
 from ground_station.layout import FieldLayout
 from ground_station.params import GroundStationParams
@@ -27,8 +28,6 @@ from interfaces.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from runtime import Node, qos_profile_default
 
 NODE_NAME = "ground_station"
-COMMAND_TOPIC = "/mission/command"
-PROPOSAL_TOPIC = "/mission/sequence_proposal"  # the optimiser's proposed landing sequence
 NAVIGATE_FEEDBACK_TOPIC = "/navigation/navigate/_action/feedback"
 #: Every subscription: best effort matches reliable and best-effort writers alike.
 LISTEN_QOS = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,

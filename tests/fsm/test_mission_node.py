@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
 
 import interfaces
@@ -88,3 +89,39 @@ def test_the_operator_starts_the_mission_once_it_shows_idle() -> None:
     ex.spin_for(0.6)
     assert mission.mission.state == "preflight"
     assert operator.tables == {19: {1: 5, 2: 10, 3: 20}}
+
+
+def test_the_operator_proposes_the_sequence_it_sends_priced_by_the_path_finder() -> None:
+    from fsm.mission_node import PROPOSAL_TOPIC, ROBOT_TOPIC
+    from navigation.cloud_msgs import cloud_msg
+    from navigation.path_finder_node import PathFinderNode
+    from runtime import Time
+
+    ex = DeterministicExecutor()
+    finder = PathFinderNode(context=ex.context, parameter_overrides={
+        "field_min": [0.0, 0.0, 0.0], "field_max": [12.0, 12.0, 3.0]})
+    operator = OperatorNode(context=ex.context, parameter_overrides=PADS | {
+        "robot_ids": [19], "robot_points": [5, 10, 20], "start_after_s": 0.0})
+    station = Station(context=ex.context)
+    proposals: list[Any] = []
+    station.create_subscription("quadmission_interfaces/msg/LandingSequence", PROPOSAL_TOPIC,
+                                proposals.append, qos_profile_latched)
+    commands: list[Any] = []
+    station.create_subscription(COMMAND, COMMAND_TOPIC, commands.append, qos_profile_default)
+    robot_pub = station.create_publisher("quadmission_interfaces/msg/RobotFound", ROBOT_TOPIC,
+                                         qos_profile_latched)
+    for node in (finder, operator, station):
+        ex.add_node(node)
+    map_pub = station.create_publisher("sensor_msgs/msg/PointCloud2", "/map/points",
+                                       qos_profile_default)
+    map_pub.publish(cloud_msg(np.array([[11.0, 11.0, 0.5]]), Time(0).to_msg(), "map"))
+    ex.spin_for(0.2)
+    robot = interfaces.new("quadmission_interfaces/msg/RobotFound", marker_id=19)
+    robot.pose.position.x, robot.pose.position.y = 2.0, 2.0
+    robot_pub.publish(robot)
+    ex.spin_for(3.0)
+    sent = [c for c in commands if c.command == COMMAND.COMMAND_SEQUENCE]
+    assert len(proposals) == 1 and len(sent) == 1
+    assert list(proposals[0].pad_ids) == list(sent[0].sequence.pad_ids)
+    assert sorted(proposals[0].pad_ids) == [1, 2, 3]  # all three fit the default budget
+    assert list(proposals[0].pad_points) == [{1: 5, 2: 10, 3: 20}[p] for p in proposals[0].pad_ids]
