@@ -3,7 +3,7 @@
 The same YAML and the same node code: in process, the simulator steps every node in
 lockstep; over DDS (``--transport dds``), the simulator, the bridge, the flight-control
 node and the pilot are four processes on a loopback-only domain of their own, following
-``/clock`` paced to 3x real time (the simulator also waits for lagging processes). Both
+``/clock`` paced to real time (the simulator also waits for lagging processes). Both
 end with exit code 0 once the pilot has landed.
 """
 
@@ -47,7 +47,8 @@ def test_square_launch_lands_over_dds_processes() -> None:
     out = subprocess.run(
         [sys.executable, "-m", "quadmission.cli", "launch", str(SQUARE), "--transport", "dds",
          "--domain-id", str(domain), "--duration", "240",
-         "--rtf", "3"],  # paced, but not at the 1x default: ~40 s of wall time, not ~80
+         "--rtf", "1"],  # real time: at 3x the simulator has no headroom on 2 busy cores,
+        # the node clocks run past the last /clock and the estimate goes invalid (issue 10)
         cwd=ROOT, capture_output=True, text=True, timeout=900,
         env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
     assert out.returncode == 0, out.stderr[-3000:]
