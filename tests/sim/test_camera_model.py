@@ -63,3 +63,27 @@ def test_blur_geometry():
     assert motion_blur_px([1, 0, 0], [0, 0, 0], 1.0, 400.0, 0.01) == pytest.approx((0.0, 4.0))
     # flying left: the floor moves right
     assert motion_blur_px([0, 1, 0], [0, 0, 0], 2.0, 400.0, 0.01)[0] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("lighting", [Lighting.LIGHT, Lighting.DARK])
+def test_noise_has_the_sensor_mean_and_variance(lighting):
+    # a flat field: each pixel's DN is gain_k * (e + sqrt(e + r^2) z), so across pixels
+    # the mean is gain_k * e and the spread gain_k * sqrt(e + r^2)
+    params = replace(PARAMS, motion_blur=False)
+    model = CameraSensorModel(params, lighting, 7)
+    flat = np.full((120, 160, 3), 60, dtype=np.uint8)
+    out = np.concatenate([model.apply(flat).astype(float) for _ in range(4)])
+    e = model.exposure
+    electrons = 60 * e.electrons_per_ms * e.exposure_ms / 255.0
+    k = e.gain * 255.0 / params.full_well_e
+    assert out.mean() == pytest.approx(k * electrons, abs=0.6)  # rounding to DN: +-0.5
+    assert out.std() == pytest.approx(k * np.sqrt(electrons + params.read_noise_e ** 2),
+                                      rel=0.1, abs=0.3)
+
+
+def test_successive_frames_have_different_noise():
+    model = CameraSensorModel(PARAMS, Lighting.DARK, 3)
+    flat = np.full((60, 80, 3), 128, dtype=np.uint8)
+    a, b = model.apply(flat).astype(float), model.apply(flat).astype(float)
+    assert a.std() > 1.0
+    assert abs(np.corrcoef((a - a.mean()).ravel(), (b - b.mean()).ravel())[0, 1]) < 0.1
