@@ -58,12 +58,12 @@ from sim.fcu.control import (
     CONTROL_NODE_NAME,
     AttitudeController,
     ControlGains,
+    Mixer,
     PositionController,
     PositionControlOutput,
     RateController,
     TrajectorySetpointData,
     VehicleState,
-    mix_with_desaturation,
 )
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.estimator import (
@@ -266,6 +266,7 @@ class Firmware:
         self.position_controller = PositionController(cfg.control, cfg.quad)
         self.attitude_controller = AttitudeController(cfg.control)
         self.rate_controller = RateController(cfg.control, cfg.quad)
+        self.mixer = Mixer(cfg.quad)
         self.estimator = Estimator(cfg.estimator)
         self.commander = Commander(cfg.commander)
         self.land_detector = LandDetector(replace(
@@ -504,10 +505,10 @@ class Firmware:
                     if self.armed else 0.0)
             self.motor_commands = np.full(NUM_ROTORS, idle)
             return
-        mixed = mix_with_desaturation(self.quad, self.position_out.collective_thrust,
-                                      self.torque_setpoint)
-        self.rate_controller.set_saturation(mixed.saturated_positive, mixed.saturated_negative)
-        self.motor_commands = mixed.motor_thrusts
+        mixer = self.mixer
+        mixer.mix(self.position_out.collective_thrust, self.torque_setpoint)
+        self.rate_controller.set_saturation_flags(mixer.saturation_flags)
+        self.motor_commands = mixer.motor_thrusts
 
     # -- datalink -----------------------------------------------------------------------
     def dds_receive(self) -> None:
