@@ -287,7 +287,8 @@ class Firmware:
         self.accel_frd = np.array([0.0, 0.0, -GRAVITY])
         self.gyro_frd = np.zeros(3)
         self.imu_time_us = 0
-        self.estimate: EstimatorOutput | None = None
+        self._estimate: EstimatorOutput | None = None
+        self._estimate_stale = False  # predicted since the estimate was last built
         self.status: CommanderStatus | None = None
         self.land: LandDetectedData | None = None
         self.battery: BatteryStatusData | None = None
@@ -351,6 +352,19 @@ class Firmware:
         return self.motor_commands
 
     @property
+    def estimate(self) -> EstimatorOutput | None:
+        """The estimator's output as of the last ``ekf_update`` (built when first read:
+        most ticks read only part of it, some none)."""
+        if self._estimate_stale:
+            self._estimate = self.estimator.output()
+            self._estimate_stale = False
+        return self._estimate
+
+    def _has_estimate(self) -> bool:
+        """``estimate is not None`` without building it."""
+        return self._estimate_stale or self._estimate is not None
+
+    @property
     def armed(self) -> bool:
         return self.status is not None and self.status.arming_state is ArmingState.ARMED
 
@@ -376,10 +390,10 @@ class Firmware:
     def ekf_update(self) -> None:
         if self.imu.latest is None:
             return
-        if self.estimate is None:  # boot: start the filter one tick before the first sample
+        if not self._has_estimate():  # boot: start the filter one tick before the first sample
             self.estimator.reset(self._now_us - self._dt_us)
         self.estimator.predict(self._now_us, self.accel_frd, self.gyro_frd)
-        self.estimate = self.estimator.output()
+        self._estimate_stale = True
 
     def land_detector_update(self) -> None:
         est = self.estimate
@@ -493,7 +507,7 @@ class Firmware:
             self.position_out.yawspeed_feedforward)
 
     def rate_control(self) -> None:
-        if self.estimate is None or not self.armed:
+        if not self._has_estimate() or not self.armed:
             return
         landed = bool(self.land.landed) if self.land else True
         self.torque_setpoint = self.rate_controller.update(
@@ -558,6 +572,7 @@ class Firmware:
 
     def _on_vehicle_visual_odometry(self, msg: Any) -> None:
         sample_us = int(msg.timestamp_sample) or self._now_us
+        _ = self.estimate  # the estimate of the last ekf_update, from before this fusion
         q = np.asarray(msg.q, dtype=np.float64)
         var = float(np.nanmax(msg.position_variance)) if np.isfinite(
             msg.position_variance).any() else math.nan
