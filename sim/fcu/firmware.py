@@ -16,6 +16,7 @@ it reads and the motor thrusts it commands.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -637,8 +638,8 @@ class Firmware:
             timestamp_sample=est.time_us, xy_valid=valid, z_valid=valid, v_xy_valid=valid,
             v_z_valid=valid, x=float(p[0]), y=float(p[1]), z=float(p[2]), vx=float(v[0]),
             vy=float(v[1]), vz=float(v[2]), z_deriv=float(v[2]),
-            ax=float(np.nan_to_num(acc[0])), ay=float(np.nan_to_num(acc[1])),
-            az=float(np.nan_to_num(acc[2])), heading=_yaw(s.q), heading_good_for_control=True,
+            ax=_nan_to_num(acc[0]), ay=_nan_to_num(acc[1]), az=_nan_to_num(acc[2]),
+            heading=_yaw(s.q), heading_good_for_control=True,
             eph=float(math.sqrt(max(est.position_variance_ned[:2]))),
             epv=float(math.sqrt(est.position_variance_ned[2])),
             evh=float(math.sqrt(max(est.velocity_variance_ned[:2]))),
@@ -744,6 +745,14 @@ _TELEMETRY_SOURCE: dict[str, str | None] = {
 }
 """The firmware state each telemetry message is built from (None: always there); no
 message is sent before its state exists."""
+
+
+def _nan_to_num(value: Any) -> float:
+    """``float(np.nan_to_num(value))`` for one number, without numpy's per-call cost."""
+    v = float(value)
+    if math.isfinite(v):
+        return v
+    return 0.0 if math.isnan(v) else math.copysign(sys.float_info.max, v)
 
 
 def _yaw(q: FloatArray) -> float:
