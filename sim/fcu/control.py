@@ -332,6 +332,17 @@ class VehicleState:
         return state
 
     @classmethod
+    def from_unit_arrays(cls, position_ned: FloatArray, velocity_ned: FloatArray,
+                         q: FloatArray, angular_velocity_frd: FloatArray) -> VehicleState:
+        """:meth:`from_unit` from read-only float64 arrays the caller hands over (no copy)."""
+        state = object.__new__(cls)
+        object.__setattr__(state, "position_ned", position_ned)
+        object.__setattr__(state, "velocity_ned", velocity_ned)
+        object.__setattr__(state, "q", q)
+        object.__setattr__(state, "angular_velocity_frd", angular_velocity_frd)
+        return state
+
+    @classmethod
     def at_rest(
         cls, position_ned: npt.ArrayLike = (0.0, 0.0, 0.0), yaw: float = 0.0
     ) -> VehicleState:

@@ -30,14 +30,14 @@ from runtime.parameters import param, validate_parameters
 from sim.fcu.control import VehicleState, _fq_normalise, _fq_yaw
 from sim.fcu.kernels import (
     EST_BUF_COLS,
-    EST_GYRO_BIAS,
+    EST_OUTPUT_SIZE,
     EST_P,
     EST_PARAMS_SIZE,
     EST_Q,
-    EST_RATE,
     EST_STATE_SIZE,
     EST_X,
     est_fuse,
+    est_output,
     est_predict,
     est_push,
 )
@@ -236,24 +236,18 @@ class Estimator:
         """The current estimate."""
         since = self._time_us - self._last_vision_us if self._last_vision_us is not None else None
         dead_reckoning = max(since, 0) if since is not None else self._time_us
-        s = self._s
+        out = np.empty(EST_OUTPUT_SIZE)
+        est_output(self._s, out)
+        out.setflags(write=False)  # the views below are read-only too
         return EstimatorOutput(
             time_us=self._time_us,
-            state=VehicleState.from_unit(s[_POSITION], s[_VELOCITY], s[EST_Q:EST_Q + 4],
-                                         s[EST_RATE:EST_RATE + 3]),
-            position_variance_ned=s[_POSITION_VARIANCE],
-            velocity_variance_ned=s[_VELOCITY_VARIANCE],
-            accel_bias_ned=s[_ACCEL_BIAS],
-            gyro_bias_frd=s[EST_GYRO_BIAS:EST_GYRO_BIAS + 3].copy(),
+            state=VehicleState.from_unit_arrays(out[0:3], out[3:6], out[6:10], out[10:13]),
+            position_variance_ned=out[13:16],
+            velocity_variance_ned=out[16:19],
+            accel_bias_ned=out[19:22],
+            gyro_bias_frd=out[22:25],
             position_valid=since is not None and since <= self.params.vision_timeout_us,
             dead_reckoning_time_us=dead_reckoning,
             vision_fused=self._fused,
             vision_rejected=self._rejected,
         )
-
-
-_POSITION = np.array([EST_X, EST_X + 3, EST_X + 6])
-_VELOCITY = _POSITION + 1
-_ACCEL_BIAS = _POSITION + 2
-_POSITION_VARIANCE = np.array([EST_P, EST_P + 6, EST_P + 12])
-_VELOCITY_VARIANCE = _POSITION_VARIANCE + 3
