@@ -186,13 +186,12 @@ class Estimator:
             raise ValueError(f"time_us: {time_us} is not after the last sample ({self._time_us})")
         dt = (time_us - self._time_us) / _US_PER_S
         self._time_us = time_us
-        ax, ay, az = accel_frd  # type: ignore[misc]
-        gx, gy, gz = gyro_frd  # type: ignore[misc]
+        ax, ay, az = np.asarray(accel_frd, dtype=np.float64).tolist()
+        gx, gy, gz = np.asarray(gyro_frd, dtype=np.float64).tolist()
         if self._meta[1] == self._buf.shape[0]:
             self._grow()
-        est_predict(self._s, self._buf, self._meta, self._prm, float(time_us), dt, float(ax),
-                    float(ay), float(az), float(gx), float(gy), float(gz), self._aided(),
-                    float(time_us - self.params.buffer_length_us))
+        est_predict(self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az,
+                    gx, gy, gz, self._aided(), float(time_us - self.params.buffer_length_us))
 
     def _aided(self) -> bool:
         """Vision fused within ``vision_timeout_us``."""
