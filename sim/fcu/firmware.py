@@ -239,8 +239,11 @@ def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
     return np.asarray(values, dtype=np.float32).reshape(n)
 
 
+_FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
+
+
 def _flu_to_frd(v: FloatArray) -> FloatArray:
-    return np.array([v[0], -v[1], -v[2]])
+    return v * _FLU_TO_FRD  # y and z negated, exactly
 
 
 class Firmware:
