@@ -220,7 +220,7 @@ def _fast_check_expr(node: tuple[Any, Any], env: dict[str, Any], i: int) -> str 
         if base == "bool":
             return "type(v) is bool"
         if base in ("string", "wstring"):
-            return "type(v) is str" + (f" and len(v) <= {bound}" if bound else "")
+            return f"(type(v) is str and len(v) <= {bound})" if bound else "type(v) is str"
         return None
     if kind == Nodetype.NAME:
         return None
