@@ -68,7 +68,8 @@ bench: $(STAMP)
 ## keeps the functions or classes f and g. Tests marked slow are left out.
 ## MUTATE_ARGS=--survivors re-tests only what the last run did not kill.
 MUTATE_PATHS    ?= sim/fcu/commander.py \
-  sim/fcu/control.py:mix_with_desaturation,_desaturate,_desaturation_gain,_mixer_columns,_frd_flu \
+  sim/fcu/control.py:mix_with_desaturation,Mixer,_mixer_columns,_frd_flu \
+  sim/fcu/kernels.py:mix_kernel,_desaturate,_desaturation_gain=tests/sim/fcu/test_control.py,tests/sim/fcu/test_fcu_math_recorded.py \
   interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync.py,tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py \
   flight_control/behaviours/ \
   flight_control/command_protocol.py
@@ -78,7 +79,7 @@ MUTATE_ARGS     ?=
 
 mutate: $(STAMP)
 	@$(BIN)/python -c 'import mutmut' 2>/dev/null || $(BIN)/python -m pip install --quiet -e '.[test,mutate]'
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python tools/mutate.py \
+	MUJOCO_GL=$${MUJOCO_GL:-egl} NUMBA_DISABLE_JIT=1 $(BIN)/python tools/mutate.py \
 	  --max-children $(MUTATE_CHILDREN) --min-kill-percent $(MUTATE_MIN_KILL) $(MUTATE_ARGS) \
 	  $(MUTATE_PATHS)
 

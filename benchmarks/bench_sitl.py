@@ -12,7 +12,9 @@ is judged against, in the same run (so the ratios hold on a loaded machine):
 - ``rtf_cpu_*``: the same, simulated seconds per second of the process's CPU time (all
   threads): on a shared machine the wall clock measures the neighbours too;
 - ``fcu_tick_mean_us``: the scheduler's duty measurement of one firmware main-loop tick,
-  against its budget (2000 us at 500 Hz); ``scheduler_bookkeeping_us_per_tick``: the same
+  against its budget (2000 us at 500 Hz); ``fcu_tick_cpu_mean_us``: the same ticks timed
+  by the thread's CPU clock (what the tick costs, without the neighbours' share of the
+  core on a loaded machine); ``scheduler_bookkeeping_us_per_tick``: the same
   schedule ticked with no-op functions (meters + dispatch: what the measuring costs),
   and its share of the measured tick;
 - ``messages_per_sim_s`` (every sample written on the in-process transport, per simulated
@@ -48,6 +50,8 @@ from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# measure the checkout this file is in (a worktree), not whatever the venv has installed
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
@@ -89,11 +93,37 @@ class _Trace:
 
 
 @dataclass
+class _TickCpu:
+    """Thread CPU time of every firmware main-loop tick (wraps the firmware's world part)."""
+
+    total_ns: int = 0
+    ticks: int = 0
+
+    def wrap(self, sitl: Sitl) -> None:
+        firmware = sitl.firmware
+        update = firmware.update
+        clock = time.thread_time_ns
+
+        def timed(t_ns: int, scene: Scene) -> None:
+            start = clock()
+            update(t_ns, scene)
+            self.total_ns += clock() - start
+            self.ticks += 1
+
+        firmware.update = timed  # type: ignore[method-assign]
+
+    @property
+    def mean_us(self) -> float:
+        return self.total_ns / self.ticks / 1e3 if self.ticks else math.nan
+
+
+@dataclass
 class Flight:
     report: dict[str, Any]
     trace: list[tuple[float, float, float]]
     sitl: Sitl
     frames: int
+    tick_cpu: _TickCpu
 
     @property
     def rtf(self) -> float:
@@ -136,9 +166,11 @@ def fly(*, camera: bool = False, physics_hz: int | None = None,
     renderers: list[SceneRenderer] = []
     frames: list[int] = []
     holder: list[Sitl] = []
+    tick_cpu = _TickCpu()
 
     def setup(sitl: Sitl) -> None:
         holder.append(sitl)
+        tick_cpu.wrap(sitl)
         sitl.extra_parts.append(trace)
         if camera:
             _add_down_camera(sitl, renderers, frames)
@@ -152,7 +184,7 @@ def fly(*, camera: bool = False, physics_hz: int | None = None,
         r.close()
     if not report["landed"]:
         raise SystemExit(f"the benchmark flight did not land: {report['verdict']}")
-    return Flight(report, trace.rows, holder[0], len(frames))
+    return Flight(report, trace.rows, holder[0], len(frames), tick_cpu)
 
 
 def bare_world_rtf(sim_s: float, physics_hz: int | None) -> tuple[float, float]:
@@ -397,6 +429,7 @@ def main(argv: list[str] | None = None) -> int:
         "rtf_cpu_bare_world": round(bare_cpu, 2),
         "down_camera_frames": cam.frames,
         "fcu_tick_mean_us": round(tick.tick_duty.avg_us, 1),
+        "fcu_tick_cpu_mean_us": round(flight.tick_cpu.mean_us, 1),
         "fcu_tick_budget_us": 1e6 / tick.main_freq_hz,
         "fcu_overruns": tick.overruns,
         "scheduler_bookkeeping_us_per_tick": round(bookkeeping, 2),

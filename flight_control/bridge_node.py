@@ -88,7 +88,20 @@ class BridgeParams:
 
 
 def _vec3(msg_type: str, v: Any) -> Any:
-    return interfaces.new(msg_type, x=float(v[0]), y=float(v[1]), z=float(v[2]))
+    x, y, z = v.tolist()
+    return interfaces.new(msg_type, x=float(x), y=float(y), z=float(z))
+
+
+def _all_finite(values: Any) -> bool:
+    """``np.isfinite(values).all()`` for a short float array, on Python floats."""
+    isfinite = math.isfinite
+    return all(isfinite(v) for v in values.tolist())
+
+
+def _nan_to_num(values: Any) -> Any:
+    """``np.nan_to_num(values)`` for a short float64 array; the array itself when it is
+    finite already (the common case, without numpy's per-call cost)."""
+    return values if _all_finite(values) else np.nan_to_num(values)
 
 
 class FcuBridgeNode(Node):
@@ -221,12 +234,12 @@ class FcuBridgeNode(Node):
     def _on_odometry(self, msg: Any) -> None:
         stamp_ns = self.to_companion_ns(int(msg.timestamp_sample))
         odo = odometry_enu(msg)
-        if np.all(np.isfinite(odo.position)) and np.all(np.isfinite(odo.q)):
+        if _all_finite(odo.position) and _all_finite(odo.q):
             self.history.add(PoseSample(stamp_ns, odo.position, odo.q,
-                                        np.nan_to_num(odo.velocity)))
+                                        _nan_to_num(odo.velocity)))
         if not self.odometry_pub.get_subscription_count():
             return  # the history above answers /fcu/pose_at; nobody reads the topic
-        x, y, z, w = quat_to_xyzw(odo.q)
+        w, x, y, z = odo.q.tolist()
         self.odometry_pub.publish(interfaces.new(
             "nav_msgs/msg/Odometry",
             header=interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
@@ -237,16 +250,16 @@ class FcuBridgeNode(Node):
                 pose=interfaces.new(
                     "geometry_msgs/msg/Pose",
                     position=_vec3("geometry_msgs/msg/Point", odo.position),
-                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(x),
-                                               y=float(y), z=float(z), w=float(w))),
-                covariance=np.nan_to_num(odo.pose_covariance)),
+                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=x, y=y, z=z,
+                                               w=w)),
+                covariance=_nan_to_num(odo.pose_covariance)),
             twist=interfaces.new(
                 "geometry_msgs/msg/TwistWithCovariance",
                 twist=interfaces.new(
                     "geometry_msgs/msg/Twist",
                     linear=_vec3("geometry_msgs/msg/Vector3", odo.body_velocity),
                     angular=_vec3("geometry_msgs/msg/Vector3", odo.angular_velocity)),
-                covariance=np.nan_to_num(odo.twist_covariance)),
+                covariance=_nan_to_num(odo.twist_covariance)),
         ))
 
     def _on_imu(self, msg: Any) -> None:

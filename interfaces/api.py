@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import keyword
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -174,12 +175,17 @@ def _coerce(path: str, node: tuple[Any, Any], value: Any) -> Any:
 
 @dataclass(frozen=True)
 class _Layout:
-    """A message type's cached field table: what :func:`new` and :func:`validate` walk."""
+    """A message type's cached field table and the constructor and validator generated
+    from it (straight-line code per type: each field's default, coercion and fast check
+    inline, as ``dataclasses`` generates ``__init__``)."""
 
     cls: type
     known: frozenset[str]
-    fields: tuple[tuple[str, Any, Any], ...]  # (name, rosbags node, default maker)
-    checks: tuple[tuple[str, Any, Any], ...]  # (name, rosbags node, fast check or None)
+    construct: Any  # (**fields) -> message; TypeError on an unknown keyword
+    check: Any  # (msg, where) -> None; MessageError names the bad field
+
+
+_MISSING = object()
 
 
 def _default_maker(node: tuple[Any, Any]) -> Any:
@@ -197,45 +203,97 @@ def _default_maker(node: tuple[Any, Any]) -> Any:
     return lambda: _default(node)
 
 
-def _fast_check(node: tuple[Any, Any]) -> Any:
-    """A predicate that accepts the common, valid values of ``node`` quickly; anything it
-    refuses goes through :func:`_check`, which raises the precise error (or accepts)."""
+def _fast_check_expr(node: tuple[Any, Any], env: dict[str, Any], i: int) -> str | None:
+    """A Python expression of ``v`` true for the common, valid values of ``node`` (names
+    it needs go in ``env``); anything it refuses goes through :func:`_check`, which raises
+    the precise error (or accepts). None: no fast check (nested: validated recursively)."""
     kind, arg = node
     if kind == Nodetype.BASE:
         base, bound = arg
-        if base in ("float32", "float64"):
-            if base == "float64":
-                return lambda v: type(v) is float
-            return lambda v: type(v) is float and not abs(v) > 3.4028235e38
+        if base == "float64":
+            return "type(v) is float"
+        if base == "float32":
+            return "(type(v) is float and not abs(v) > 3.4028235e38)"
         if base in _INT_RANGES:
             lo, hi = _INT_RANGES[base]
-            return lambda v: type(v) is int and lo <= v <= hi
+            return f"(type(v) is int and {lo} <= v <= {hi})"
         if base == "bool":
-            return lambda v: type(v) is bool
+            return "type(v) is bool"
         if base in ("string", "wstring"):
-            return lambda v: type(v) is str and (not bound or len(v) <= bound)
+            return f"(type(v) is str and len(v) <= {bound})" if bound else "type(v) is str"
         return None
     if kind == Nodetype.NAME:
-        return None  # nested: validated recursively
+        return None
     sub, length = arg
     if sub[0] == Nodetype.BASE and sub[1][0] in NUMPY_DTYPES:
-        want = np.dtype(NUMPY_DTYPES[sub[1][0]])
+        env[f"dt{i}"] = np.dtype(NUMPY_DTYPES[sub[1][0]])
+        common = f"type(v) is ndarray and v.dtype == dt{i} and v.ndim == 1"
         if kind == Nodetype.ARRAY:
-            return lambda v: (type(v) is np.ndarray and v.dtype == want and v.ndim == 1
-                              and len(v) == length)
-        return lambda v: (type(v) is np.ndarray and v.dtype == want and v.ndim == 1
-                          and (not length or len(v) <= length))
+            return f"({common} and len(v) == {length})"
+        return f"({common} and len(v) <= {length})" if length else f"({common})"
     return None
+
+
+def _generate(typename: str, defs: list[Any]) -> tuple[Any, Any]:
+    """The constructor and the validator of ``typename`` (see :class:`_Layout`)."""
+    names = [fname for fname, _ in defs]
+    env: dict[str, Any] = {"cls": typestore().types[typename], "M": _MISSING,
+                           "ndarray": np.ndarray, "validate": validate, "_check": _check}
+    if not all(n.isidentifier() and not keyword.iskeyword(n) for n in names):
+        return None, None  # not expressible as parameters: the generic path
+    args, checks = [], []
+    for i, (fname, node) in enumerate(defs):
+        kind, arg = node
+        env[f"n{i}"] = node
+        if kind == Nodetype.BASE:
+            env[f"d{i}"] = _default(node)
+            args.append(f"{fname}=d{i} if {fname} is M else {fname}")
+        else:
+            env[f"z{i}"] = _default_maker(node)
+            coerce = kind != Nodetype.NAME
+            if coerce:
+                env[f"c{i}"] = functools.partial(_coerce, f"{typename}.{fname}", node)
+            value = f"c{i}({fname})" if coerce else fname
+            args.append(f"{fname}=z{i}() if {fname} is M else {value}")
+        fast = _fast_check_expr(node, env, i)
+        checks.append(f"    v = msg.{fname}")
+        if kind == Nodetype.NAME:
+            env[f"t{i}"] = arg
+            checks.append(f"    validate(v, t{i}, where + '.{fname}')")
+        elif fast is None:
+            checks.append(f"    _check(where + '.{fname}', n{i}, v)")
+        else:
+            checks.append(f"    if not {fast}:\n        _check(where + '.{fname}', n{i}, v)")
+    params = ", ".join(f"{n}=M" for n in names)
+    body = ",\n        ".join(args)
+    source = (f"def construct(*, {params}):\n    return cls(\n        {body})\n\n"
+              if names else "def construct():\n    return cls()\n\n")
+    source += "def check(msg, where):\n" + ("\n".join(checks) if checks else "    pass") + "\n"
+    exec(compile(source, f"<interfaces {typename}>", "exec"), env)
+    return env["construct"], env["check"]
 
 
 @functools.cache
 def _layout(typename: str) -> _Layout:
     _, defs = _fielddefs(typename)
+    construct, check = _generate(typename, defs)
+    if construct is None:
+        fields = tuple((fname, node, _default_maker(node)) for fname, node in defs)
+        cls = typestore().types[typename]
+
+        def construct(**given: Any) -> Any:
+            return cls(**{f: _coerce(f"{typename}.{f}", n, given[f]) if f in given else make()
+                          for f, n, make in fields})
+
+        def check(msg: Any, where: str) -> None:
+            for fname, node in defs:
+                _check(f"{where}.{fname}", node, getattr(msg, fname))
+
     return _Layout(
         cls=typestore().types[typename],
         known=frozenset(fname for fname, _ in defs),
-        fields=tuple((fname, node, _default_maker(node)) for fname, node in defs),
-        checks=tuple((fname, node, _fast_check(node)) for fname, node in defs),
+        construct=construct,
+        check=check,
     )
 
 
@@ -257,12 +315,7 @@ def new(type_or_name: type | str, **fields: Any) -> Any:
             f"{layout.cls.__msgtype__} has no field {unknown[0]!r}; its fields are "  # type: ignore[attr-defined]
             f"{sorted(layout.known)}"
         )
-    values = {
-        fname: _coerce(f"{typename}.{fname}", node, fields[fname]) if fname in fields
-        else make()
-        for fname, node, make in layout.fields
-    }
-    return layout.cls(**values)
+    return layout.construct(**fields)
 
 
 def _check_base(path: str, base: str, bound: int, value: Any) -> None:
@@ -324,11 +377,7 @@ def validate(msg: Any, typename: str | None = None, path: str | None = None) -> 
     where = path or expected
     if actual != expected:
         raise MessageError(f"{where}: expected a {expected} message, got {actual or type(msg)}")
-    for fname, node, fast in _layout(expected).checks:
-        value = getattr(msg, fname)
-        if fast is not None and fast(value):
-            continue
-        _check(f"{where}.{fname}", node, value)
+    _layout(expected).check(msg, where)
 
 
 def serialize(msg: Any, typename: str | None = None) -> bytes:

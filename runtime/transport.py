@@ -102,6 +102,7 @@ class _Channel:
         self.type_name = type_name
         self.writers: list[_InProcessWriter] = []
         self.readers: list[_InProcessReader] = []
+        self.version = 0  # bumped whenever an endpoint joins or leaves: matches are cached
 
 
 class _InProcessWriter:
@@ -115,6 +116,16 @@ class _InProcessWriter:
             self.history = deque(maxlen=maxlen)
         self.samples_written = 0
         self.closed = False
+        self._matched_version = -1
+        self._matched: tuple[_InProcessReader, ...] = ()
+
+    def _matched_readers(self) -> tuple[_InProcessReader, ...]:
+        """The readers whose QoS matches ours (recomputed when an endpoint joins or leaves)."""
+        channel = self._channel
+        if self._matched_version != channel.version:
+            self._matched = tuple(r for r in channel.readers if r.matches(self))
+            self._matched_version = channel.version
+        return self._matched
 
     def write(self, data: bytes, request_id: RequestId | None = None) -> None:
         self.write_message(data, request_id)
@@ -126,17 +137,17 @@ class _InProcessWriter:
         self.samples_written += 1
         if self.history is not None:
             self.history.append((data, request_id))
-        for reader in list(self._channel.readers):
-            if reader.matches(self):
-                reader.on_sample(data, request_id)
+        for reader in self._matched_readers():
+            reader.on_sample(data, request_id)
 
     def matched_count(self) -> int:
-        return sum(1 for r in self._channel.readers if r.matches(self))
+        return len(self._matched_readers())
 
     def close(self) -> None:
         self.closed = True
         if self in self._channel.writers:
             self._channel.writers.remove(self)
+            self._channel.version += 1
 
 
 class _InProcessReader:
@@ -154,6 +165,7 @@ class _InProcessReader:
     def close(self) -> None:
         if self in self._channel.readers:
             self._channel.readers.remove(self)
+            self._channel.version += 1
 
 
 class InProcessTransport:
@@ -196,6 +208,7 @@ class InProcessTransport:
         channel = self._channel(endpoint)
         writer = _InProcessWriter(channel, endpoint)
         channel.writers.append(writer)
+        channel.version += 1
         for reader in channel.readers:
             self._note_incompatible(reader.endpoint, endpoint)
         return writer
@@ -204,6 +217,7 @@ class InProcessTransport:
         channel = self._channel(endpoint)
         reader = _InProcessReader(channel, endpoint, on_sample)
         channel.readers.append(reader)
+        channel.version += 1
         for writer in channel.writers:
             self._note_incompatible(endpoint, writer.endpoint)
             if (

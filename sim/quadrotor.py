@@ -267,6 +267,9 @@ class MotorModel:
         return result
 
     def _clip(self, thrust: npt.ArrayLike) -> FloatArray:
+        if type(thrust) is np.ndarray and thrust.shape == (NUM_ROTORS,):  # the usual call
+            return np.minimum(np.maximum(thrust.astype(np.float64, copy=False), 0.0),
+                              self._max)
         values = np.broadcast_to(np.asarray(thrust, dtype=np.float64), (NUM_ROTORS,))
         return np.clip(values, 0.0, self._max)
 
@@ -317,6 +320,11 @@ class ImuNoiseModel:
         self._rng = rng
         self._accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
         self._gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
+        # the standard deviations of one sample's draws: bias walks per sqrt(s) (3 + 3),
+        # white noise (3 + 3, set per call from dt)
+        self._scales = np.repeat([params.accel_bias_random_walk, params.gyro_bias_random_walk,
+                                  0.0, 0.0], 3)
+        self._densities = np.repeat([params.accel_noise_density, params.gyro_noise_density], 3)
 
     @property
     def accel_bias(self) -> FloatArray:
@@ -332,19 +340,17 @@ class ImuNoiseModel:
         """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
         if dt <= 0.0:
             raise ValueError(f"dt: {dt} s must be > 0")
-        p, rng = self._params, self._rng
-        self._accel_bias = self._accel_bias + rng.normal(0.0, p.accel_bias_random_walk, 3) * (
-            math.sqrt(dt)
-        )
-        self._gyro_bias = self._gyro_bias + rng.normal(0.0, p.gyro_bias_random_walk, 3) * (
-            math.sqrt(dt)
-        )
-        white = 1.0 / math.sqrt(dt)
+        # one draw of the 12 standard normals the four rng.normal(0, std, 3) calls would
+        # take, in their order (the same numbers: normal(0, s) is s * standard_normal)
+        z = self._rng.standard_normal(12)
+        sqrt_dt = math.sqrt(dt)
+        white = 1.0 / sqrt_dt
+        s = self._scales
+        s[6:] = self._densities * white
+        z *= s
+        self._accel_bias = self._accel_bias + z[0:3] * sqrt_dt
+        self._gyro_bias = self._gyro_bias + z[3:6] * sqrt_dt
         return ImuSample(
-            accel=np.asarray(accel, dtype=np.float64)
-            + self._accel_bias
-            + rng.normal(0.0, p.accel_noise_density * white, 3),
-            gyro=np.asarray(gyro, dtype=np.float64)
-            + self._gyro_bias
-            + rng.normal(0.0, p.gyro_noise_density * white, 3),
+            accel=np.asarray(accel, dtype=np.float64) + self._accel_bias + z[6:9],
+            gyro=np.asarray(gyro, dtype=np.float64) + self._gyro_bias + z[9:12],
         )

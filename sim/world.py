@@ -380,12 +380,14 @@ class CrashDetector:
         if self.crash is not None:
             return
         data, model, index = scene.data, scene.model, scene.index
-        state = quad_state(data, index)
-        _, x, y, _ = state.quaternion
+        x, y = data.qpos[index.qpos_adr + 4 : index.qpos_adr + 6].tolist()
         up_z = 1.0 - 2.0 * (x * x + y * y)  # body z axis, world z component
         reason = None
         if up_z < math.cos(math.radians(self.params.max_tilt_deg)):
             reason = f"tilt {math.degrees(math.acos(max(-1.0, min(1.0, up_z)))):.0f} deg"
+        if reason is None and data.ncon == 0:
+            return  # in the air and upright: the common case
+        state = quad_state(data, index)
         soft = self._soft(scene)
         for i in range(data.ncon):
             contact = data.contact[i]

@@ -150,6 +150,7 @@ Pure module: no runtime, no MuJoCo, no message classes (the node converts
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
@@ -793,8 +794,10 @@ def _check_failures(check: Check, ctx: _Context, s: CommanderState) -> list[Deny
     return _failures(checks, ctx, s)
 
 
+@functools.cache
 def _mode_checks(mode: FlightState) -> tuple[Check, ...]:
-    """The checks of choosing ``mode`` while disarmed (those of the table's REMEMBER row)."""
+    """The checks of choosing ``mode`` while disarmed (those of the table's REMEMBER row;
+    the table is constant, so each mode's answer is kept)."""
     event = next(e for e, target in _MODE_EVENTS.items() if target is mode)
     return TRANSITIONS[(FlightState.DISARMED, event)].checks
 

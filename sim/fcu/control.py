@@ -30,6 +30,7 @@ import numpy.typing as npt
 
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
+from sim.fcu.kernels import RATE_GAINS_SIZE, RATE_STATE_SIZE, mix_kernel, rate_kernel
 from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams, mix
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "CascadeOutput",
     "ControlGains",
     "InvalidSetpointError",
+    "Mixer",
     "MixerOutput",
     "PositionControlOutput",
     "PositionController",
@@ -327,6 +329,17 @@ class VehicleState:
             arr = np.array(values, dtype=np.float64)
             arr.setflags(write=False)
             object.__setattr__(state, name, arr)
+        return state
+
+    @classmethod
+    def from_unit_arrays(cls, position_ned: FloatArray, velocity_ned: FloatArray,
+                         q: FloatArray, angular_velocity_frd: FloatArray) -> VehicleState:
+        """:meth:`from_unit` from read-only float64 arrays the caller hands over (no copy)."""
+        state = object.__new__(cls)
+        object.__setattr__(state, "position_ned", position_ned)
+        object.__setattr__(state, "velocity_ned", velocity_ned)
+        object.__setattr__(state, "q", q)
+        object.__setattr__(state, "angular_velocity_frd", angular_velocity_frd)
         return state
 
     @classmethod
@@ -685,74 +698,55 @@ class AttitudeController:
 
 # --- rate control -------------------------------------------------------------------------
 
-_INTEGRATOR_RATE_SCALE = math.radians(400.0)  # rad/s, PX4's integrator attenuation
-
-
 class RateController:
-    """PID on body rates with anti-windup -> body torque [N m, FRD] (PX4 ``RateControl``)."""
+    """PID on body rates with anti-windup -> body torque [N m, FRD] (PX4 ``RateControl``).
+
+    The step runs in :func:`sim.fcu.kernels.rate_kernel` on a state array (integrator,
+    derivative filter, last rate, the mixer's saturation flags)."""
 
     def __init__(self, gains: ControlGains, params: QuadrotorParams) -> None:
         ix, iy, iz = params.inertia
-        self._inertia = (float(ix), float(iy), float(iz))
         rp, yw = "roll_pitch", "yaw"
-        self._kp = tuple(float(getattr(gains, f"rate_p_{a}")) for a in (rp, rp, yw))
-        self._ki = tuple(float(getattr(gains, f"rate_i_{a}")) for a in (rp, rp, yw))
-        self._kd = tuple(float(getattr(gains, f"rate_d_{a}")) for a in (rp, rp, yw))
-        self._int_lim = tuple(float(getattr(gains, f"rate_integral_limit_{a}"))
-                              for a in (rp, rp, yw))
-        self._d_cutoff_hz = gains.rate_d_cutoff_hz
+        axes = (rp, rp, yw)
+        self._gains = np.array(
+            [float(getattr(gains, f"rate_p_{a}")) for a in axes]
+            + [float(getattr(gains, f"rate_i_{a}")) for a in axes]
+            + [float(getattr(gains, f"rate_d_{a}")) for a in axes]
+            + [float(getattr(gains, f"rate_integral_limit_{a}")) for a in axes]
+            + [float(ix), float(iy), float(iz), float(gains.rate_d_cutoff_hz)])
+        assert self._gains.shape == (RATE_GAINS_SIZE,)
+        self._st = np.zeros(RATE_STATE_SIZE)
         self.reset()
 
     def reset(self) -> None:
         """Clear the integrator, the derivative filter and the saturation flags."""
-        self._int = [0.0, 0.0, 0.0]
-        self._ang_acc = [0.0, 0.0, 0.0]
-        self._last_rate: list[float] | None = None
-        self._sat_pos = [False, False, False]
-        self._sat_neg = [False, False, False]
+        self._st[:] = 0.0
 
     @property
     def integral(self) -> FloatArray:
         """Rate integrator [rad/s^2] (a copy)."""
-        return np.array(self._int)
+        return self._st[0:3].copy()
 
     def set_saturation(self, positive: npt.ArrayLike, negative: npt.ArrayLike) -> None:
         """Per-axis flags from the mixer: the torque could not grow / shrink any further."""
-        self._sat_pos = np.asarray(positive, dtype=bool).reshape(3).tolist()
-        self._sat_neg = np.asarray(negative, dtype=bool).reshape(3).tolist()
+        self._st[10:13] = np.asarray(positive, dtype=bool).reshape(3)
+        self._st[13:16] = np.asarray(negative, dtype=bool).reshape(3)
 
     def update(
         self, rate_frd: FloatArray, rate_setpoint_frd: FloatArray, dt_us: int, landed: bool = False
     ) -> FloatArray:
         """Torque setpoint [N m, FRD] for one step of ``dt_us`` microseconds."""
-        dt = max(dt_us, 1) / _US_PER_S
-        rate = [float(v) for v in rate_frd]
-        rate_sp = [float(v) for v in rate_setpoint_frd]
-        ang_acc = self._ang_acc
-        if self._last_rate is not None:
-            alpha = _lowpass_alpha(self._d_cutoff_hz, dt)
-            for i in range(3):
-                raw = (rate[i] - self._last_rate[i]) / dt
-                ang_acc[i] += alpha * (raw - ang_acc[i])
-        self._last_rate = rate
-        kp, ki, kd, integral = self._kp, self._ki, self._kd, self._int
-        error = [rate_sp[i] - rate[i] for i in range(3)]
-        acc = [kp[i] * error[i] + integral[i] - kd[i] * ang_acc[i] for i in range(3)]
-        if not landed:
-            candidate = []
-            for i in range(3):
-                e = error[i]
-                if self._sat_pos[i]:
-                    e = min(e, 0.0)
-                if self._sat_neg[i]:
-                    e = max(e, 0.0)
-                factor = max(0.0, 1.0 - (e / _INTEGRATOR_RATE_SCALE) ** 2)
-                candidate.append(integral[i] + factor * ki[i] * e * dt)
-            if all(math.isfinite(c) for c in candidate):
-                lim = self._int_lim
-                self._int = [min(max(candidate[i], -lim[i]), lim[i]) for i in range(3)]
-        inertia = self._inertia
-        return np.array([inertia[i] * acc[i] for i in range(3)])
+        r0, r1, r2 = rate_frd
+        s0, s1, s2 = rate_setpoint_frd
+        out = np.empty(3)
+        rate_kernel(self._st, self._gains, float(r0), float(r1), float(r2), float(s0),
+                    float(s1), float(s2), int(dt_us), bool(landed), out)
+        return out
+
+    def set_saturation_flags(self, flags: FloatArray) -> None:
+        """:meth:`set_saturation` from a :class:`Mixer`'s flags (positive 3, negative 3, as
+        1.0/0.0), without conversions: the firmware's 500 Hz path."""
+        self._st[10:16] = flags
 
 
 # --- mixer with desaturation ----------------------------------------------------------------
@@ -768,43 +762,42 @@ class MixerOutput:
     saturated_negative: npt.NDArray[np.bool_]  # per FRD torque axis: could not decrease
 
 
-def _desaturation_gain(vector: list[float], sp: list[float], lo: float, hi: float) -> float:
-    k_min = k_max = 0.0
-    for v, s in zip(vector, sp, strict=True):
-        if abs(v) < 1e-7:
-            continue
-        if s < lo:
-            k = (lo - s) / v
-            k_min, k_max = min(k_min, k), max(k_max, k)
-        if s > hi:
-            k = (hi - s) / v
-            k_min, k_max = min(k_min, k), max(k_max, k)
-    return k_min + k_max
-
-
-def _desaturate(
-    sp: list[float], vector: list[float], lo: float, hi: float, min_gain: float = -1.0
-) -> tuple[list[float], float]:
-    """PX4 ``desaturateActuators``: two passes along ``vector``; returns (sp, total gain).
-
-    The total gain only shrinks the contribution (kept in ``[min_gain, 0]``): a torque is
-    scaled towards zero, never inverted; thrust is only reduced (airmode off).
-    """
-    if lo <= min(sp) and max(sp) <= hi:
-        return sp, 0.0  # nothing saturated: both passes would add zero
-    total = 0.0
-    for scale in (1.0, 0.5):
-        gain = scale * _desaturation_gain(vector, sp, lo, hi)
-        gain = min(max(gain, min_gain - total), -total)  # total <= 0: at most undo it
-        sp = [s + gain * v for s, v in zip(sp, vector, strict=True)]
-        total += gain
-    return sp, total
-
-
 @functools.cache
 def _mixer_columns(params: QuadrotorParams) -> tuple[tuple[float, ...], ...]:
     """Rotor thrusts per unit collective thrust and per unit FLU torque about x, y, z."""
     return tuple(tuple(mix(params, t, (x, y, z)).tolist()) for t, x, y, z in np.eye(4).tolist())
+
+
+class Mixer:
+    """:func:`mix_with_desaturation` for one airframe into a reused buffer (the firmware's
+    500 Hz path): after :meth:`mix`, ``out`` holds the four rotor thrusts [N], the achieved
+    collective thrust [N], then the saturation flags (positive 3, negative 3) as 1.0/0.0."""
+
+    def __init__(self, params: QuadrotorParams) -> None:
+        self._cols = np.array(_mixer_columns(params))
+        self._hi = float(params.max_motor_thrust)
+        self.out = np.zeros(11)
+
+    def mix(self, collective_thrust: float, torque_frd: FloatArray) -> None:
+        """PX4's sequential desaturation (see :func:`mix_with_desaturation`)."""
+        tx, ty, tz = torque_frd
+        mix_kernel(self._cols, float(collective_thrust), float(tx), float(ty), float(tz), 0.0,
+                   self._hi, self.out)
+
+    @property
+    def motor_thrusts(self) -> FloatArray:
+        """Rotor thrusts [N] of the last :meth:`mix` (a copy)."""
+        return self.out[0:4].copy()
+
+    @property
+    def saturation_flags(self) -> FloatArray:
+        """Saturated positive (3) then negative (3) of the last :meth:`mix`, as 1.0/0.0."""
+        return self.out[5:11]
+
+
+@functools.cache
+def _mixer(params: QuadrotorParams) -> Mixer:
+    return Mixer(params)
 
 
 def mix_with_desaturation(
@@ -815,31 +808,17 @@ def mix_with_desaturation(
     PX4's sequential desaturation: mix thrust, roll and pitch; reduce collective thrust
     (never increase it) to unsaturate; then scale roll, then pitch; then add yaw, scaling
     it with 15 % headroom above the top, and reduce thrust again. Attitude authority thus
-    wins over collective thrust, and yaw gives way first.
+    wins over collective thrust, and yaw gives way first. (The arithmetic is
+    :func:`sim.fcu.kernels.mix_kernel`.)
     """
-    tx, ty, tz = (float(v) for v in torque_frd)
-    col_thrust, col_x, col_y, col_z = _mixer_columns(params)
-    lo, hi = 0.0, params.max_motor_thrust
-    col_roll = [c * tx for c in col_x]  # FRD -> FLU: y and z negated
-    col_pitch = [c * -ty for c in col_y]
-    col_yaw = [c * -tz for c in col_z]
-    sp = [t * collective_thrust + r + p
-          for t, r, p in zip(col_thrust, col_roll, col_pitch, strict=True)]
-    no_thrust = -max(collective_thrust, 0.0)
-    thrust_col = list(col_thrust)
-    sp, gain_t1 = _desaturate(sp, thrust_col, lo, hi, no_thrust)
-    sp, gain_roll = _desaturate(sp, col_roll, lo, hi)
-    sp, gain_pitch = _desaturate(sp, col_pitch, lo, hi)
-    sp = [s + y for s, y in zip(sp, col_yaw, strict=True)]
-    sp, gain_yaw = _desaturate(sp, col_yaw, lo, hi + 0.15 * (hi - lo))
-    sp, gain_t2 = _desaturate(sp, thrust_col, lo, hi, no_thrust - gain_t1)
-    reduced = (gain_roll < -1e-6, gain_pitch < -1e-6, gain_yaw < -1e-6)
-    torque = (tx, ty, tz)
+    mixer = _mixer(params)
+    mixer.mix(collective_thrust, torque_frd)
+    out = mixer.out
     return MixerOutput(
-        motor_thrusts=np.array([min(max(s, lo), hi) for s in sp]),
-        collective_thrust=collective_thrust + gain_t1 + gain_t2,
-        saturated_positive=np.array([r and t > 0.0 for r, t in zip(reduced, torque, strict=True)]),
-        saturated_negative=np.array([r and t < 0.0 for r, t in zip(reduced, torque, strict=True)]),
+        motor_thrusts=out[0:4].copy(),
+        collective_thrust=float(out[4]),
+        saturated_positive=out[5:8] != 0.0,
+        saturated_negative=out[8:11] != 0.0,
     )
 
 

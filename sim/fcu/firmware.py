@@ -16,6 +16,7 @@ it reads and the motor thrusts it commands.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -58,12 +59,12 @@ from sim.fcu.control import (
     CONTROL_NODE_NAME,
     AttitudeController,
     ControlGains,
+    Mixer,
     PositionController,
     PositionControlOutput,
     RateController,
     TrajectorySetpointData,
     VehicleState,
-    mix_with_desaturation,
 )
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.estimator import (
@@ -238,8 +239,11 @@ def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
     return np.asarray(values, dtype=np.float32).reshape(n)
 
 
+_FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
+
+
 def _flu_to_frd(v: FloatArray) -> FloatArray:
-    return np.array([v[0], -v[1], -v[2]])
+    return v * _FLU_TO_FRD  # y and z negated, exactly
 
 
 class Firmware:
@@ -266,6 +270,7 @@ class Firmware:
         self.position_controller = PositionController(cfg.control, cfg.quad)
         self.attitude_controller = AttitudeController(cfg.control)
         self.rate_controller = RateController(cfg.control, cfg.quad)
+        self.mixer = Mixer(cfg.quad)
         self.estimator = Estimator(cfg.estimator)
         self.commander = Commander(cfg.commander)
         self.land_detector = LandDetector(replace(
@@ -286,7 +291,8 @@ class Firmware:
         self.accel_frd = np.array([0.0, 0.0, -GRAVITY])
         self.gyro_frd = np.zeros(3)
         self.imu_time_us = 0
-        self.estimate: EstimatorOutput | None = None
+        self._estimate: EstimatorOutput | None = None
+        self._estimate_stale = False  # predicted since the estimate was last built
         self.status: CommanderStatus | None = None
         self.land: LandDetectedData | None = None
         self.battery: BatteryStatusData | None = None
@@ -350,6 +356,19 @@ class Firmware:
         return self.motor_commands
 
     @property
+    def estimate(self) -> EstimatorOutput | None:
+        """The estimator's output as of the last ``ekf_update`` (built when first read:
+        most ticks read only part of it, some none)."""
+        if self._estimate_stale:
+            self._estimate = self.estimator.output()
+            self._estimate_stale = False
+        return self._estimate
+
+    def _has_estimate(self) -> bool:
+        """``estimate is not None`` without building it."""
+        return self._estimate_stale or self._estimate is not None
+
+    @property
     def armed(self) -> bool:
         return self.status is not None and self.status.arming_state is ArmingState.ARMED
 
@@ -375,10 +394,10 @@ class Firmware:
     def ekf_update(self) -> None:
         if self.imu.latest is None:
             return
-        if self.estimate is None:  # boot: start the filter one tick before the first sample
+        if not self._has_estimate():  # boot: start the filter one tick before the first sample
             self.estimator.reset(self._now_us - self._dt_us)
         self.estimator.predict(self._now_us, self.accel_frd, self.gyro_frd)
-        self.estimate = self.estimator.output()
+        self._estimate_stale = True
 
     def land_detector_update(self) -> None:
         est = self.estimate
@@ -492,7 +511,7 @@ class Firmware:
             self.position_out.yawspeed_feedforward)
 
     def rate_control(self) -> None:
-        if self.estimate is None or not self.armed:
+        if not self._has_estimate() or not self.armed:
             return
         landed = bool(self.land.landed) if self.land else True
         self.torque_setpoint = self.rate_controller.update(
@@ -504,10 +523,10 @@ class Firmware:
                     if self.armed else 0.0)
             self.motor_commands = np.full(NUM_ROTORS, idle)
             return
-        mixed = mix_with_desaturation(self.quad, self.position_out.collective_thrust,
-                                      self.torque_setpoint)
-        self.rate_controller.set_saturation(mixed.saturated_positive, mixed.saturated_negative)
-        self.motor_commands = mixed.motor_thrusts
+        mixer = self.mixer
+        mixer.mix(self.position_out.collective_thrust, self.torque_setpoint)
+        self.rate_controller.set_saturation_flags(mixer.saturation_flags)
+        self.motor_commands = mixer.motor_thrusts
 
     # -- datalink -----------------------------------------------------------------------
     def dds_receive(self) -> None:
@@ -557,6 +576,7 @@ class Firmware:
 
     def _on_vehicle_visual_odometry(self, msg: Any) -> None:
         sample_us = int(msg.timestamp_sample) or self._now_us
+        _ = self.estimate  # the estimate of the last ekf_update, from before this fusion
         q = np.asarray(msg.q, dtype=np.float64)
         var = float(np.nanmax(msg.position_variance)) if np.isfinite(
             msg.position_variance).any() else math.nan
@@ -621,8 +641,8 @@ class Firmware:
             timestamp_sample=est.time_us, xy_valid=valid, z_valid=valid, v_xy_valid=valid,
             v_z_valid=valid, x=float(p[0]), y=float(p[1]), z=float(p[2]), vx=float(v[0]),
             vy=float(v[1]), vz=float(v[2]), z_deriv=float(v[2]),
-            ax=float(np.nan_to_num(acc[0])), ay=float(np.nan_to_num(acc[1])),
-            az=float(np.nan_to_num(acc[2])), heading=_yaw(s.q), heading_good_for_control=True,
+            ax=_nan_to_num(acc[0]), ay=_nan_to_num(acc[1]), az=_nan_to_num(acc[2]),
+            heading=_yaw(s.q), heading_good_for_control=True,
             eph=float(math.sqrt(max(est.position_variance_ned[:2]))),
             epv=float(math.sqrt(est.position_variance_ned[2])),
             evh=float(math.sqrt(max(est.velocity_variance_ned[:2]))),
@@ -728,6 +748,14 @@ _TELEMETRY_SOURCE: dict[str, str | None] = {
 }
 """The firmware state each telemetry message is built from (None: always there); no
 message is sent before its state exists."""
+
+
+def _nan_to_num(value: Any) -> float:
+    """``float(np.nan_to_num(value))`` for one number, without numpy's per-call cost."""
+    v = float(value)
+    if math.isfinite(v):
+        return v
+    return 0.0 if math.isnan(v) else math.copysign(sys.float_info.max, v)
 
 
 def _yaw(q: FloatArray) -> float:

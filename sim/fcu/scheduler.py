@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -41,6 +41,7 @@ DEFAULT_MAIN_FREQ_HZ = 500
 """Main-loop frequency (Hz) of the seed's test flight (section 5)."""
 
 DEFAULT_WINDOW_CALLS = 1000
+_PHASES_CACHED = 100_000  # tick phases whose due functions are kept (the cycle is usually short)
 """Calls per duty-statistics window (seed 002, section 5: "each data point corresponds to
 1000 calls")."""
 
@@ -394,20 +395,20 @@ class _DutyMeter:
     """
 
     def __init__(self, window: int) -> None:
-        self._window = window
+        self.window = window
         self._windows: list[DutyWindow] = []
-        self._open: list[int] = []
+        self.open: list[int] = []  # durations of the open window [host ns]
         self._total_n = self._total_sum = 0
         self._total_min = self._total_max = 0
 
     def record(self, duration_ns: int, tick: int) -> None:
-        self._open.append(duration_ns)
-        if len(self._open) >= self._window:
+        self.open.append(duration_ns)
+        if len(self.open) >= self.window:
             self.close(tick)
 
     def close(self, tick: int) -> None:
         """Close the open window at main-loop tick count ``tick``."""
-        open_ = self._open
+        open_ = self.open
         n, total, lo, hi = len(open_), sum(open_), min(open_), max(open_)
         self._windows.append(DutyWindow(n, total / n / 1e3, lo / 1e3, hi / 1e3, tick))
         self._fold(n, total, lo, hi)
@@ -424,8 +425,8 @@ class _DutyMeter:
     def stats(self) -> DutyStats:
         n, total = self._total_n, self._total_sum
         lo, hi = self._total_min, self._total_max
-        if self._open:
-            o = self._open
+        if self.open:
+            o = self.open
             lo = min(o) if n == 0 else min(lo, min(o))
             hi = max(o) if n == 0 else max(hi, max(o))
             n += len(o)
@@ -445,22 +446,28 @@ class _RateMeter:
     Times are buffered and folded into integer sums of the intervals and of their
     squares every ``_FOLD`` calls (exact: the times are integers)."""
 
-    _FOLD = 1024
+    FOLD = 1024
 
     def __init__(self) -> None:
         self.calls = 0
         self._first_us: int | None = None
         self._last_us = 0
         self._n = self._sum = self._sumsq = 0  # intervals, folded
-        self._times: list[int] = []
+        self.times: list[int] = []  # call times not folded yet
 
     def record(self, t_us: int) -> None:
-        self._times.append(t_us)
-        if len(self._times) >= self._FOLD:
+        self.times.append(t_us)
+        if len(self.times) >= self.FOLD:
+            self._fold()
+
+    def fold_if_full(self) -> None:
+        """Fold the buffered times once there are ``FOLD`` of them (callers that append
+        to :attr:`times` directly call this now and then)."""
+        if len(self.times) >= self.FOLD:
             self._fold()
 
     def _fold(self) -> None:
-        times = self._times
+        times = self.times
         if not times:
             return
         if self._first_us is None:
@@ -542,14 +549,21 @@ class Scheduler:
         self._group_rate = {g: _RateMeter() for g, _ in self._groups}
         self._fun_rate = {p.fun: _RateMeter() for p in schedule.periodics}
         self._poll_rate = _RateMeter()
+        self._rate_meters = (*self._group_rate.values(), *self._fun_rate.values(),
+                             self._poll_rate)
         self._event_calls = dict.fromkeys(self._flags, 0)
-        # per group: its meters and (name, callable, prescaler, offset, rate meter) per function
+        # per group: its duty meter's open window, its rate meter, and (name, prescaler,
+        # offset, callable, call-time list) per function; the functions due at a tick
+        # depend only on the tick modulo the prescalers' least common multiple
         self._plan = tuple(
             (self._group_duty[g], self._group_rate[g],
-             tuple((p.fun, self._functions[p.fun], p.prescaler, p.offset, self._fun_rate[p.fun])
-                   for p in periodics))
+             tuple((p.fun, p.prescaler, p.offset, self._functions[p.fun],
+                    self._fun_rate[p.fun].times) for p in periodics))
             for g, periodics in self._groups
         )
+        self._cycle = math.lcm(*(p.prescaler for p in schedule.periodics)) if (
+            schedule.periodics) else 1
+        self._phases: dict[int, tuple[Any, ...]] = {}
 
     # -- lifecycle ------------------------------------------------------------------
 
@@ -611,6 +625,19 @@ class Scheduler:
         self._poll_rate.record(now)
         return t1
 
+    def _phase(self, phase: int) -> tuple[Any, ...]:
+        """Per group: its duty window and rate times, and the functions due at ``phase``."""
+        plan = self._phases.get(phase)
+        if plan is None:
+            plan = tuple(
+                (duty.open, rate.times,
+                 tuple((fun, call, times) for fun, prescaler, offset, call, times in periodics
+                       if phase % prescaler == offset))
+                for duty, rate, periodics in self._plan)
+            if len(self._phases) < _PHASES_CACHED:
+                self._phases[phase] = plan
+        return plan
+
     def tick(self) -> TickResult:
         """One main-loop iteration: due periodic functions group by group, then events.
 
@@ -618,6 +645,7 @@ class Scheduler:
         every tick, as Paparazzi times its group functions) and for the whole tick; a
         tick longer than the main-loop period counts as an overrun. One host-clock read
         per group boundary: a group's duty runs from the previous boundary to its end.
+        The meters only append here; their windows fold every ``window_calls`` ticks.
         """
         if not self._initialised:
             raise SchedulerError("init() must be called before tick()")
@@ -627,22 +655,30 @@ class Scheduler:
         running = self._running
         timer = self._timer
         tick_start = t_prev = timer()
-        for duty, rate, periodics in self._plan:
-            for fun, call, prescaler, offset, fun_rate in periodics:
-                if k % prescaler == offset and running[fun]:
+        for duty_open, rate_times, due in self._phase(k % self._cycle):
+            for fun, call, times in due:
+                if running[fun]:
                     call()
-                    fun_rate.record(now)
+                    times.append(now)
                     called.append(fun)
             t = timer()
-            duty.record(t - t_prev, k + 1)
-            rate.record(now)
+            duty_open.append(t - t_prev)
+            rate_times.append(now)
             t_prev = t
         t_end = self._poll(now, t_prev, called)
         duty_ns = t_end - tick_start
         overrun = duty_ns > self._period_ns
         self._overruns += overrun
-        self._tick_duty.record(duty_ns, k + 1)
+        tick_duty = self._tick_duty
+        tick_duty.open.append(duty_ns)
         self._tick = k + 1
+        if len(tick_duty.open) >= tick_duty.window:  # every group's window closes with it
+            tick_duty.close(k + 1)
+            for meter in self._group_duty.values():
+                meter.close(k + 1)
+        if self._tick % _RateMeter.FOLD == 0:
+            for rate_meter in self._rate_meters:
+                rate_meter.fold_if_full()
         return TickResult(k, now, tuple(called), duty_ns, overrun)
 
     def run_until(self, now_us: int) -> int:

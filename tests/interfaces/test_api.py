@@ -240,6 +240,17 @@ BAD_MESSAGES = [
     (_bad("px4_msgs/TrajectorySetpoint", yaw="0.5"), "TrajectorySetpoint.yaw", "number"),
     (_bad("px4_msgs/TrajectorySetpoint", yaw=1e39), "TrajectorySetpoint.yaw", "float32"),
     (_bad(f"{QM}/MissionEvent", message=3), "MissionEvent.message", "string"),
+    # a bounded string (string<=255), too long and of the wrong type
+    (
+        _bad("type_description_interfaces/FieldType", nested_type_name="x" * 256),
+        "FieldType.nested_type_name",
+        "bound 255",
+    ),
+    (
+        _bad("type_description_interfaces/FieldType", nested_type_name=7),
+        "FieldType.nested_type_name",
+        "string",
+    ),
     (_bad("px4_msgs/VehicleOdometry", q=5), "VehicleOdometry.q", "array"),
     (
         _bad(f"{QM}/MissionEvent", header=interfaces.new("builtin_interfaces/Time")),

@@ -112,6 +112,27 @@ def test_imu_noise_matches_its_densities_and_is_seeded() -> None:
     np.testing.assert_array_equal(again.accel, samples[0].accel)
 
 
+def test_imu_sample_is_the_four_normal_draws_it_replaced() -> None:
+    """One draw of 12 standard normals gives bit for bit what the former four
+    ``rng.normal(0, std, 3)`` calls gave: bias walks (accel, gyro), then white noise."""
+    p = ImuNoiseParams()
+    model = ImuNoiseModel(p, np.random.default_rng(3))
+    rng = np.random.default_rng(3)
+    accel_bias = rng.normal(0.0, p.accel_bias_initial_std, 3)
+    gyro_bias = rng.normal(0.0, p.gyro_bias_initial_std, 3)
+    truth_a, truth_g = np.array([0.1, -0.2, 9.7]), np.array([0.01, 0.0, -0.03])
+    for dt in (0.002, 0.002, 0.004):
+        accel_bias = accel_bias + rng.normal(0.0, p.accel_bias_random_walk, 3) * math.sqrt(dt)
+        gyro_bias = gyro_bias + rng.normal(0.0, p.gyro_bias_random_walk, 3) * math.sqrt(dt)
+        white = 1.0 / math.sqrt(dt)
+        want_a = truth_a + accel_bias + rng.normal(0.0, p.accel_noise_density * white, 3)
+        want_g = truth_g + gyro_bias + rng.normal(0.0, p.gyro_noise_density * white, 3)
+        got = model.sample(truth_a, truth_g, dt)
+        np.testing.assert_array_equal(got.accel, want_a)
+        np.testing.assert_array_equal(got.gyro, want_g)
+    np.testing.assert_array_equal(model.accel_bias, accel_bias)
+
+
 def test_imu_bias_wanders_and_noiseless_is_truth() -> None:
     biased = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(1))
     start = biased.gyro_bias

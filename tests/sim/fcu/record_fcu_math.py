@@ -29,7 +29,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 
 import sim.fcu.firmware as firmware_module
-from sim.fcu.control import AttitudeController, PositionController, RateController
+from sim.fcu.control import (
+    AttitudeController,
+    Mixer,
+    PositionController,
+    RateController,
+    mix_with_desaturation,
+)
 from sim.fcu.estimator import Estimator
 
 OUT = Path(__file__).resolve().parent / "data" / "fcu_math.npz"
@@ -67,10 +73,10 @@ def record() -> dict[str, np.ndarray]:
 
     pos_update, pos_reset = PositionController.update, PositionController.reset
     rate_update, rate_reset = RateController.update, RateController.reset
-    rate_sat = RateController.set_saturation
+    rate_sat = RateController.set_saturation_flags
     att_update = AttitudeController.update
     est_predict, est_fuse, est_reset = Estimator.predict, Estimator.fuse_vision, Estimator.reset
-    mix = firmware_module.mix_with_desaturation
+    mixer_mix = Mixer.mix
     nan = math.nan
 
     # op codes: 0 = update/predict, 1 = reset, 2 = set_saturation / fuse_vision
@@ -98,15 +104,14 @@ def record() -> dict[str, np.ndarray]:
 
     def r_reset(self: Any) -> None:
         rate_reset(self)
-        if stateful_open() and hasattr(self, "_kp"):
+        if stateful_open() and hasattr(self, "_gains"):
             rows["rate_in"].append([1.0] + [nan] * 8)
             rows["rate_out"].append([nan] * 3)
 
-    def r_sat(self: Any, positive: Any, negative: Any) -> None:
-        rate_sat(self, positive, negative)
+    def r_sat(self: Any, flags: Any) -> None:
+        rate_sat(self, flags)
         if stateful_open():
-            p, n = np.asarray(positive, dtype=float), np.asarray(negative, dtype=float)
-            rows["rate_in"].append([2.0, *p, *n, nan, nan])
+            rows["rate_in"].append([2.0, *flags, nan, nan])
             rows["rate_out"].append([nan] * 3)
 
     def a_update(self: Any, q: Any, q_sp: Any, ff: float = nan) -> Any:
@@ -117,15 +122,13 @@ def record() -> dict[str, np.ndarray]:
             rows["att_out"].append([*out])
         return out
 
-    def m(params: Any, collective: float, torque: Any) -> Any:
-        out = mix(params, collective, torque)
+    def m(self: Any, collective: float, torque: Any) -> None:
+        mixer_mix(self, collective, torque)
         clock["mix_n"] += 1
-        saturated = bool(out.saturated_positive.any() or out.saturated_negative.any())
+        saturated = bool(self.out[5:].any())
         if clock["mix_n"] % (3 if saturated else STATELESS_EVERY) == 0:
             rows["mix_in"].append([collective, *torque])
-            rows["mix_out"].append([*out.motor_thrusts, out.collective_thrust,
-                                    *out.saturated_positive, *out.saturated_negative])
-        return out
+            rows["mix_out"].append(self.out.tolist())
 
     def e_predict(self: Any, time_us: int, accel: Any, gyro: Any) -> None:
         est_predict(self, time_us, accel, gyro)
@@ -148,7 +151,7 @@ def record() -> dict[str, np.ndarray]:
     def e_reset(self: Any, time_us: int, position_ned: Any = (0.0, 0.0, 0.0),
                 q: Any = (1.0, 0.0, 0.0, 0.0)) -> None:
         est_reset(self, time_us, position_ned, q)
-        if stateful_open() and hasattr(self, "_buffer"):
+        if stateful_open() and hasattr(self, "_buf"):
             rows["est_in"].append([1.0, float(time_us), *position_ned, *q] + [nan] * 5)
             rows["est_out"].append(_estimate_row(self.output()))
 
@@ -162,10 +165,10 @@ def record() -> dict[str, np.ndarray]:
 
     PositionController.update, PositionController.reset = p_update, p_reset  # type: ignore
     RateController.update, RateController.reset = r_update, r_reset  # type: ignore
-    RateController.set_saturation = r_sat  # type: ignore
+    RateController.set_saturation_flags = r_sat  # type: ignore
     AttitudeController.update = a_update  # type: ignore
     Estimator.predict, Estimator.fuse_vision, Estimator.reset = e_predict, e_fuse, e_reset  # type: ignore
-    firmware_module.mix_with_desaturation = m  # type: ignore
+    Mixer.mix = m  # type: ignore
     firmware_module.Firmware.armed = property(armed)  # type: ignore
 
     from quadmission.scenarios import ScenarioOptions
@@ -182,7 +185,7 @@ def record() -> dict[str, np.ndarray]:
     for _ in range(EXTREME_CALLS):
         collective = float(rng.uniform(-0.1, 1.1) * 4 * quad.max_motor_thrust)
         torque = rng.normal(0.0, 0.3, 3) * rng.choice([0.01, 0.1, 1.0])
-        out = mix(quad, collective, torque)
+        out = mix_with_desaturation(quad, collective, torque)
         rows["mix_in"].append([collective, *torque])
         rows["mix_out"].append([*out.motor_thrusts, out.collective_thrust,
                                 *out.saturated_positive, *out.saturated_negative])

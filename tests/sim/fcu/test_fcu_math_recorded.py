@@ -16,6 +16,7 @@ import pytest
 
 from sim.fcu.control import (
     AttitudeController,
+    Mixer,
     PositionController,
     RateController,
     TrajectorySetpointData,
@@ -85,23 +86,35 @@ def test_attitude_controller_replays(rec: dict[str, np.ndarray], config: Firmwar
 
 
 def test_rate_controller_replays(rec: dict[str, np.ndarray], config: FirmwareConfig) -> None:
+    """Both ways of giving it the mixer's saturation: flags (tests, API) and the firmware's
+    1.0/0.0 buffer."""
     assert config.control is not None
     ctrl = RateController(config.control, config.quad)
+    fast = RateController(config.control, config.quad)
     for i, (row, want) in enumerate(zip(rec["rate_in"], rec["rate_out"], strict=True)):
         if row[0] == 1.0:
             ctrl.reset()
+            fast.reset()
         elif row[0] == 2.0:
             ctrl.set_saturation(row[1:4].astype(bool), row[4:7].astype(bool))
+            fast.set_saturation_flags((row[1:7] != 0.0).astype(np.float64))
         else:
-            out = ctrl.update(row[1:4], row[4:7], int(row[7]), landed=bool(row[8]))
-            _close(list(out), want, f"rate call {i}")
+            for c in (ctrl, fast):
+                out = c.update(row[1:4], row[4:7], int(row[7]), landed=bool(row[8]))
+                _close(list(out), want, f"rate call {i}")
 
 
 def test_mixer_replays(rec: dict[str, np.ndarray], config: FirmwareConfig) -> None:
+    """The function and the firmware's reused-buffer :class:`Mixer`."""
+    mixer = Mixer(config.quad)
     for i, (row, want) in enumerate(zip(rec["mix_in"], rec["mix_out"], strict=True)):
         out = mix_with_desaturation(config.quad, float(row[0]), row[1:4])
         _close([*out.motor_thrusts, out.collective_thrust, *out.saturated_positive,
                 *out.saturated_negative], want, f"mixer call {i}")
+        mixer.mix(float(row[0]), row[1:4])
+        _close(mixer.out.tolist(), want, f"Mixer call {i}")
+        _close([*mixer.motor_thrusts, *mixer.saturation_flags], want[[0, 1, 2, 3, 5, 6, 7, 8, 9,
+                                                                        10]], f"Mixer call {i}")
 
 
 def test_estimator_replays(rec: dict[str, np.ndarray], config: FirmwareConfig) -> None:
