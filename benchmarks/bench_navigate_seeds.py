@@ -5,7 +5,8 @@
 
 Runs ``quadmission sim --scenario navigate`` in the default arena (seed 0) and with
 ``--random-arena --seed N`` for each seed (default 1-10), each into its own folder
-(``--runs``), ``--jobs`` at a time (each run in its own process); records each outcome:
+(``--runs``; ``--resume`` reads the runs already there), ``--jobs`` at a time (each run in its
+own process); records each outcome:
 pads reached, crash, the smallest clearance to an obstacle over the legs, tracking RMSE,
 and how the path finder kept its graph (full builds, block updates, map changes that did
 not matter). The target: every run reaches all 9 pads with no crash. Quality figures, not
@@ -32,11 +33,14 @@ def _seeds(text: str) -> list[int]:
     return [int(v) for v in text.split(",")]
 
 
-def run_one(out: Path, seed: int, random_arena: bool) -> dict[str, Any]:
+def run_one(out: Path, seed: int, random_arena: bool, resume: bool = False) -> dict[str, Any]:
     from quadmission.navigate_flight import navigate
     from quadmission.scenarios import ScenarioOptions
 
-    report = navigate(ScenarioOptions(out=out, seed=seed, random_arena=random_arena))
+    if resume and (out / "report.json").is_file():
+        report = json.loads((out / "report.json").read_text())
+    else:
+        report = navigate(ScenarioOptions(out=out, seed=seed, random_arena=random_arena))
     clearances = [leg["min_clearance_m"] for leg in report["legs"]
                   if leg["min_clearance_m"] is not None]
     return {"seed": seed, "random_arena": random_arena, "arena": report["arena"],
@@ -58,16 +62,19 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2, help="runs at a time")
     parser.add_argument("--runs", type=Path, default=Path("runs/navigate_seeds"),
                         help="folder for each run's report.json and path.png")
+    parser.add_argument("--resume", action="store_true",
+                        help="read a run whose folder has a report.json instead of flying it")
     args = parser.parse_args()
     todo = [] if args.no_default else [(args.runs / "default", 0, False)]
     todo += [(args.runs / f"seed_{s}", s, True) for s in _seeds(args.seeds)]
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
-        futures = [pool.submit(run_one, *job) for job in todo]
+        futures = [pool.submit(run_one, *job, args.resume) for job in todo]
         runs = []
         for (_, seed, random_arena), future in zip(todo, futures, strict=True):
             runs.append(future.result())
             name = f"seed {seed:2d}" if random_arena else "default arena"
             print(f"{name}: {runs[-1]['verdict']}", flush=True)
+    runs.sort(key=lambda r: (r["random_arena"], r["seed"]))
     result = {
         "runs": runs,
         "all_pads_no_crash": sum(r["ok"] for r in runs),
