@@ -3,8 +3,11 @@
 Each ``/camera/depth/points`` cloud (at most ``process_rate_hz``) is placed in the map frame
 with the body pose the bridge reports for the cloud's capture stamp (``/fcu/pose_at``; never
 simulator truth) and added to a :class:`~navigation.mapping.VoxelMap`. The map (optionally
-started from ``map_file``) is published on ``/map/points`` at ``publish_rate_hz`` when it
-changed. :meth:`MappingNode.save` writes it as PCD/PLY. Parameters: ``config/mapping.yaml``.
+started from ``map_file``) is published on ``/map/points`` at ``publish_rate_hz`` when a cloud
+was fused since the last one, stamped with the newest fused cloud's capture time: a map
+stamped t holds everything the camera saw until t, even when that added no voxel (the
+navigator waits for such a map after a turn before it flies on). :meth:`MappingNode.save`
+writes it as PCD/PLY. Parameters: ``config/mapping.yaml``.
 """
 
 from __future__ import annotations
@@ -44,7 +47,8 @@ class MappingNode(Node):
         #: (capture stamp [ns], position [m], orientation wxyz) of each fused cloud
         self.fused_poses: list[tuple[int, tuple[float, ...], tuple[float, ...]]] = []
         self._last_ns: int | None = None
-        self._published_version = -1
+        self._published_fused = -1  # clouds_fused at the last publish
+        self.map_stamp = Time(0).to_msg()  # capture time of the newest fused cloud
         self._pending = False
         self.pose_at = self.create_client(POSE_AT, "/fcu/pose_at")
         self._valid_since_ns: int | None = None  # the FCU's position valid since then
@@ -106,12 +110,14 @@ class MappingNode(Node):
                               min_range=self.params.min_range, max_range=self.params.max_range)
         self.map.add(world[world[:, 2] >= self.params.min_z])
         self.clouds_fused += 1
+        if Time.from_msg(stamp).nanoseconds > Time.from_msg(self.map_stamp).nanoseconds:
+            self.map_stamp = stamp
 
     def _publish(self) -> None:
-        if self.map.version == self._published_version or len(self.map) == 0:
+        if self.clouds_fused == self._published_fused or len(self.map) == 0:
             return
-        self._published_version = self.map.version
-        self.map_pub.publish(cloud_msg(self.map.points(), self.now().to_msg(), MAP_FRAME))
+        self._published_fused = self.clouds_fused
+        self.map_pub.publish(cloud_msg(self.map.points(), self.map_stamp, MAP_FRAME))
 
     def save(self, path: Path | str) -> Path:
         """Write the map as PCD/PLY (by the suffix)."""

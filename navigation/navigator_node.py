@@ -5,12 +5,18 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
 
 - ``/navigation/navigate``: plan from where the vehicle is to the goal, then follow the
   waypoints with ``reach`` (the flight-control layer interpolates setpoints and applies the
-  reach sphere); before a leg that turns by more than ``turn_first_angle`` it turns to
-  face it, so the forward depth camera maps what is ahead. Every ``replan_period_s`` it plans
-  again from here; when the leg being flown is no longer clear (the planner cannot go
-  straight to its end) or the new path's length differs from what is left of the current
-  one by more than ``replan_tolerance`` (the live map changed the path's cost), it switches. A
-  failed reach is re-planned from where the vehicle is, up to ``max_reach_failures``.
+  reach sphere, shrunk at sharp corners so the flown chord cuts a corner by at most
+  ``corner_cut``: :mod:`navigation.following`). Before a leg that turns by more than
+  ``turn_first_angle`` it stops at the corner and turns to face the leg, so the forward depth
+  camera maps what is ahead; then it looks before it goes: it plans again on a map that
+  holds a depth cloud captured after the turn (the path's stamp is the map's; it waits up
+  to ``map_wait_s`` for one) and switches if the path changed. The camera saw the obstacles
+  beside the old leg only side-on, or not at all: a corner planned round as unknown (free)
+  space is often in the way once seen. Every ``replan_period_s`` it plans again from here;
+  when the leg being flown is no longer clear (the planner cannot go straight to its end)
+  or the new path's length differs from what is left of the current one by more than
+  ``replan_tolerance`` (the live map changed the path's cost), it switches. A failed reach
+  is re-planned from where the vehicle is, up to ``max_reach_failures``.
 - ``/navigation/explore``: the predefined exploration path of the arena and start pad
   (``explore_paths_file``, with loop closures) or, when there is none or the goal gives an
   area, boustrophedon lanes spaced by the down camera's footprint; each leg is planned like
@@ -43,6 +49,7 @@ from navigation.coverage import (
     lane_spacing,
     load_explore_paths,
 )
+from navigation.following import corner_radius, turn_angle
 from navigation.params import NavigatorParams
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, path_msg, path_points
 from runtime import (
@@ -51,6 +58,7 @@ from runtime import (
     Node,
     ParameterError,
     ServerGoalHandle,
+    Time,
     qos_profile_default,
     qos_profile_sensor_data,
 )
@@ -134,11 +142,48 @@ class NavigatorNode(Node):
 
     # -- flight-control calls ------------------------------------------------------------
     async def _plan(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray | None, str]:
+        path, message, _ = await self._plan_stamped(start, goal)
+        return path, message
+
+    async def _plan_stamped(self, start: np.ndarray, goal: np.ndarray
+                            ) -> tuple[np.ndarray | None, str, int]:
+        """(path or None, message, the stamp [ns] of the map it was planned on)."""
         request = interfaces.new(PLAN_PATH.Request, start=_point(*start), goal=_point(*goal))
         response = await self.planner.call_async(request)
+        stamp = Time.from_msg(response.path.header.stamp).nanoseconds
         if not response.success:
-            return None, str(response.message)
-        return path_points(response.path), str(response.message)
+            return None, str(response.message), stamp
+        return path_points(response.path), str(response.message), stamp
+
+    async def _changed_path(self, path: np.ndarray, i: int, goal: np.ndarray,
+                            new: np.ndarray | None) -> np.ndarray | None:
+        """``new`` (a plan from here to ``goal``) when the current path must be left: its
+        leg ``i`` is no longer clear (the planner cannot go straight to its end) or what is
+        left of it differs from ``new`` in length by more than ``replan_tolerance``."""
+        if new is None:
+            return None
+        here = self._here()
+        leg, _ = await self._plan(here, path[i])
+        blocked = leg is None or len(leg) > 2
+        left = float(np.linalg.norm(path[i] - here)) + path_length(path[i:])
+        if blocked or abs(path_length(new) - left) > self.params.replan_tolerance:
+            return new
+        return None
+
+    async def _look_again(self, path: np.ndarray, i: int, goal: np.ndarray,
+                          handle: ServerGoalHandle, stop: Any) -> np.ndarray | None:
+        """After a turn: plan again on a map holding a depth cloud captured after it (up to
+        ``map_wait_s``), and return the new path when the current one must be left."""
+        since_ns = self.now().nanoseconds
+        deadline_ns = since_ns + int(self.params.map_wait_s * 1e9)
+        while True:
+            new, _, stamp = await self._plan_stamped(self._here(), goal)
+            if stamp >= since_ns or self.now().nanoseconds >= deadline_ns:
+                break
+            if handle.is_cancel_requested or (stop is not None and stop()):
+                return None
+            await self.sleep(POLL_S)
+        return await self._changed_path(path, i, goal, new)
 
     def _reach_goal(self, target: np.ndarray, yaw: float, radius: float, speed: float,
                     stop: bool) -> Any:
@@ -194,8 +239,16 @@ class NavigatorNode(Node):
                 if ok is None:
                     return FlyResult(FlyOutcome.CANCELED if why == "canceled"
                                      else FlyOutcome.STOPPED, why)
+                new = await self._look_again(path, i, goal, handle, stop)
+                if new is not None:
+                    path, i = new, 1
+                    continue
+            # a sharp corner next: stop there (the vehicle turns in place before that leg)
+            corner = not last and turn_angle(path, i) > p.turn_first_angle
+            radius_i = radius if last else corner_radius(path, i, p.waypoint_radius,
+                                                         p.corner_cut)
             fc = await self.reach.send_goal_async(self._reach_goal(
-                wp, heading, radius if last else p.waypoint_radius, speed, last))
+                wp, heading, radius_i, speed, last or corner))
             if not fc.accepted:
                 response = await fc.get_result_async()
                 return FlyResult(FlyOutcome.FLIGHT_ERROR,
@@ -212,14 +265,9 @@ class NavigatorNode(Node):
                     feedback(path, i)
                 if self.now().nanoseconds >= next_plan_ns:
                     next_plan_ns = self.now().nanoseconds + int(p.replan_period_s * 1e9)
-                    here = self._here()
-                    # the leg being flown is still clear when the planner goes straight there
-                    leg, _ = await self._plan(here, path[i])
-                    blocked = leg is None or len(leg) > 2
-                    new, _ = await self._plan(here, goal)
-                    left = float(np.linalg.norm(path[i] - here)) + path_length(path[i:])
-                    if new is not None and (blocked or abs(path_length(new) - left)
-                                            > p.replan_tolerance):
+                    new, _ = await self._plan(self._here(), goal)
+                    new = await self._changed_path(path, i, goal, new)
+                    if new is not None:
                         await fc.cancel_goal_async()
                         path, i, switched = new, 1, True
                         break

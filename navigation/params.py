@@ -93,6 +93,11 @@ class NavigatorParams:
                                    description="re-plan from here this often while flying")
     replan_tolerance: float = param(unit="m", range=(0.0, 100.0),
                                     description="switch path when its length differs more")
+    corner_cut: float = param(unit="m", range=(0.02, 2.0),
+                              description="the flown chord cuts a corner by at most this")
+    map_wait_s: float = param(unit="s", range=(0.0, 60.0),
+                              description="after a turn, wait this long at most for a map "
+                                          "holding a depth cloud captured after it")
     plan_attempts: int = param(range=(1, 100), description="plans tried before giving up")
     max_reach_failures: int = param(range=(0, 100),
                                     description="failed reaches (each re-planned) tolerated")

@@ -3,9 +3,14 @@
 It converts messages and maps errors; the graph is :mod:`navigation.voxel_graph`, the search
 :mod:`navigation.astar`. The graph is built from ``map_file`` (when given) plus the live
 ``/map/points`` (when ``use_live_map``), over the field the app gives
-(``field_min``/``field_max``), lazily: a request after the map changed rebuilds it (from
-the disk cache when ``cache_dir`` is set). Every :class:`~navigation.errors.PlanningError`
-becomes a ``PlanPath`` result code here, in :data:`RESULT_OF`, with the error's text.
+(``field_min``/``field_max``), lazily: the first request builds it (from the disk cache
+when ``cache_dir`` is set); a request after the map changed updates it where the change
+matters (:func:`~navigation.voxel_graph.update_graph`: only the block the new points reach,
+nothing when they fall in cubes already full, e.g. more of a wall already mapped), to the
+same graph a full build gives. A path's header stamp is the map's (the capture time of the
+newest depth cloud in it), so the navigator knows what the plan had seen. Every
+:class:`~navigation.errors.PlanningError` becomes a ``PlanPath`` result code here, in
+:data:`RESULT_OF`, with the error's text.
 Parameters: ``config/path_finder.yaml``.
 """
 
@@ -34,8 +39,14 @@ from navigation.errors import (
 from navigation.mapping import load_map
 from navigation.mapping_node import MAP_TOPIC
 from navigation.params import PathFinderParams
-from navigation.voxel_graph import VoxelGraph, build_graph, cached_graph
-from runtime import Node, ParameterError, qos_profile_default
+from navigation.voxel_graph import (
+    VoxelGraph,
+    build_graph,
+    cached_graph,
+    count_points,
+    update_graph,
+)
+from runtime import Node, ParameterError, Time, qos_profile_default
 
 PLAN_PATH = interfaces.get_service("quadmission_interfaces/srv/PlanPath")
 PLAN_PATH_SERVICE = "/navigation/plan_path"
@@ -90,11 +101,17 @@ class PathFinderNode(Node):
         self.static_points = (load_map(self.params.map_file) if self.params.map_file
                               else np.empty((0, 3)))
         self.live_points = np.empty((0, 3))
-        self._graphs: dict[float, VoxelGraph] = {}  # by request clearance, for this map
+        self._graphs: dict[float, VoxelGraph] = {}  # by request clearance
+        self._graph_version: dict[float, int] = {}  # the map version each graph is of
+        self._counts: tuple[int, np.ndarray] | None = None  # (map version, points per cube)
+        self.map_stamp = Time(0).to_msg()  # of the map the graphs are of
         self._workspace: Workspace | None = None  # search arrays, reused while the grid holds
         self.heuristic = Heuristic[self.params.heuristic.upper()]
         self.map_version = 0
-        self.graph_builds = 0
+        self.graph_builds = 0  # full builds
+        self.graph_updates = 0  # updates of a block of the graph
+        self.graph_unchanged = 0  # map changes that did not matter to the graph
+        self.cubes_updated = 0  # cubes recomputed by the updates
         self.requests = 0
         self.last_error = ""
         if self.params.use_live_map:
@@ -107,7 +124,7 @@ class PathFinderNode(Node):
 
     def _on_map(self, msg: Any) -> None:
         self.live_points = cloud_points(msg)
-        self._graphs.clear()
+        self.map_stamp = msg.header.stamp
         self.map_version += 1
 
     def map_points(self) -> np.ndarray:
@@ -115,11 +132,22 @@ class PathFinderNode(Node):
 
     def graph(self, clearance: float = 0.0) -> VoxelGraph | None:
         """The graph of the current map (None: no map yet). Raises GraphError."""
-        if clearance in self._graphs:
+        if self._graph_version.get(clearance) == self.map_version:
             return self._graphs[clearance]
         points = self.map_points()
         if len(points) == 0:
             return None
+        old = self._graphs.get(clearance)
+        if old is not None:
+            if self._counts is None or self._counts[0] != self.map_version:
+                self._counts = (self.map_version, count_points(points, old.grid))
+            graph, cubes = update_graph(old, self._counts[1])
+            self.graph_updates += cubes > 0
+            self.graph_unchanged += cubes == 0
+            self.cubes_updated += cubes
+            self._graphs[clearance] = graph
+            self._graph_version[clearance] = self.map_version
+            return graph
         gp = self.params.graph(clearance)
         if self.params.cache_dir:
             graph, _ = cached_graph(points, self.field_min, self.field_max, gp,
@@ -128,6 +156,7 @@ class PathFinderNode(Node):
             graph = build_graph(points, self.field_min, self.field_max, gp)
         self.graph_builds += 1
         self._graphs[clearance] = graph
+        self._graph_version[clearance] = self.map_version
         return graph
 
     def _plan_path(self, request: Any, response: Any) -> Any:
@@ -164,14 +193,14 @@ class PathFinderNode(Node):
         response.success = True
         response.message = (f"{len(planned.points)} waypoints, {planned.length:.2f} m "
                             f"({planned.expansions} cubes expanded)")
-        response.path = path_msg(planned.points, self.now().to_msg())
+        response.path = path_msg(planned.points, self.map_stamp)
         response.length = planned.length
         self.last_error = ""
         return response
 
     def _failed(self, response: Any) -> Any:
         response.success = False
-        response.path = path_msg(np.empty((0, 3)), self.now().to_msg())
+        response.path = path_msg(np.empty((0, 3)), self.map_stamp)
         self.last_error = str(response.message)
         return response
 
@@ -182,6 +211,7 @@ class PathFinderNode(Node):
             "path_finder", level, "" if has_map else "no map yet",
             {"map_points": len(self.static_points) + len(self.live_points),
              "map_version": self.map_version, "graph_builds": self.graph_builds,
+             "graph_updates": self.graph_updates, "graph_unchanged": self.graph_unchanged,
              "requests": self.requests, "last_error": self.last_error},
             self.now().to_msg()))
 

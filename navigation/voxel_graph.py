@@ -189,19 +189,6 @@ class VoxelGraph:
         return out
 
 
-def _box_sums(sat: npt.NDArray[np.int64], lo: npt.NDArray[np.int64],
-              hi: npt.NDArray[np.int64], shape: tuple[int, int, int]) -> npt.NDArray[np.int64]:
-    """Sum of counts over the cube boxes [lo, hi] (inclusive, clipped to the grid), from a
-    summed-area table padded with a leading zero plane on each axis."""
-    shape_a = np.asarray(shape, dtype=np.int64).reshape((3,) + (1,) * (lo.ndim - 1))
-    a = np.clip(lo, 0, shape_a)  # padded index of the first cube = lo
-    b = np.clip(hi + 1, 0, shape_a)  # one past the last cube
-    x0, y0, z0 = a[0], a[1], a[2]
-    x1, y1, z1 = b[0], b[1], b[2]
-    return (sat[x1, y1, z1] - sat[x0, y1, z1] - sat[x1, y0, z1] - sat[x1, y1, z0]
-            + sat[x0, y0, z1] + sat[x0, y1, z0] + sat[x1, y0, z0] - sat[x0, y0, z0])
-
-
 def count_points(points: npt.ArrayLike, grid: Grid) -> npt.NDArray[np.int32]:
     """Points per cube; points outside the field are dropped. Raises EmptyCloud when none
     is left."""
@@ -220,6 +207,78 @@ def count_points(points: npt.ArrayLike, grid: Grid) -> npt.NDArray[np.int32]:
     return counts.reshape(grid.shape)
 
 
+def _slices(lo: npt.NDArray[np.int64], size: npt.NDArray[np.int64]) -> tuple[slice, ...]:
+    return tuple(slice(int(a), int(a) + int(n)) for a, n in zip(lo, size, strict=True))
+
+
+def _box_sums_over(sat: npt.NDArray[np.int64], first: npt.NDArray[np.int64],
+                   last: npt.NDArray[np.int64], size: npt.NDArray[np.int64]
+                   ) -> npt.NDArray[np.int64]:
+    """For a block of ``size`` cells, the count over the box [cell + first, cell + last]
+    of each (local indices of the summed-area table's array; every box inside it): eight
+    shifted slices of the table, no gather."""
+    a, b = first, last + 1
+    x0, y0, z0 = (slice(int(v), int(v) + int(n)) for v, n in zip(a, size, strict=True))
+    x1, y1, z1 = (slice(int(v), int(v) + int(n)) for v, n in zip(b, size, strict=True))
+    return (sat[x1, y1, z1] - sat[x0, y1, z1] - sat[x1, y0, z1] - sat[x1, y1, z0]
+            + sat[x0, y0, z1] + sat[x0, y1, z0] + sat[x1, y0, z0] - sat[x0, y0, z0])
+
+
+def _block(counts: npt.NDArray[np.int32], params: GraphParams, observed: BoolArray | None,
+           lo: npt.NDArray[np.int64], hi: npt.NDArray[np.int64]
+           ) -> tuple[BoolArray, BoolArray, BoolArray]:
+    """The rules over the cubes [lo, hi) (grid indices; the whole grid or a block of it):
+    (viable, free) over the block grown by one cube on every side, and the edges of the
+    block's cubes. Reads the counts only as far as the footprint reaches beyond that; the
+    field's walls, floor and ceiling beyond the grid count as full (``corridor_threshold``
+    points per cube), so every box is inside the local table and needs no clipping."""
+    shape = np.asarray(counts.shape, dtype=np.int64)
+    n, m = params.inflation_cubes
+    pad = np.array([n, n, m], dtype=np.int64)
+    g_lo, g_hi = lo - 1, hi + 1  # the grown block: free of each edge's far end
+    e_lo, e_hi = g_lo - pad, g_hi + pad  # the counts its boxes read
+    local = np.full(tuple(e_hi - e_lo), params.corridor_threshold, dtype=np.int64)
+    c_lo, c_hi = np.maximum(e_lo, 0), np.minimum(e_hi, shape)
+    local[_slices(c_lo - e_lo, c_hi - c_lo)] = counts[_slices(c_lo, c_hi - c_lo)]
+    sat = np.zeros(tuple(np.asarray(local.shape) + 1), dtype=np.int64)
+    sat[1:, 1:, 1:] = local.cumsum(0).cumsum(1).cumsum(2)
+
+    grown = g_hi - g_lo
+    viable = np.zeros(tuple(grown), dtype=bool)  # cubes outside the grid: never viable
+    v_lo, v_hi = np.maximum(g_lo, 0), np.minimum(g_hi, shape)
+    inner = counts[_slices(v_lo, v_hi - v_lo)] <= params.occupied_threshold
+    for axis in range(3):  # boundary cubes are non-viable
+        ix = np.arange(v_lo[axis], v_hi[axis])
+        edge = (ix == 0) | (ix == shape[axis] - 1)
+        inner &= ~edge.reshape([-1 if a == axis else 1 for a in range(3)])
+    if params.unknown_is_occupied:
+        assert observed is not None
+        inner &= observed[_slices(v_lo, v_hi - v_lo)]
+    viable[_slices(v_lo - g_lo, v_hi - v_lo)] = inner
+    # own box of each grown-block cube: local index = cube - e_lo = (cube - g_lo) + pad
+    own = _box_sums_over(sat, np.zeros(3, dtype=np.int64), 2 * pad, grown)
+    free = viable & (own < params.corridor_threshold)
+
+    size = hi - lo
+    edges = np.zeros((len(OFFSETS), *size), dtype=bool)
+    here = free[_slices(np.ones(3, dtype=np.int64), size)]
+    for d, off in enumerate(OFFSETS):  # 10 directions, each vectorised over the block
+        there = free[_slices(1 + off, size)]  # cubes outside the grid are not free
+        # corridor [min(c, c + off) - pad, max(c, c + off) + pad]; local c = (c - lo) + 1 + pad
+        corridor = _box_sums_over(sat, 1 + np.minimum(off, 0), 1 + 2 * pad + np.maximum(off, 0),
+                                  size)
+        edges[d] = here & there & (corridor < params.corridor_threshold)
+    return viable, free, edges
+
+
+def _check_observed(params: GraphParams, observed: BoolArray | None, grid: Grid) -> None:
+    if params.unknown_is_occupied:
+        if observed is None:
+            raise ValueError("unknown_is_occupied needs the observed cubes")
+        if observed.shape != grid.shape:
+            raise ValueError(f"observed cubes: shape {observed.shape}, grid {grid.shape}")
+
+
 def build_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
                 params: GraphParams, observed: BoolArray | None = None) -> VoxelGraph:
     """The graph of ``points`` (N, 3) [m, map frame] over the field box, by the rules of
@@ -227,47 +286,54 @@ def build_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.
     ``params.unknown_is_occupied``."""
     grid = Grid.over(field_min, field_max, params.resolution)
     counts = count_points(points, grid)
-    nx, ny, nz = grid.shape
-    viable = counts <= params.occupied_threshold
-    boundary = np.zeros(grid.shape, dtype=bool)
-    boundary[[0, -1], :, :] = True
-    boundary[:, [0, -1], :] = True
-    boundary[:, :, [0, -1]] = True
-    viable &= ~boundary
-    if params.unknown_is_occupied:
-        if observed is None:
-            raise ValueError("unknown_is_occupied needs the observed cubes")
-        if observed.shape != grid.shape:
-            raise ValueError(f"observed cubes: shape {observed.shape}, grid {grid.shape}")
-        viable &= observed
+    _check_observed(params, observed, grid)
+    shape = np.asarray(grid.shape, dtype=np.int64)
+    viable, free, edges = _block(counts, params, observed, np.zeros(3, dtype=np.int64), shape)
+    inside = (slice(1, -1),) * 3
+    return VoxelGraph(grid, params, counts, viable[inside], free[inside], edges)
 
+
+def mattering_changes(old: npt.NDArray[np.int32], new: npt.NDArray[np.int32],
+                      params: GraphParams) -> BoolArray:
+    """The cubes whose new point count can change the graph. A count enters the rules only
+    through ``count <= occupied_threshold`` (the cube's viability) and through box sums
+    compared with ``corridor_threshold``; a box holding a cube with at least that many
+    points fails the comparison whatever the rest holds. So a change matters unless the
+    cube held at least ``corridor_threshold`` points before and after, on the same side of
+    ``occupied_threshold`` (e.g. the depth camera adding points to a wall already mapped)."""
+    t, o = params.corridor_threshold, params.occupied_threshold
+    same = (old >= t) & (new >= t) & ((old <= o) == (new <= o))
+    return (old != new) & ~same
+
+
+def update_graph(graph: VoxelGraph, counts: npt.NDArray[np.int32],
+                 observed: BoolArray | None = None) -> tuple[VoxelGraph, int]:
+    """The graph of new per-cube point counts (:func:`count_points` on the same grid),
+    equal to :func:`build_graph` on the new cloud, computed only over the block that the
+    changes reach: the bounding box of the :func:`mattering_changes`, grown by the
+    footprint's inflation plus one cube. Returns (graph, cubes recomputed); no mattering
+    change: the same viability, free cubes and edges, with the new counts. ``observed``
+    as for :func:`build_graph` (its changes are not tracked here: pass the same cubes)."""
+    grid, params = graph.grid, graph.params
+    if counts.shape != grid.shape:
+        raise ValueError(f"counts of shape {counts.shape} for a grid of {grid.shape}")
+    _check_observed(params, observed, grid)
+    changed = np.argwhere(mattering_changes(graph.counts, counts, params))
+    if len(changed) == 0:
+        return VoxelGraph(grid, params, counts, graph.viable, graph.free, graph.edges), 0
     n, m = params.inflation_cubes
-    # the walls, floor and ceiling enclose the field: the cubes beyond it, as far as the
-    # footprint reaches, count as full (corridor_threshold points each)
-    padded = np.pad(counts.astype(np.int64), ((n, n), (n, n), (m, m)),
-                    constant_values=params.corridor_threshold)
-    px, py, pz = padded.shape
-    sat = np.zeros((px + 1, py + 1, pz + 1), dtype=np.int64)
-    sat[1:, 1:, 1:] = padded.cumsum(0).cumsum(1).cumsum(2)
-    padded_shape = (px, py, pz)
-    pad = np.array([n, n, m], dtype=np.int64).reshape(3, 1, 1, 1)
-    cells = np.indices(grid.shape, dtype=np.int64) + pad  # (3, nx, ny, nz), padded indices
-    own_box = _box_sums(sat, cells - pad, cells + pad, padded_shape)
-    free = viable & (own_box < params.corridor_threshold)
-
-    edges = np.zeros((len(OFFSETS), nx, ny, nz), dtype=bool)
-    shape_a = np.asarray(grid.shape, dtype=np.int64).reshape(3, 1, 1, 1)
-    for d, off in enumerate(OFFSETS):  # 10 directions, each vectorised over every cube
-        o = off.reshape(3, 1, 1, 1)
-        other = cells + o
-        in_grid = np.all((other - pad >= 0) & (other - pad < shape_a), axis=0)
-        corridor = _box_sums(sat, np.minimum(cells, other) - pad, np.maximum(cells, other) + pad,
-                             padded_shape)
-        ok = in_grid & free & (corridor < params.corridor_threshold)
-        oc = np.clip(other - pad, 0, shape_a - 1)
-        ok &= free[oc[0], oc[1], oc[2]]
-        edges[d] = ok
-    return VoxelGraph(grid, params, counts, viable, free, edges)
+    reach = np.array([n, n, m], dtype=np.int64) + 1
+    shape = np.asarray(grid.shape, dtype=np.int64)
+    lo = np.maximum(changed.min(axis=0) - reach, 0)
+    hi = np.minimum(changed.max(axis=0) + 1 + reach, shape)
+    viable_b, free_b, edges_b = _block(counts, params, observed, lo, hi)
+    block = _slices(lo, hi - lo)
+    inside = (slice(1, -1),) * 3
+    viable, free, edges = graph.viable.copy(), graph.free.copy(), graph.edges.copy()
+    viable[block] = viable_b[inside]
+    free[block] = free_b[inside]
+    edges[(slice(None), *block)] = edges_b
+    return VoxelGraph(grid, params, counts, viable, free, edges), int(np.prod(hi - lo))
 
 
 # -- cache ---------------------------------------------------------------------------------
@@ -314,4 +380,4 @@ def cached_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt
 
 
 __all__ = ["OFFSETS", "OPPOSITE", "GraphParams", "Grid", "VoxelGraph", "build_graph",
-           "cache_key", "cached_graph", "count_points"]
+           "cache_key", "cached_graph", "count_points", "mattering_changes", "update_graph"]

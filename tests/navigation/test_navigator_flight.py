@@ -15,7 +15,9 @@ from navigation.cloud_msgs import cloud_msg
 from navigation.navigator_node import EXPLORE, NAVIGATE, NavigatorNode
 from navigation.path_finder_node import PathFinderNode
 from runtime import ActionClient, Node, Time, qos_profile_default, qos_profile_sensor_data
+from tests.flight_control import rig as rig_module
 from tests.flight_control.rig import FIELD, Rig, make_rig
+from tests.flight_control.scripted_fcu import ScriptedFcu
 
 # a wall at x = 5 m from y = 0 to 5 m, full height: the way round is north of y = 5
 WALL = np.array([(5.05, y, z) for y in np.arange(0.05, 5.0, 0.1)
@@ -155,3 +157,69 @@ def test_a_pillar_seen_late_on_the_leg_makes_it_replan_round_it(stack) -> None: 
     flown = np.array(mission.path)
     beside = flown[np.abs(flown[:, 0] - 3.0) < 0.1]
     assert len(beside) and np.min(np.abs(beside[:, 1] - 6.5)) > 0.35  # never through it
+
+
+class TurningFcu(ScriptedFcu):
+    """The scripted FCU, whose heading also follows the setpoint's yaw at once (the turn
+    action ends when the vehicle faces the leg)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.yaw = 0.0
+        self._odometry_pub = self.odometry_pub
+        self.odometry_pub = self  # type: ignore[assignment]  # publish() below
+
+    def publish(self, msg: Any) -> None:
+        if self.setpoint is not None and math.isfinite(self.setpoint.yaw):
+            self.yaw = float(self.setpoint.yaw)
+        msg.pose.pose.orientation.w = math.cos(self.yaw / 2.0)
+        msg.pose.pose.orientation.z = math.sin(self.yaw / 2.0)
+        self._odometry_pub.publish(msg)
+
+
+def test_after_a_turn_it_plans_again_on_what_the_camera_sees_before_flying_on(
+        monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Facing east, sent north: it turns first. What it then faces, a wall across the
+    leg, reaches the map 0.5 s after the turn (as the depth camera's clouds do): the
+    navigator waits for a map captured after the turn and goes round, rather than flying
+    the leg planned before it looked."""
+    monkeypatch.setattr(rig_module, "ScriptedFcu", TurningFcu)
+    rig = make_rig(flying_at=(1.0, 1.0, 1.5))
+    ctx = rig.ex.context
+    finder = PathFinderNode(context=ctx, parameter_overrides=FIELD)
+    nav = NavigatorNode(context=ctx, parameter_overrides=NAV_OVERRIDES | {
+        "turn_first_angle": 0.785})
+    mission = Mission(context=ctx)
+    for node in (finder, nav, mission):
+        rig.ex.add_node(node)
+    mission.map_pub.publish(cloud_msg(WALL, Time(0).to_msg(), "map"))
+    rig.ex.spin_for(0.5)
+    hidden = np.array([(x, 2.55, z) for x in np.arange(0.05, 3.0, 0.1)
+                       for z in np.arange(0.05, 4.0, 0.1)])
+    state: dict[str, float] = {}
+
+    def camera() -> None:  # the map holds the wall 0.5 s after the vehicle faces north
+        facing = abs(rig.fcu.yaw - math.pi / 2) < 0.05  # type: ignore[attr-defined]
+        if facing and "t" not in state:
+            state["t"] = rig.t()
+        if "t" in state and "sent" not in state and rig.t() >= state["t"] + 0.5:
+            mission.map_pub.publish(cloud_msg(np.vstack([WALL, hidden]),
+                                              rig.ex.now().to_msg(), "map"))
+            state["sent"] = rig.t()
+
+    goal = interfaces.new(NAVIGATE.Goal, goal=interfaces.new(
+        "geometry_msgs/msg/Point", x=1.0, y=6.0, z=1.5), yaw=math.nan)
+    handle = rig.wait(mission.navigate.send_goal_async(goal), 2.0)
+    result = handle.get_result_async()
+    t_end = rig.t() + 60.0
+    while not result.done() and rig.t() < t_end:
+        rig.ex.spin_for(0.05)
+        camera()
+    assert "sent" in state, "the vehicle never faced north"
+    r = result.result().result
+    assert r.success, r.message
+    flown = np.array(mission.path)
+    on_the_old_leg = flown[(flown[:, 0] < 1.2) & (flown[:, 1] < 2.55)]
+    assert on_the_old_leg[:, 1].max() < 1.3  # it did not set off north toward the wall
+    beside = flown[flown[:, 0] < 3.0]
+    assert np.min(np.abs(beside[:, 1] - 2.55)) > 0.35  # and went round its end

@@ -127,3 +127,20 @@ def test_the_search_limit_is_a_count_so_a_long_detour_times_out_the_same_way_eve
     for r in replies:
         assert not r.success and "PlanningTimedOut" in r.message, r.message
     assert replies[0].message == replies[1].message
+
+
+def test_a_new_map_updates_the_graph_and_the_path_carries_its_stamp(rig) -> None:  # type: ignore[no-untyped-def]
+    ex, client, finder = rig
+    short = WALL[WALL[:, 1] < 1.5]  # the wall's south half: y = 3 m passes its end
+    client.map_pub.publish(cloud_msg(short, Time(3_000_000_000).to_msg(), "map"))
+    ex.spin_for(0.1)
+    before = ask(ex, client, (1.0, 3.0, 1.0), (5.0, 3.0, 1.0))
+    assert before.success and len(path_points(before.path)) == 2  # straight past its end
+    assert Time.from_msg(before.path.header.stamp) == Time(3_000_000_000)
+    # the camera sees the rest of the wall: the graph is updated, not rebuilt
+    client.map_pub.publish(cloud_msg(WALL, Time(4_000_000_000).to_msg(), "map"))
+    ex.spin_for(0.1)
+    after = ask(ex, client, (1.0, 3.0, 1.0), (5.0, 3.0, 1.0))
+    assert after.success and path_points(after.path)[:, 1].max() > 3.3  # round the new end
+    assert Time.from_msg(after.path.header.stamp) == Time(4_000_000_000)
+    assert (finder.graph_builds, finder.graph_updates) == (1, 1)

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from navigation.errors import EmptyCloud, InvalidBounds, ResolutionTooSmall
 from navigation.voxel_graph import (
@@ -16,6 +18,8 @@ from navigation.voxel_graph import (
     build_graph,
     cache_key,
     cached_graph,
+    count_points,
+    update_graph,
 )
 
 FIELD_MIN = (0.0, 0.0, 0.0)
@@ -180,3 +184,44 @@ def test_walls_floor_and_ceiling_keep_the_footprint_away() -> None:
     assert not g.free[18, 10, 5] and g.free[17, 10, 5]  # east wall, same rule
     assert not g.free[10, 10, 1] and g.free[10, 10, 2]  # floor: 0.3 m vs 0.5 m
     assert not g.free[10, 10, 8] and g.free[10, 10, 7]  # ceiling
+
+
+def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
+    return bool(np.array_equal(a.viable, b.viable) and np.array_equal(a.free, b.free)
+                and np.array_equal(a.edges, b.edges) and np.array_equal(a.counts, b.counts))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31), added=st.integers(1, 30), removed=st.integers(0, 5),
+       radius=st.sampled_from([0.0, 0.2, 0.35]), clearance=st.sampled_from([0.0, 0.2]),
+       occupied=st.integers(0, 2), corridor=st.integers(1, 3))
+def test_an_updated_graph_is_the_graph_a_full_build_gives(  # type: ignore[no-untyped-def]
+        seed, added, removed, radius, clearance, occupied, corridor) -> None:
+    """Points added anywhere (inside, near the walls, beside full cubes) and removed: the
+    update recomputes a block only, and the graph is the full build's, cube for cube."""
+    rng = np.random.default_rng(seed)
+    gp = params(footprint_radius=radius, vertical_clearance=clearance,
+                occupied_threshold=occupied, corridor_threshold=corridor)
+    before = rng.uniform(FIELD_MIN, FIELD_MAX, (60, 3))
+    after = np.vstack([before[removed:], rng.uniform(FIELD_MIN, FIELD_MAX, (added, 3)),
+                       before[:added] + rng.normal(0.0, 0.1, (added, 3))])
+    old = build_graph(before, FIELD_MIN, FIELD_MAX, gp)
+    updated, _ = update_graph(old, count_points(after, old.grid))
+    assert _same(updated, build_graph(after, FIELD_MIN, FIELD_MAX, gp))
+
+
+def test_points_added_to_full_cubes_change_nothing_and_a_new_point_a_block_only() -> None:
+    gp = params(footprint_radius=0.35)  # 2 cubes of inflation
+    wall = np.array([(2.05, y, z) for y in np.arange(0.05, 4.0, 0.1)
+                     for z in np.arange(0.05, 2.0, 0.1)])
+    old = build_graph(wall, FIELD_MIN, FIELD_MAX, gp)
+    # the camera sees more of the wall: new voxels, in cubes that already held points
+    denser = np.vstack([wall, wall + (0.1, 0.0, 0.0)])
+    same, cubes = update_graph(old, count_points(denser, old.grid))
+    assert cubes == 0 and _same(same, build_graph(denser, FIELD_MIN, FIELD_MAX, gp))
+    # a new obstacle point: only the block its footprint reaches, +1 cube, is recomputed
+    pillar = np.vstack([wall, [[0.9, 0.9, 1.0]]])
+    new, cubes = update_graph(old, count_points(pillar, old.grid))
+    assert cubes == 7 * 7 * 3  # (1 + 2 * (2 + 1)) cubes across, (1 + 2 * (0 + 1)) high
+    assert _same(new, build_graph(pillar, FIELD_MIN, FIELD_MAX, gp))
+    assert not new.free[4, 4, 5] and old.free[4, 4, 5]

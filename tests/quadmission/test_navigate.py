@@ -47,6 +47,7 @@ def test_the_leg_reaches_the_pad_behind_the_wall_without_touching_anything(run) 
 def test_the_map_came_from_the_depth_camera_and_the_planner_used_it(run) -> None:  # type: ignore[no-untyped-def]
     report, _ = run
     assert report["map_points"] > 1000
-    assert report["graph_builds"] > 1  # re-planned on the growing live map
+    # planned on the growing live map: built once, then updated where it grew
+    assert report["graph_builds"] == 1 and report["graph_updates"] > 1, report
     assert all(v is not None and v < 0.3 for v in report["rmse_m"].values()), report["rmse_m"]
 
