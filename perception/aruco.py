@@ -101,11 +101,12 @@ class ScannerSettings:
     threshold_constant: float = 7.0  # grey levels below the local mean (OpenCV: 7)
     min_perimeter_rate: float = 0.02  # of the image's larger side (OpenCV: 0.03)
     stretch_blur_px: float = 0.7  # Gaussian sigma after the stretch
-    # STRETCH runs only on frames whose median grey level is at most this: dark frames sit
-    # at ~7, light ones at ~100, and in the light the pass found nothing the first did not
-    # (bench_scanner_overhead.py, bench_aruco_table1.py) while it cost ~11 ms on every
-    # frame without a marker; 255 = always
-    stretch_max_median: float = 40.0
+    # STRETCH's adaptive windows [px]: its threshold constant of 3 on a stretched, noisy
+    # frame makes many candidate contours, so it was the costly pass (~50 ms vs ~5 ms on an
+    # empty frame); 13-33 px (3 windows) instead of 3-53 (6) lost none of the 103 markers
+    # NONE + STRETCH read on 390 frames over the arena, light and dark, nor a Table 1 cell
+    stretch_win_min: int = 13
+    stretch_win_max: int = 33
     small_max_px: int = 40  # px, SMALL looks at dark squares up to this side
     small_max_candidates: int = 60  # per frame, nearest the image centre first
     # SMALL accepts a candidate when its sampled module grid correlates with a whitelisted
@@ -122,6 +123,9 @@ class ScannerSettings:
             raise ValueError(
                 f"ScannerSettings: adaptive windows [{self.adaptive_win_min}, "
                 f"{self.adaptive_win_max}] px must satisfy 3 <= min <= max")
+        if not 3 <= self.stretch_win_min <= self.stretch_win_max:
+            raise ValueError(f"ScannerSettings: STRETCH windows [{self.stretch_win_min}, "
+                             f"{self.stretch_win_max}] px must satisfy 3 <= min <= max")
         if self.adaptive_win_step < 1:
             raise ValueError(f"ScannerSettings.adaptive_win_step: {self.adaptive_win_step} < 1")
         if not 0.0 < self.min_perimeter_rate < 4.0:
@@ -214,7 +218,8 @@ def _dictionary() -> cv2.aruco.Dictionary:
 
 
 def _detector(settings: ScannerSettings, constant: float | None = None,
-              min_perimeter_rate: float | None = None) -> cv2.aruco.ArucoDetector:
+              min_perimeter_rate: float | None = None,
+              windows: tuple[int, int] | None = None) -> cv2.aruco.ArucoDetector:
     params = cv2.aruco.DetectorParameters()
     if settings != ScannerSettings.opencv_defaults():
         params.adaptiveThreshWinSizeMin = settings.adaptive_win_min
@@ -226,6 +231,8 @@ def _detector(settings: ScannerSettings, constant: float | None = None,
         params.adaptiveThreshConstant = constant
     if min_perimeter_rate is not None:
         params.minMarkerPerimeterRate = min_perimeter_rate
+    if windows is not None:
+        params.adaptiveThreshWinSizeMin, params.adaptiveThreshWinSizeMax = windows
     if settings.subpixel:
         params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
     return cv2.aruco.ArucoDetector(_dictionary(), params)
@@ -369,7 +376,9 @@ class ArucoScanner:
     def __init__(self, settings: ScannerSettings | None = None) -> None:
         self.settings = settings or ScannerSettings()
         self._detector = _detector(self.settings)
-        self._candidates = _detector(self.settings, constant=3.0)
+        self._candidates = _detector(self.settings, constant=3.0,
+                                     windows=(self.settings.stretch_win_min,
+                                              self.settings.stretch_win_max))
 
     @staticmethod
     def _collect(found: dict[int, FloatArray], mode: ScanMode, corners: Any, ids: Any,
@@ -423,9 +432,6 @@ class ArucoScanner:
                 self._collect(found, mode, corners, ids)
                 rejected.extend(rej)
             elif how is Preprocess.STRETCH:
-                if self.settings.stretch_max_median < 255.0 and \
-                        float(np.median(grey[::4, ::4])) > self.settings.stretch_max_median:
-                    continue  # bright enough: the stretch would not change the thresholds
                 smooth = cv2.GaussianBlur(stretch(grey), (0, 0), self.settings.stretch_blur_px)
                 corners, ids, rej = self._candidates.detectMarkers(smooth)
                 self._collect(found, mode, corners, ids)
