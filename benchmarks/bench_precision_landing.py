@@ -6,8 +6,11 @@ Landings run over random arenas (``sim/arena_generator.py``) and pads in a seede
 ``--landings`` of them (default 30), each flown with both strategies from the same start
 through the whole companion stack (``quadmission/precision_landing.py``); the error is
 the true touchdown point against the pad centre. Writes RMSE, max, inside-pad count and
-the ratio ours/seed to ``--out`` (default benchmarks/results/precision_landing.json).
-Slow: ~1 min of host time per landing on an idle 2-core machine.
+the ratio ours/seed to ``--out`` (default benchmarks/results/precision_landing.json),
+rewritten after every landing so a long run can be read while it goes.
+Slow: ~1 min of host time per landing and strategy on an idle 2-core machine, so
+``--only A:B`` flies the landings A..B-1 alone (the same landings as in the full run) and
+``--merge OUT PART...`` joins such parts into one result.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -25,32 +29,58 @@ from quadmission.precision_landing import fly_episode, landing_json, start_posit
 from sim.arena import Lighting
 from sim.arena_generator import generate_arena
 
+STRATEGIES = ("seed", "capture")  # precision_land's strategy parameter: the seed's, ours
 
-def run(landings: int, seed: int, lighting: Lighting) -> dict[str, object]:
+
+def result_of(episodes: dict[str, list[dict[str, Any]]], landings: int, seed: int,
+              lighting: str) -> dict[str, Any]:
+    """The benchmark's JSON of the episodes flown so far (both strategies, same order)."""
+    s = {k: summary(v) for k, v in episodes.items()}
+    ours, base = s["capture"]["rmse_m"], s["seed"]["rmse_m"]
+    ratio = ours / base if base and ours is not None else math.nan
+    flown = min(len(v) for v in episodes.values())
+    return {"benchmark": "precision_landing", "landings": landings, "flown": flown,
+            "seed": seed, "lighting": lighting, "seed_algorithm": s["seed"], "ours": s["capture"],
+            "rmse_ratio_ours_over_seed": None if math.isnan(ratio) else round(ratio, 3),
+            "episodes": episodes}
+
+
+def run(landings: int, seed: int, lighting: Lighting, only: range, out: Path) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
-    results: dict[str, list[dict[str, object]]] = {"seed": [], "capture": []}
+    episodes: dict[str, list[dict[str, Any]]] = {k: [] for k in STRATEGIES}
+    result = result_of(episodes, landings, seed, lighting.value)
     for i in range(landings):
+        # every landing draws its arena and pad, flown or not: a part flies the same ones
         arena_seed = int(rng.integers(1, 10_000))
-        arena = generate_arena(arena_seed)
-        arena = replace(arena, lighting=lighting)
-        pad = arena.pads[int(rng.integers(len(arena.pads)))]
+        pad_index = int(rng.integers(1_000_000))
+        if i not in only:
+            continue
+        arena = replace(generate_arena(arena_seed), lighting=lighting)
+        pad = arena.pads[pad_index % len(arena.pads)]
         start = start_position(arena, pad, np.random.default_rng([seed, i]))
-        for strategy, out in results.items():
+        for strategy, done in episodes.items():
             episode = fly_episode(arena, pad, start, seed=seed * 1000 + i,
                                   landing_overrides={"strategy": strategy})
-            d = landing_json(episode) | {"arena_seed": arena_seed}
-            out.append(d)
+            d = landing_json(episode) | {"landing": i, "arena_seed": arena_seed}
+            done.append(d)
             err = d["touchdown_error_m"]
             print(f"{i + 1:2d}/{landings} arena {arena_seed} pad {pad.id} {strategy:7s}: "
-                  + ("failed" if err is None else f"{100 * float(err):.1f} cm"),
+                  + ("failed: " + d["message"] if err is None else f"{100 * float(err):.1f} cm"),
                   file=sys.stderr)
-    s = {k: summary(v) for k, v in results.items()}
-    ratio = (s["capture"]["rmse_m"] / s["seed"]["rmse_m"]
-             if s["seed"]["rmse_m"] and s["capture"]["rmse_m"] is not None else math.nan)
-    return {"benchmark": "precision_landing", "landings": landings, "seed": seed,
-            "lighting": lighting.value, "seed_algorithm": s["seed"], "ours": s["capture"],
-            "rmse_ratio_ours_over_seed": None if math.isnan(ratio) else round(ratio, 3),
-            "episodes": results}
+        result = result_of(episodes, landings, seed, lighting.value)
+        out.write_text(json.dumps(result, indent=2) + "\n")
+    return result
+
+
+def merge(parts: list[dict[str, Any]]) -> dict[str, Any]:
+    """One result of parts of the same run (same landings, seed, lighting)."""
+    keys = {(p["landings"], p["seed"], p["lighting"]) for p in parts}
+    if len(keys) != 1:
+        raise ValueError(f"merge: the parts come from different runs: {sorted(keys)}")
+    ((landings, seed, lighting),) = keys
+    episodes = {k: sorted((d for p in parts for d in p["episodes"][k]),
+                          key=lambda d: d["landing"]) for k in STRATEGIES}
+    return result_of(episodes, landings, seed, lighting)
 
 
 def main() -> None:
@@ -60,10 +90,21 @@ def main() -> None:
     parser.add_argument("--landings", type=int, default=30)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--lighting", choices=[x.value for x in Lighting], default="light")
+    parser.add_argument("--only", default=None, metavar="A:B",
+                        help="fly only the landings A..B-1 of the run")
+    parser.add_argument("--merge", nargs="+", type=Path, default=None, metavar="PART",
+                        help="join parts written with --only into --out")
     args = parser.parse_args()
-    result = run(args.landings, args.seed, Lighting(args.lighting))
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    if args.merge:
+        result = merge([json.loads(p.read_text()) for p in args.merge])
+        args.out.write_text(json.dumps(result, indent=2) + "\n")
+        return
+    only = range(args.landings)
+    if args.only is not None:
+        a, _, b = args.only.partition(":")
+        only = range(int(a or 0), int(b or args.landings))
+    run(args.landings, args.seed, Lighting(args.lighting), only, args.out)
 
 
 if __name__ == "__main__":

@@ -220,7 +220,12 @@ def precision_landing(options: ScenarioOptions) -> dict[str, Any]:
     """Land on every pad of the arena, one episode each; write report.json and
     touchdowns.png into ``options.out``."""
     arena = options.load_arena()
-    landings = run_landings(options, arena, arena.pads)
+    return write_landing_report(options, arena, run_landings(options, arena, arena.pads))
+
+
+def write_landing_report(options: ScenarioOptions, arena: ArenaSpec,
+                         landings: list[dict[str, Any]]) -> dict[str, Any]:
+    """report.json and touchdowns.png of the landings flown (one per pad, in pad order)."""
     s = summary(landings)
     verdict = (f"{s['landed']}/{len(landings)} landed, "
                f"{sum(d['inside_pad'] for d in landings)} inside the pad, "
@@ -239,4 +244,4 @@ def precision_landing(options: ScenarioOptions) -> dict[str, Any]:
 
 
 __all__ = ["fly_episode", "landing_json", "precision_landing", "run_landings",
-           "start_position", "summary"]
+           "start_position", "summary", "write_landing_report"]

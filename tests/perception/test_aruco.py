@@ -168,3 +168,52 @@ def test_a_12_px_marker_needs_the_small_pass():
             hits["ours"] += set(ArucoScanner().find(frame, wanted=[5])) == {5}
     assert hits["ours"] == 6
     assert hits["defaults"] < 6
+
+
+def _marker_image(marker_id: int, angle_deg: float) -> np.ndarray:
+    import cv2
+
+    from perception.aruco import _dictionary
+
+    img = np.full((300, 300), 255, np.uint8)
+    img[100:190, 100:190] = _dictionary().generateImageMarker(marker_id, 90, borderBits=1)
+    turn = cv2.getRotationMatrix2D((145.0, 145.0), angle_deg, 1.0)
+    return np.asarray(cv2.warpAffine(img, turn, (300, 300), borderValue=255))
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 35.0, 100.0, 250.0])
+@pytest.mark.parametrize("roll", [0, 1, 2, 3])
+def test_small_decoding_names_the_marker_and_opencv_corner_order(angle_deg, roll):
+    """decode_small on a quad given from any corner: the right ID, and the corners in
+    OpenCV's order (the marker's top-left first) whichever corner the quad started at."""
+    import cv2
+
+    from perception.aruco import _dictionary, decode_small
+
+    image = _marker_image(7, angle_deg)
+    detector = cv2.aruco.ArucoDetector(_dictionary(), cv2.aruco.DetectorParameters())
+    corners, ids, _ = detector.detectMarkers(image)
+    assert ids is not None and ids.ravel().tolist() == [7]
+    opencv = corners[0].reshape(4, 2).astype(np.float64)
+    hit = decode_small(image.astype(np.float32), np.roll(opencv, roll, axis=0), (3, 7, 12))
+    assert hit is not None and hit.id == 7
+    assert hit.correlation > 0.95 and hit.margin > 0.3
+    assert hit.corners_px == pytest.approx(opencv, abs=1.0)
+
+
+def test_small_decoding_rejects_a_square_that_is_no_whitelisted_marker():
+    """A dark square with a pattern of another ID (999, not whitelisted) falls below the
+    scanner's acceptance thresholds for the contest's IDs."""
+    import cv2
+
+    from perception.aruco import PAD_IDS, ROBOT_IDS, _dictionary, decode_small
+
+    image = _marker_image(999, 20.0)
+    detector = cv2.aruco.ArucoDetector(_dictionary(), cv2.aruco.DetectorParameters())
+    corners, _, _ = detector.detectMarkers(image)
+    settings = ScannerSettings()
+    hit = decode_small(image.astype(np.float32), corners[0].reshape(4, 2),
+                       tuple(sorted(PAD_IDS | ROBOT_IDS)))
+    assert hit is not None
+    assert hit.correlation < settings.small_min_correlation or \
+        hit.margin < settings.small_min_margin

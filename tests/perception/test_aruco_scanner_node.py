@@ -1,5 +1,6 @@
 """The scanner node through its topics: rendered frames in, markers out with the capture
-stamp; the mode whitelist; the enable service; health."""
+stamp; a robot marker out as robot_found with its map position (from the pose at the
+capture stamp) and decodable pictures; the mode whitelist; the enable service; health."""
 
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ def frames():
         place_quadrotor(scene.model, scene.data, scene.index, (rx, ry, 1.6))
         robot = renderer.down_image(scene.data)
     return {"intrinsics": CameraIntrinsics.from_camera(scene.quad.down_camera), "pad": pad,
-            "robot": robot, "robot_id": arena.robots[0].marker_id}
+            "robot": robot, "robot_id": arena.robots[0].marker_id, "robot_xy": (rx, ry)}
 
 
 def _rig(**overrides: Any) -> tuple[DeterministicExecutor, _Camera, ArucoScannerNode]:
@@ -115,3 +116,76 @@ def test_health_reports_a_missing_camera():
     ex.spin_for(2.1)
     assert camera.health[-1].level == 2  # ERROR
     assert "no image" in camera.health[-1].modules[0].message
+
+
+class _Fcu(Node):
+    """Answers ``/fcu/pose_at`` (the bridge's contract) with the pose each frame was
+    rendered from, and records the stamps it was asked for."""
+
+    def __init__(self, poses_by_stamp: dict[int, tuple[float, float, float]],
+                 **kwargs: Any) -> None:
+        super().__init__("test_fcu", **kwargs)
+        self.poses = poses_by_stamp
+        self.asked: list[int] = []
+        self.create_service(interfaces.get_service("quadmission_interfaces/srv/PoseAt"),
+                            "/fcu/pose_at", self._on)
+
+    def _on(self, request: Any, response: Any) -> Any:
+        stamp_ns = Time.from_msg(request.stamp).nanoseconds
+        self.asked.append(stamp_ns)
+        if stamp_ns not in self.poses:
+            response.success, response.message = False, "no pose at that time"
+            return response
+        x, y, z = self.poses[stamp_ns]
+        response.success = True
+        p = response.odometry.pose.pose
+        p.position.x, p.position.y, p.position.z = x, y, z
+        p.orientation.w = 1.0  # the frames are rendered heading east (yaw 0)
+        return response
+
+
+def _decode_jpeg(picture: Any) -> np.ndarray:
+    import cv2
+
+    assert picture.format == "jpeg"
+    bgr = cv2.imdecode(np.asarray(picture.data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    assert bgr is not None, "the picture is not a decodable JPEG"
+    return np.asarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+
+
+def test_a_robot_marker_yields_robot_found_with_its_map_position_and_pictures(frames):
+    from perception.aruco import ArucoScanner, ScanMode
+    from perception.aruco_scanner_node import ROBOT_FOUND_TOPIC
+
+    ex, camera, _ = _rig(mode="robots")
+    stamp_ns = 2_500_000_000
+    rx, ry = frames["robot_xy"]
+    fcu = _Fcu({stamp_ns: (rx, ry, 1.6)}, context=ex.context)
+    ex.add_node(fcu)
+    found: list[Any] = []
+    camera.create_subscription("quadmission_interfaces/msg/RobotFound", ROBOT_FOUND_TOPIC,
+                               found.append, qos_profile_default)
+    ex.spin_for(0.05)
+    camera.send(frames["pad"], frames["intrinsics"], stamp_ns - 100_000_000)  # no robot
+    camera.send(frames["robot"], frames["intrinsics"], stamp_ns)
+    ex.spin_for(0.2)
+    assert fcu.asked == [stamp_ns]  # the pose of the capture instant, nothing else
+    (msg,) = found
+    assert msg.marker_id == frames["robot_id"]
+    assert Time.from_msg(msg.header.stamp).nanoseconds == stamp_ns
+    assert msg.header.frame_id == "map"
+    # the marker lies on the robot right below the camera: its map position is the robot's
+    assert (msg.pose.position.x, msg.pose.position.y) == pytest.approx((rx, ry), abs=0.03)
+    assert msg.sightings == 1
+    raw = _decode_jpeg(msg.picture_raw)
+    annotated = _decode_jpeg(msg.picture_annotated)
+    assert raw.shape == annotated.shape == frames["robot"].shape
+    # the raw picture is the frame as captured: the marker still decodes from it
+    assert set(ArucoScanner().find(raw, ScanMode.ROBOTS)) == {frames["robot_id"]}
+    # the annotated one outlines the marker: orange (255, 64, 0) on its corners
+    ((corners,),) = [ArucoScanner().find(frames["robot"], ScanMode.ROBOTS).values()]
+    for u, v in np.round(corners).astype(int):
+        patch = annotated[v - 2:v + 3, u - 2:u + 3].reshape(-1, 3).astype(int)
+        assert any(r > 180 and b < 90 for r, _, b in patch), f"no outline at ({u}, {v})"
+        raw_patch = raw[v - 2:v + 3, u - 2:u + 3].reshape(-1, 3).astype(int)
+        assert not any(r > 180 and b < 90 for r, _, b in raw_patch)
