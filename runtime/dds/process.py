@@ -207,6 +207,8 @@ def main(argv: list[str] | None = None) -> int:
     spec = ProcessSpec.from_json(args[0])
     logging.basicConfig(level=spec.log_level, stream=sys.stderr,
                         format=f"[{spec.name}] %(levelname)s %(message)s")
+    if logging.getLevelName(spec.log_level) > logging.DEBUG:  # as `quadmission` without -v:
+        logging.getLogger("transitions").setLevel(logging.WARNING)  # no line per callback
     return run_simulator(spec) if spec.simulator is not None else run_nodes(spec)
 
 
