@@ -37,6 +37,7 @@ from functools import partial
 from typing import Any
 
 import interfaces
+from flight_control.clients import arm, arm_client
 from fsm.mission_machine import EventKind, Mission, MissionConfig, MissionEvent, Severity
 from fsm.mission_table import ErrorCause, phase_of
 from fsm.params import FIELD_SOURCE, MissionParams, PadsParams
@@ -52,7 +53,6 @@ from runtime import (
 from runtime.action import ClientGoalHandle, GoalStatus
 
 QM = "quadmission_interfaces"
-ARM = interfaces.get_service(f"{QM}/srv/Arm")
 TAKEOFF = interfaces.get_action(f"{QM}/action/Takeoff")
 LAND = interfaces.get_action(f"{QM}/action/Land")
 REACH = interfaces.get_action(f"{QM}/action/Reach")
@@ -125,7 +125,7 @@ class MissionNode(Node):
         self._active: tuple[ActionClient, ClientGoalHandle] | None = None
         self._collecting = False
 
-        self.arm_client = self.create_client(ARM, "/flight_control/arm")
+        self.arm_client = arm_client(self)
         self.clients = {name: ActionClient(self, kind, topic)
                         for name, (kind, topic) in ACTIONS.items()}
         self.state_pub = self.create_publisher(STATE, STATE_TOPIC, LATCHED)
@@ -268,15 +268,9 @@ class MissionNode(Node):
             result = await self._goal("reach", _reach_goal(x, y, self.params.cruise_altitude))
         else:
             if not (s is not None and s.armed):
-                message = ""
-                for _ in range(self.params.arm_attempts):
-                    response = await self.arm_client.call_async(interfaces.new(ARM.Request))
-                    if response.success:
-                        break
-                    message = str(response.message)
-                    await self.sleep(1.0)
-                else:
-                    return self.mission.action_failed(f"arm: {message}")
+                refused = await arm(self, self.arm_client, self.params.arm_attempts)
+                if refused is not None:
+                    return self.mission.action_failed(f"arm: {refused}")
             # from the start pad the navigator's take-off also maps all around; from a
             # sequence pad the flight-control take-off is enough
             first = self.mission.state == "mission.takeoff"

@@ -21,9 +21,9 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
+from flight_control.clients import arm, arm_client
 from runtime import ActionClient, Node, qos_profile_default
 
-ARM = interfaces.get_service("quadmission_interfaces/srv/Arm")
 TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
 REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
 LAND = interfaces.get_action("quadmission_interfaces/action/Land")
@@ -78,7 +78,7 @@ class SquarePilot(Node):
         self.corner_index = 0  # the corner being flown to (during SQUARE)
         self.outcome: PilotOutcome | None = None
         self._health_level: int | None = None
-        self.arm_client = self.create_client(ARM, "/flight_control/arm")
+        self.arm_client = arm_client(self)
         self.takeoff = ActionClient(self, TAKEOFF, "/flight_control/takeoff")
         self.reach = ActionClient(self, REACH, "/flight_control/reach")
         self.land = ActionClient(self, LAND, "/flight_control/land")
@@ -121,15 +121,9 @@ class SquarePilot(Node):
             await self.sleep(0.1)
             waited += 0.1
         self._enter(PilotPhase.ARM)
-        message = ""
-        for _ in range(self.arm_attempts):
-            response = await self.arm_client.call_async(interfaces.new(ARM.Request))
-            if response.success:
-                break
-            message = str(response.message)
-            await self.sleep(1.0)
-        else:
-            self._finish(False, f"arm: {message}")
+        refused = await arm(self, self.arm_client, self.arm_attempts)
+        if refused is not None:
+            self._finish(False, f"arm: {refused}")
             return
         self._enter(PilotPhase.TAKEOFF)
         ok, message = await self._goal(self.takeoff,
