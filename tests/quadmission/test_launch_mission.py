@@ -23,11 +23,12 @@ ROOT = Path(__file__).resolve().parents[2]
 MISSION = ROOT / "config" / "launch" / "mission.yaml"
 
 
-def _variant(tmp_path: Path, factory: str, parameters: dict[str, Any]) -> Path:
-    """mission.yaml with ``parameters`` added to the node made by ``factory``."""
+def _variant(tmp_path: Path, parameters: dict[str, dict[str, Any]]) -> Path:
+    """mission.yaml with ``parameters[factory]`` added to the node made by ``factory``."""
     doc = yaml.safe_load(MISSION.read_text(encoding="utf-8"))
-    (node,) = [n for n in doc["nodes"] if n["factory"] == factory]
-    node["parameters"] = dict(node.get("parameters") or {}) | parameters
+    for factory, extra in parameters.items():
+        (node,) = [n for n in doc["nodes"] if n["factory"] == factory]
+        node["parameters"] = dict(node.get("parameters") or {}) | extra
     path = tmp_path / "mission.yaml"
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     return path
@@ -41,8 +42,8 @@ def _launch(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_mission_launch_over_dds_reaches_the_exploration(tmp_path: Path) -> None:
-    launch_file = _variant(tmp_path, "quadmission.mission_launch:mission",
-                           {"until_state": "mission.explore"})
+    launch_file = _variant(tmp_path, {"quadmission.mission_launch:mission": {
+        "until_state": "mission.explore"}})
     domain = 100 + (os.getpid() + 30) % 120  # not the other tests' domains
     out = _launch(str(launch_file), "--transport", "dds", "--domain-id", str(domain),
                   "--duration", "120")
@@ -56,8 +57,11 @@ def test_mission_launch_over_dds_reaches_the_exploration(tmp_path: Path) -> None
 def test_mission_launch_in_process_fails_with_the_reason(tmp_path: Path) -> None:
     # No visual odometry at all: the FCU never has a position estimate, so the mission
     # cannot get past its preflight and stops, saying why.
-    launch_file = _variant(tmp_path, "flight_control.vio_node:VioNode", {"enabled": False})
-    out = _launch(str(launch_file), "--duration", "120")
+    launch_file = _variant(tmp_path, {
+        "flight_control.vio_node:VioNode": {"enabled": False},
+        "quadmission.mission_launch:mission": {"preflight_timeout_s": 3.0}})
+    out = _launch(str(launch_file), "--duration", "60")
     assert out.returncode == 1, out.stderr[-3000:]
     reason = json.loads(out.stdout)["reason"]
     assert reason.startswith("STOPPED at "), reason
+    assert "preflight_failed" in reason and "no valid position estimate" in reason, reason
