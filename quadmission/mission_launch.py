@@ -102,14 +102,14 @@ class LaunchedMission(MissionNode):
     def __init__(self, *, until_state: str | None = None, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.until_state = until_state
-        self._reached: tuple[float, str] | None = None
+        self._reached: str | None = None  # the until_state entered
 
     def state_changed(self, state: str) -> None:
         super().state_changed(state)
         until = self.until_state
         if until and self._reached is None and (state == until
                                                  or state.startswith(until + ".")):
-            self._reached = (self.now().seconds, state)
+            self._reached = state
 
     @property
     def exit_code(self) -> int | None:
@@ -123,17 +123,16 @@ class LaunchedMission(MissionNode):
     def exit_reason(self) -> str:
         m = self.mission
         if self._reached is not None:
-            t, state = self._reached
-            return f"reached {state} at {t:.1f} s"
+            return f"reached {self._reached}"
         if not m.finished:
             return f"flying ({m.state})"
         landed = sum(1 for _, e in self.events if e.kind is EventKind.LANDED)
         summary = (f"score {m.score}, {landed} landings of the sequence "
                    f"{list(m.sequence)}")
         if m.state == "completed" and m.stop is None:
-            return f"completed at {self.now().seconds:.1f} s: {summary}"
+            return f"completed: {summary}"
         why = m.stop.describe() if m.stop is not None else m.state
-        return f"STOPPED at {self.now().seconds:.1f} s: {why}; {summary}"
+        return f"STOPPED: {why}; {summary}"
 
 
 def mission(*, parameter_overrides: dict[str, Any] | None = None,

@@ -49,7 +49,7 @@ def test_mission_launch_over_dds_reaches_the_exploration(tmp_path: Path) -> None
                   "--duration", "120")
     assert out.returncode == 0, out.stderr[-3000:]
     assert json.loads(out.stdout)["reason"].startswith("process 'mission'")
-    assert "[mission] reached mission.explore at" in out.stderr, out.stderr[-3000:]
+    assert "[mission] reached mission.explore\n" in out.stderr, out.stderr[-3000:]
     for process in ("simulator", "companion", "perception", "navigation", "mission"):
         assert f"started {process} (pid" in out.stderr
 
@@ -63,5 +63,5 @@ def test_mission_launch_in_process_fails_with_the_reason(tmp_path: Path) -> None
     out = _launch(str(launch_file), "--duration", "60")
     assert out.returncode == 1, out.stderr[-3000:]
     reason = json.loads(out.stdout)["reason"]
-    assert reason.startswith("STOPPED at "), reason
+    assert reason.startswith("STOPPED: "), reason
     assert "preflight_failed" in reason and "no valid position estimate" in reason, reason
