@@ -1,7 +1,7 @@
 """Same seed, same mission: two runs of the mission's first 25 s through every node (the
 take-off with its survey, mapping, the scanner on noisy frames, the start of the
 exploration) give the same report but for the ``host`` block: the same states at the same
-times, the same distance flown and tracking errors.
+times, the same distance flown and tracking errors."""
 
 from __future__ import annotations
 
