@@ -19,7 +19,10 @@ simulated time. It has to stay well under the FCU time sync's 10 ms RTT gate and
 its 1 ms deviation floor: with 0.25 s, a bridge descheduled for a few milliseconds at
 ``--rtf 3`` saw its exchanges skewed by as much, its clock estimate lost convergence, it
 held the visual odometry back (a sample time on a wrong clock is worse than none) and
-the FCU's position estimate timed out ("no valid position estimate").
+the FCU's position estimate timed out ("no valid position estimate"). While it waits, the
+simulator sends the current ``/clock`` again every 0.1 s of host time: ``/clock`` is best
+effort (as rclcpp subscribes it), and a process that lost the last samples could not
+catch up otherwise (a full mission once stalled so, all processes idle, at 281 s).
 """
 
 from __future__ import annotations
@@ -51,6 +54,8 @@ EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
 _CLOCK_PUB_QOS = QoSProfile(depth=1)  # reliable, volatile, keep last 1
+_WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
+_CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
 
 
 def ack_topic(process: str) -> str:
@@ -179,13 +184,18 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     def tick(t_ns: int) -> None:
         sec, nsec = divmod(t_ns, 1_000_000_000)
-        clock_pub.publish(interfaces.new(CLOCK_TYPE, clock=interfaces.new(
-            "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)))
+        clock = interfaces.new(CLOCK_TYPE, clock=interfaces.new(
+            "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec))
+        clock_pub.publish(clock)
         transport.dispatch()
+        repeat_at = time.monotonic() + _CLOCK_REPEAT_S
         while reached and min(reached.values()) < t_ns - max_lead_ns and not stop["now"]:
-            transport.wait(0.01)  # a node process lags: let it catch up
+            transport.wait(_WAIT_S)  # a node process lags: let it catch up
             transport.dispatch()
             ex.spin_until(ex.now().nanoseconds)  # its reports, taken at this time
+            if time.monotonic() >= repeat_at:  # /clock is best effort: a process that
+                clock_pub.publish(clock)  # lost the last samples would wait forever
+                repeat_at = time.monotonic() + _CLOCK_REPEAT_S
         if spec.rtf > 0:
             ahead = (t_ns - sim0) / 1e9 / spec.rtf - (time.perf_counter() - wall0)
             if ahead > 0:
