@@ -22,7 +22,8 @@ held the visual odometry back (a sample time on a wrong clock is worse than none
 the FCU's position estimate timed out ("no valid position estimate"). While it waits, the
 simulator sends the current ``/clock`` again every 0.1 s of host time: ``/clock`` is best
 effort (as rclcpp subscribes it), and a process that lost the last samples could not
-catch up otherwise (a full mission once stalled so, all processes idle, at 281 s).
+catch up otherwise (a full mission once stalled at 281 s with every process idle,
+most likely so).
 """
 
 from __future__ import annotations
