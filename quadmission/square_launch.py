@@ -28,7 +28,8 @@ from sim.arena import ArenaSpec, default_arena, load_arena
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.world import Scene, StopWhen, WorldStatus
 
-__all__ = ["LaunchedSquarePilot", "SitlSimulation", "flight_control", "sitl", "square_pilot"]
+__all__ = ["LaunchedSquarePilot", "SitlSimulation", "flight_control", "launch_arena", "pop_arena",
+           "sitl", "square_pilot"]
 
 
 #: How long the pilot waits for the flight-control layer to report ready [s of simulated
@@ -37,7 +38,8 @@ __all__ = ["LaunchedSquarePilot", "SitlSimulation", "flight_control", "sitl", "s
 READY_TIMEOUT_S = 60.0
 
 
-def _arena(arena: str | None) -> ArenaSpec:
+def launch_arena(arena: str | None) -> ArenaSpec:
+    """The ``arena`` launch parameter's arena: an arena YAML, or the default arena."""
     return load_arena(arena) if arena else default_arena()
 
 
@@ -78,20 +80,20 @@ class SitlSimulation:
 def sitl(executor: DeterministicExecutor, *, arena: str | None = None,
          seed: int = 0) -> SitlSimulation:
     """The simulator factory: the quadrotor on the start pad, FCU booted, in ``arena``."""
-    return SitlSimulation(build_sitl(_arena(arena), seed=seed, executor=executor))
+    return SitlSimulation(build_sitl(launch_arena(arena), seed=seed, executor=executor))
 
 
-def _pop_arena(parameter_overrides: dict[str, Any] | None) -> tuple[ArenaSpec, dict[str, Any]]:
+def pop_arena(parameter_overrides: dict[str, Any] | None) -> tuple[ArenaSpec, dict[str, Any]]:
     """The ``arena`` launch parameter (an arena YAML; default arena when absent) and the
     node's own parameters."""
     rest = dict(parameter_overrides or {})
-    return _arena(rest.pop("arena", None)), rest
+    return launch_arena(rest.pop("arena", None)), rest
 
 
 def flight_control(*, parameter_overrides: dict[str, Any] | None = None,
                    **kwargs: Any) -> FlightControlNode:
     """The flight-control node with the arena's field as its flyable volume."""
-    arena, rest = _pop_arena(parameter_overrides)
+    arena, rest = pop_arena(parameter_overrides)
     overrides = field_bounds(arena) | rest
     return FlightControlNode(parameter_overrides=overrides, **kwargs)
 
@@ -116,7 +118,7 @@ class LaunchedSquarePilot(SquarePilot):
 def square_pilot(*, parameter_overrides: dict[str, Any] | None = None,
                  **kwargs: Any) -> Node:
     """The mission script flying the square fitted to the ``arena`` parameter's arena."""
-    arena, rest = _pop_arena(parameter_overrides)
+    arena, rest = pop_arena(parameter_overrides)
     if rest:
         raise ValueError(f"square_pilot takes only 'arena', got {sorted(rest)}")
     plan = fit_square(arena)

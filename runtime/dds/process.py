@@ -8,6 +8,22 @@ executor on the same transport and, about every millisecond of simulated time, p
 ``/clock``, takes the samples that arrived and paces to ``rtf`` times real time. It waits
 for the node processes' ``/clock`` subscriptions before it starts, so no simulated time
 passes while they boot. A last line on stderr says why the process ended.
+
+Lockstep: every node process reports the simulated time it has reached every
+``ack_period_s`` (on ``/launch/<process>/clock``), and the simulator never runs more than
+``max_lead_s`` ahead of the slowest report. A node process's clock thus lags the world's
+by at most that bound however starved of CPU it is: a starved process slows the
+simulated world down (the run's real-time factor drops) instead of seeing simulated time
+jump past it. The bound is what a round trip through a node process can gain in
+simulated time. It has to stay well under the FCU time sync's 10 ms RTT gate and near
+its 1 ms deviation floor: with 0.25 s, a bridge descheduled for a few milliseconds at
+``--rtf 3`` saw its exchanges skewed by as much, its clock estimate lost convergence, it
+held the visual odometry back (a sample time on a wrong clock is worse than none) and
+the FCU's position estimate timed out ("no valid position estimate"). While it waits, the
+simulator sends the current ``/clock`` again every 0.1 s of host time: ``/clock`` is best
+effort (as rclcpp subscribes it), and a process that lost the last samples could not
+catch up otherwise (a full mission once stalled at 281 s with every process idle,
+most likely so).
 """
 
 from __future__ import annotations
@@ -39,7 +55,8 @@ EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
 _CLOCK_PUB_QOS = QoSProfile(depth=1)  # reliable, volatile, keep last 1
-_ACK_PERIOD_S = 0.01  # a node process reports its time this often [s of simulated time]
+_WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
+_CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
 
 
 def ack_topic(process: str) -> str:
@@ -62,9 +79,16 @@ class ProcessSpec:
     duration_s: float = 600.0  # simulator: simulated time limit
     clock_subscribers: int = 0  # simulator: wait for this many /clock readers first
     followers: tuple[str, ...] = ()  # simulator: the node processes it must not outrun
-    max_lead_s: float = 0.25  # simulator: how far it may run ahead of them [s simulated]
+    max_lead_s: float = 0.005  # simulator: how far it may run ahead of them [s simulated]
+    ack_period_s: float = 0.002  # node process: reports its time this often [s simulated]
     startup_timeout_s: float = 120.0
     log_level: str = "INFO"
+
+    def __post_init__(self) -> None:
+        if not 0 < self.ack_period_s < self.max_lead_s:
+            raise ValueError(f"ack_period_s {self.ack_period_s:g} must be positive and "
+                             f"below max_lead_s {self.max_lead_s:g} (else the simulator "
+                             "stalls between two reports)")
 
     def to_json(self) -> str:
         return json.dumps(asdict(self))
@@ -100,7 +124,7 @@ def run_nodes(spec: ProcessSpec) -> int:
     if spec.use_sim_time:
         reporter = Node("launch_clock_ack", context=ex.context)
         ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _CLOCK_PUB_QOS)
-        reporter.create_timer(_ACK_PERIOD_S, lambda: ack.publish(
+        reporter.create_timer(spec.ack_period_s, lambda: ack.publish(
             interfaces.new(CLOCK_TYPE, clock=reporter.now().to_msg())))
     if not ex.wait_for_clock(spec.startup_timeout_s):
         if ex.stopping:
@@ -161,13 +185,18 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     def tick(t_ns: int) -> None:
         sec, nsec = divmod(t_ns, 1_000_000_000)
-        clock_pub.publish(interfaces.new(CLOCK_TYPE, clock=interfaces.new(
-            "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)))
+        clock = interfaces.new(CLOCK_TYPE, clock=interfaces.new(
+            "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec))
+        clock_pub.publish(clock)
         transport.dispatch()
+        repeat_at = time.monotonic() + _CLOCK_REPEAT_S
         while reached and min(reached.values()) < t_ns - max_lead_ns and not stop["now"]:
-            transport.wait(0.01)  # a node process lags: let it catch up
+            transport.wait(_WAIT_S)  # a node process lags: let it catch up
             transport.dispatch()
             ex.spin_until(ex.now().nanoseconds)  # its reports, taken at this time
+            if time.monotonic() >= repeat_at:  # /clock is best effort: a process that
+                clock_pub.publish(clock)  # lost the last samples would wait forever
+                repeat_at = time.monotonic() + _CLOCK_REPEAT_S
         if spec.rtf > 0:
             ahead = (t_ns - sim0) / 1e9 / spec.rtf - (time.perf_counter() - wall0)
             if ahead > 0:
@@ -189,6 +218,8 @@ def main(argv: list[str] | None = None) -> int:
     spec = ProcessSpec.from_json(args[0])
     logging.basicConfig(level=spec.log_level, stream=sys.stderr,
                         format=f"[{spec.name}] %(levelname)s %(message)s")
+    if logging.getLevelName(spec.log_level) > logging.DEBUG:  # as `quadmission` without -v:
+        logging.getLogger("transitions").setLevel(logging.WARNING)  # no line per callback
     return run_simulator(spec) if spec.simulator is not None else run_nodes(spec)
 
 

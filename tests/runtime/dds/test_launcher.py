@@ -49,3 +49,29 @@ def test_ctrl_c_stops_every_process_and_exits_130(dds_config: DdsConfig) -> None
     for pid in pids:  # the children are gone, not orphaned
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def test_the_simulator_never_runs_far_ahead_of_a_starved_process(
+        dds_config: DdsConfig, tmp_path: Path) -> None:
+    # The node burns 20 ms of host time every 10 ms simulated; the world could run 100x
+    # real time. In lockstep the world waits: it is never more than the bound (plus a
+    # report's way) ahead of the node, which is what keeps a starved bridge's time sync
+    # valid. At the old 0.25 s bound the lead reached about 0.25 s.
+    from runtime.dds.process import ProcessSpec
+    from tests.runtime.dds.lockstep_parts import SLOW_PERIOD_S
+
+    launch_file = tmp_path / "lockstep.yaml"
+    launch_file.write_text(
+        "simulator:\n  factory: tests.runtime.dds.lockstep_parts:world\n"
+        "nodes:\n  - factory: tests.runtime.dds.lockstep_parts:SlowNode\n", encoding="utf-8")
+    root = Path(__file__).resolve().parents[3]
+    out = subprocess.run(
+        [sys.executable, "-m", "quadmission.cli", "launch", str(launch_file), "--transport",
+         "dds", "--domain-id", str(dds_config.domain_id), "--rtf", "100", "--duration", "1"],
+        cwd=root, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    line = next(s for s in out.stderr.splitlines() if s.startswith("[simulator] max lead "))
+    lead_ns, reports = int(line.split()[3]), int(line.split()[6])
+    assert reports >= 0.5 / SLOW_PERIOD_S, line  # the node ran through the second
+    bound = ProcessSpec("x").max_lead_s
+    assert lead_ns <= round(2 * bound * 1e9), line
