@@ -53,6 +53,9 @@ class PathFinderParams:
     vertical_clearance: float = param(unit="m", range=(0.0, 5.0),
                                       description="corridor half-height")
     unknown_is_occupied: bool = param(description="unobserved cubes are non-viable")
+    ceiling_clearance: float = param(unit="m", range=(0.0, 5.0),
+                                     description="waypoints stay this far below the ceiling "
+                                     "(the app sets flight control's wall_clearance)")
     heuristic: str = param(choices=("euclidean", "octile"),
                            description="A* heuristic: the seed's Euclidean, or octile")
     snap_radius: float = param(unit="m", range=(0.0, 5.0),
@@ -75,7 +78,8 @@ class PathFinderParams:
                            corridor_threshold=self.corridor_threshold,
                            footprint_radius=radius, safety_margin=margin,
                            vertical_clearance=self.vertical_clearance,
-                           unknown_is_occupied=self.unknown_is_occupied)
+                           unknown_is_occupied=self.unknown_is_occupied,
+                           ceiling_clearance=self.ceiling_clearance)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,9 @@ from typing import TYPE_CHECKING, Any
 
 from flight_control.bridge_node import FcuBridgeNode
 from flight_control.flight_control_node import FlightControlNode
+from flight_control.params import FlightControlParams
 from flight_control.vio_node import VioNode
+from runtime.parameters import load_parameters
 
 if TYPE_CHECKING:
     from sim.arena import ArenaSpec
@@ -33,6 +35,13 @@ def field_bounds(arena: ArenaSpec) -> dict[str, list[float]]:
     the floor rectangle up to the ceiling."""
     x, y, z = arena.field.size
     return {"field_min": [0.0, 0.0, 0.0], "field_max": [float(x), float(y), float(z)]}
+
+
+def planning_bounds(arena: ArenaSpec) -> dict[str, Any]:
+    """The path finder's field bounds and ceiling clearance: it plans only where the
+    flight-control node flies (below the ceiling by its ``wall_clearance``)."""
+    fc = load_parameters(FlightControlParams, "flight_control")
+    return field_bounds(arena) | {"ceiling_clearance": fc.wall_clearance}
 
 
 def start_companion(sitl: Sitl, *, flight_control: bool = True,

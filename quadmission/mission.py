@@ -45,7 +45,7 @@ from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
-from quadmission.assembly import field_bounds, start_companion
+from quadmission.assembly import field_bounds, planning_bounds, start_companion
 from quadmission.errors import OptionsError
 from quadmission.mission_eval import Landing, distance_m, landing, score, touchdown_summary
 from quadmission.mission_plots import MissionPicture, save_altitude, save_path, save_timeline
@@ -238,7 +238,7 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         sensors,
         ArucoScannerNode(context=context),
         MappingNode(context=context),
-        PathFinderNode(context=context, parameter_overrides=bounds),
+        PathFinderNode(context=context, parameter_overrides=planning_bounds(arena)),
         NavigatorNode(context=context, parameter_overrides=bounds | {
             "arena": published.name, "start_pad": published.start_pad}),
         PrecisionLandNode(context=context),

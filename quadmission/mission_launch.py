@@ -27,7 +27,7 @@ from fsm.mission_node import MissionNode
 from fsm.operator_node import OperatorNode
 from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
-from quadmission.assembly import field_bounds
+from quadmission.assembly import field_bounds, planning_bounds
 from quadmission.mission import flown_arena, pads_overrides, robots_overrides, target_robot
 from quadmission.square_launch import SitlSimulation, launch_arena, pop_arena
 from runtime import DeterministicExecutor, Node
@@ -76,7 +76,7 @@ def path_finder(*, parameter_overrides: dict[str, Any] | None = None,
                 **kwargs: Any) -> PathFinderNode:
     """The path finder with the arena's field as its search volume."""
     arena, rest = pop_arena(parameter_overrides)
-    return PathFinderNode(parameter_overrides=field_bounds(arena) | rest, **kwargs)
+    return PathFinderNode(parameter_overrides=planning_bounds(arena) | rest, **kwargs)
 
 
 def navigator(*, parameter_overrides: dict[str, Any] | None = None,

@@ -29,7 +29,7 @@ from navigation.errors import NavigationError
 from navigation.mapping_node import MappingNode
 from navigation.navigator_node import NAVIGATE, TAKEOFF, NavigatorNode
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
-from quadmission.assembly import field_bounds, start_companion
+from quadmission.assembly import field_bounds, planning_bounds, start_companion
 from quadmission.report import write_report
 from quadmission.square_eval import SetpointRecorder, rounded, tracking
 from runtime import ActionClient, Node, qos_profile_default, qos_profile_sensor_data
@@ -205,7 +205,7 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
     context = sitl.executor.context
     bounds = field_bounds(arena)
     mapping = MappingNode(context=context)
-    finder = PathFinderNode(context=context, parameter_overrides=bounds)
+    finder = PathFinderNode(context=context, parameter_overrides=planning_bounds(arena))
     navigator = NavigatorNode(context=context, parameter_overrides=bounds | {
         "arena": arena.name, "start_pad": arena.start_pad})
     start = arena.pad(arena.start_pad).center

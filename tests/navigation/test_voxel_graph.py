@@ -186,6 +186,16 @@ def test_walls_floor_and_ceiling_keep_the_footprint_away() -> None:
     assert not g.free[10, 10, 8] and g.free[10, 10, 7]  # ceiling
 
 
+def test_no_viable_cube_nearer_the_ceiling_than_its_clearance() -> None:
+    # 2 m ceiling, 0.4 m clearance: centres up to 1.6 m (1.5 m, k=7) are viable, 1.7 m not
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params(ceiling_clearance=0.4))
+    assert g.viable[10, 10, 7] and not g.viable[10, 10, 8]
+    assert not g.edges[(slice(None), 10, 10, 8)].any()
+    assert build_graph(FAR, FIELD_MIN, FIELD_MAX, params()).viable[10, 10, 8]  # without it
+    centres_z = (np.nonzero(g.viable)[2] + 0.5) * RES
+    assert centres_z.max() <= FIELD_MAX[2] - 0.4
+
+
 def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
     return bool(np.array_equal(a.viable, b.viable) and np.array_equal(a.free, b.free)
                 and np.array_equal(a.edges, b.edges) and np.array_equal(a.counts, b.counts))
@@ -194,14 +204,16 @@ def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**31), added=st.integers(1, 30), removed=st.integers(0, 5),
        radius=st.sampled_from([0.0, 0.2, 0.35]), clearance=st.sampled_from([0.0, 0.2]),
-       occupied=st.integers(0, 2), corridor=st.integers(1, 3))
+       occupied=st.integers(0, 2), corridor=st.integers(1, 3),
+       ceiling=st.sampled_from([0.0, 0.4]))
 def test_an_updated_graph_is_the_graph_a_full_build_gives(  # type: ignore[no-untyped-def]
-        seed, added, removed, radius, clearance, occupied, corridor) -> None:
+        seed, added, removed, radius, clearance, occupied, corridor, ceiling) -> None:
     """Points added anywhere (inside, near the walls, beside full cubes) and removed: the
     update recomputes a block only, and the graph is the full build's, cube for cube."""
     rng = np.random.default_rng(seed)
     gp = params(footprint_radius=radius, vertical_clearance=clearance,
-                occupied_threshold=occupied, corridor_threshold=corridor)
+                occupied_threshold=occupied, corridor_threshold=corridor,
+                ceiling_clearance=ceiling)
     before = rng.uniform(FIELD_MIN, FIELD_MAX, (60, 3))
     after = np.vstack([before[removed:], rng.uniform(FIELD_MIN, FIELD_MAX, (added, 3)),
                        before[:added] + rng.normal(0.0, 0.1, (added, 3))])
