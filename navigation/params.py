@@ -56,6 +56,9 @@ class PathFinderParams:
     ceiling_clearance: float = param(unit="m", range=(0.0, 5.0),
                                      description="waypoints stay this far below the ceiling "
                                      "(the app sets flight control's wall_clearance)")
+    max_altitude: float = param(unit="m", range=(0.5, 100.0),
+                                description="waypoints stay at or below this height above "
+                                "the floor: above, the depth camera has not seen the space")
     heuristic: str = param(choices=("euclidean", "octile"),
                            description="A* heuristic: the seed's Euclidean, or octile")
     snap_radius: float = param(unit="m", range=(0.0, 5.0),
@@ -79,7 +82,8 @@ class PathFinderParams:
                            footprint_radius=radius, safety_margin=margin,
                            vertical_clearance=self.vertical_clearance,
                            unknown_is_occupied=self.unknown_is_occupied,
-                           ceiling_clearance=self.ceiling_clearance)
+                           ceiling_clearance=self.ceiling_clearance,
+                           max_altitude=self.max_altitude)
 
 
 @dataclass(frozen=True)

@@ -11,10 +11,12 @@ Pure and vectorised (numpy; no Python loop over cubes). The rules, each in one p
   ``corridor_threshold`` points each), so paths keep the footprint's clearance from them;
 - cubes holding more than ``occupied_threshold`` points are non-viable;
 - optionally (``unknown_is_occupied``) cubes never observed are non-viable;
-- beyond the seed: cubes whose centre is nearer the ceiling than ``ceiling_clearance``
-  are non-viable, so no waypoint lies above what flight control flies to (the app sets it
-  to flight control's ``wall_clearance``: a plan over a tall block otherwise climbed to
-  a reach target flight control refuses);
+- beyond the seed, a planning band: cubes whose centre is nearer the ceiling than
+  ``ceiling_clearance`` (the app sets flight control's ``wall_clearance``: its reach
+  targets stop there) or higher above the floor than ``max_altitude`` are non-viable. The
+  forward depth camera sees an obstacle's face only so high; above, space is unknown and
+  would count as free, so a plan "over" a tall block whose top was never seen flies into
+  it. Tall obstacles are flown round, low ones over;
 - each cube's neighbours are the 8 horizontal ones at the same altitude plus the ones
   directly above and below (:data:`OFFSETS`);
 - an edge joins two viable neighbours if and only if the corridor between them holds
@@ -77,6 +79,7 @@ class GraphParams:
     vertical_clearance: float = 0.2  # m, half-height of the corridor
     unknown_is_occupied: bool = False  # unobserved cubes are non-viable (needs ``observed``)
     ceiling_clearance: float = 0.0  # m, viable cube centres stay this far below the grid's top
+    max_altitude: float = math.inf  # m above the floor, viable cube centres stay at or below
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.resolution) and self.resolution > 0.0):
@@ -86,9 +89,9 @@ class GraphParams:
                 f"GraphParams: occupied_threshold {self.occupied_threshold} must be >= 0 and "
                 f"corridor_threshold {self.corridor_threshold} >= 1")
         for name in ("footprint_radius", "safety_margin", "vertical_clearance",
-                     "ceiling_clearance"):
+                     "ceiling_clearance", "max_altitude"):
             value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
+            if not (value >= 0.0 and (math.isfinite(value) or name == "max_altitude")):
                 raise ValueError(f"GraphParams.{name}: {value} m must be >= 0")
 
     @property
@@ -257,11 +260,11 @@ def _block(counts: npt.NDArray[np.int32], params: GraphParams, observed: BoolArr
         ix = np.arange(v_lo[axis], v_hi[axis])
         edge = (ix == 0) | (ix == shape[axis] - 1)
         inner &= ~edge.reshape([-1 if a == axis else 1 for a in range(3)])
-    if params.ceiling_clearance > 0.0:  # no waypoint closer to the ceiling than this
-        res = params.resolution
-        top = (np.arange(v_lo[2], v_hi[2]) + 0.5) * res <= (
-            shape[2] * res - params.ceiling_clearance + 1e-9)
-        inner &= top.reshape(1, 1, -1)
+    res = params.resolution
+    top = min(shape[2] * res - params.ceiling_clearance, params.max_altitude)
+    if top < shape[2] * res:  # no waypoint above the planning band
+        below = (np.arange(v_lo[2], v_hi[2]) + 0.5) * res <= top + 1e-9
+        inner &= below.reshape(1, 1, -1)
     if params.unknown_is_occupied:
         assert observed is not None
         inner &= observed[_slices(v_lo, v_hi - v_lo)]

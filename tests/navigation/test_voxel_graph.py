@@ -196,6 +196,21 @@ def test_no_viable_cube_nearer_the_ceiling_than_its_clearance() -> None:
     assert centres_z.max() <= FIELD_MAX[2] - 0.4
 
 
+def test_no_viable_cube_above_the_planning_altitude() -> None:
+    # max_altitude 1.0 m: centres at 0.9 m (k=4) viable, 1.1 m (k=5) not; a 0.6 m box is
+    # still flown over, a 1.2 m one no more
+    low = np.array([(x, y, z) for x in np.arange(1.05, 3.0, 0.1) for y in np.arange(0.05, 4.0, 0.1)
+                    for z in (0.05, 0.35, 0.55)])
+    g = build_graph(low, FIELD_MIN, FIELD_MAX, params(max_altitude=1.0, vertical_clearance=0.2))
+    assert g.viable[10, 10, 4] and not g.viable[10, 10, 5]
+    assert g.free[10, 10, 4]  # over the 0.6 m box
+    high = np.vstack([low, low + [0.0, 0.0, 0.6]])  # a 1.2 m wall across the field
+    over = build_graph(high, FIELD_MIN, FIELD_MAX, params(vertical_clearance=0.2))
+    assert over.free[10, 10, 7]  # unbounded: over it at 1.5 m
+    g = build_graph(high, FIELD_MIN, FIELD_MAX, params(max_altitude=1.0, vertical_clearance=0.2))
+    assert not g.free[10, 10, :].any()  # bounded: no way over it
+
+
 def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
     return bool(np.array_equal(a.viable, b.viable) and np.array_equal(a.free, b.free)
                 and np.array_equal(a.edges, b.edges) and np.array_equal(a.counts, b.counts))
@@ -205,15 +220,15 @@ def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
 @given(seed=st.integers(0, 2**31), added=st.integers(1, 30), removed=st.integers(0, 5),
        radius=st.sampled_from([0.0, 0.2, 0.35]), clearance=st.sampled_from([0.0, 0.2]),
        occupied=st.integers(0, 2), corridor=st.integers(1, 3),
-       ceiling=st.sampled_from([0.0, 0.4]))
+       ceiling=st.sampled_from([0.0, 0.4]), top=st.sampled_from([math.inf, 1.0]))
 def test_an_updated_graph_is_the_graph_a_full_build_gives(  # type: ignore[no-untyped-def]
-        seed, added, removed, radius, clearance, occupied, corridor, ceiling) -> None:
+        seed, added, removed, radius, clearance, occupied, corridor, ceiling, top) -> None:
     """Points added anywhere (inside, near the walls, beside full cubes) and removed: the
     update recomputes a block only, and the graph is the full build's, cube for cube."""
     rng = np.random.default_rng(seed)
     gp = params(footprint_radius=radius, vertical_clearance=clearance,
                 occupied_threshold=occupied, corridor_threshold=corridor,
-                ceiling_clearance=ceiling)
+                ceiling_clearance=ceiling, max_altitude=top)
     before = rng.uniform(FIELD_MIN, FIELD_MAX, (60, 3))
     after = np.vstack([before[removed:], rng.uniform(FIELD_MIN, FIELD_MAX, (added, 3)),
                        before[:added] + rng.normal(0.0, 0.1, (added, 3))])
