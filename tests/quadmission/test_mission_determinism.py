@@ -29,5 +29,5 @@ def test_same_seed_same_report(tmp_path: Path) -> None:
     second = _run(tmp_path / "b", seed=4)
     assert [s["state"] for s in first["states"]][:4] == [
         "idle", "preflight", "mission.takeoff", "mission.explore"]
-    assert first["distance_m"] > 5.0  # it flew: the take-off survey and some exploring
+    assert first["distance_m"] > 2.0  # it flew: the climb, the survey turn, some exploring
     assert json.dumps(first, sort_keys=True) == json.dumps(second, sort_keys=True)
