@@ -59,6 +59,9 @@ class PathFinderParams:
     max_altitude: float = param(unit="m", range=(0.5, 100.0),
                                 description="waypoints stay at or below this height above "
                                 "the floor: above, the depth camera has not seen the space")
+    min_altitude: float = param(unit="m", range=(0.0, 100.0),
+                                description="waypoints stay at or above this height "
+                                "(the app sets flight control's min_altitude)")
     heuristic: str = param(choices=("euclidean", "octile"),
                            description="A* heuristic: the seed's Euclidean, or octile")
     snap_radius: float = param(unit="m", range=(0.0, 5.0),
@@ -83,7 +86,8 @@ class PathFinderParams:
                            vertical_clearance=self.vertical_clearance,
                            unknown_is_occupied=self.unknown_is_occupied,
                            ceiling_clearance=self.ceiling_clearance,
-                           max_altitude=self.max_altitude)
+                           max_altitude=self.max_altitude,
+                           min_altitude=self.min_altitude)
 
 
 @dataclass(frozen=True)

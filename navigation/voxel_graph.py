@@ -13,7 +13,8 @@ Pure and vectorised (numpy; no Python loop over cubes). The rules, each in one p
 - optionally (``unknown_is_occupied``) cubes never observed are non-viable;
 - beyond the seed, a planning band: cubes whose centre is nearer the ceiling than
   ``ceiling_clearance`` (the app sets flight control's ``wall_clearance``: its reach
-  targets stop there) or higher above the floor than ``max_altitude`` are non-viable. The
+  targets stop there), higher above the floor than ``max_altitude`` or lower than
+  ``min_altitude`` (the app sets flight control's floor, ``min_altitude``) are non-viable. The
   forward depth camera sees an obstacle's face only so high; above, space is unknown and
   would count as free, so a plan "over" a tall block whose top was never seen flies into
   it. Tall obstacles are flown round, low ones over;
@@ -80,6 +81,7 @@ class GraphParams:
     unknown_is_occupied: bool = False  # unobserved cubes are non-viable (needs ``observed``)
     ceiling_clearance: float = 0.0  # m, viable cube centres stay this far below the grid's top
     max_altitude: float = math.inf  # m above the floor, viable cube centres stay at or below
+    min_altitude: float = 0.0  # m above the floor, viable cube centres stay at or above
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.resolution) and self.resolution > 0.0):
@@ -89,7 +91,7 @@ class GraphParams:
                 f"GraphParams: occupied_threshold {self.occupied_threshold} must be >= 0 and "
                 f"corridor_threshold {self.corridor_threshold} >= 1")
         for name in ("footprint_radius", "safety_margin", "vertical_clearance",
-                     "ceiling_clearance", "max_altitude"):
+                     "ceiling_clearance", "max_altitude", "min_altitude"):
             value = getattr(self, name)
             if not (value >= 0.0 and (math.isfinite(value) or name == "max_altitude")):
                 raise ValueError(f"GraphParams.{name}: {value} m must be >= 0")
@@ -262,9 +264,10 @@ def _block(counts: npt.NDArray[np.int32], params: GraphParams, observed: BoolArr
         inner &= ~edge.reshape([-1 if a == axis else 1 for a in range(3)])
     res = params.resolution
     top = min(shape[2] * res - params.ceiling_clearance, params.max_altitude)
-    if top < shape[2] * res:  # no waypoint above the planning band
-        below = (np.arange(v_lo[2], v_hi[2]) + 0.5) * res <= top + 1e-9
-        inner &= below.reshape(1, 1, -1)
+    if top < shape[2] * res or params.min_altitude > 0.0:  # no waypoint outside the band
+        z = (np.arange(v_lo[2], v_hi[2]) + 0.5) * res
+        band = (z <= top + 1e-9) & (z >= params.min_altitude - 1e-9)
+        inner &= band.reshape(1, 1, -1)
     if params.unknown_is_occupied:
         assert observed is not None
         inner &= observed[_slices(v_lo, v_hi - v_lo)]

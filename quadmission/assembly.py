@@ -38,10 +38,12 @@ def field_bounds(arena: ArenaSpec) -> dict[str, list[float]]:
 
 
 def planning_bounds(arena: ArenaSpec) -> dict[str, Any]:
-    """The path finder's field bounds and ceiling clearance: it plans only where the
-    flight-control node flies (below the ceiling by its ``wall_clearance``)."""
+    """The path finder's field bounds and altitude band: it plans only where the
+    flight-control node flies (below the ceiling by its ``wall_clearance``, at or above its
+    floor ``min_altitude``)."""
     fc = load_parameters(FlightControlParams, "flight_control")
-    return field_bounds(arena) | {"ceiling_clearance": fc.wall_clearance}
+    return field_bounds(arena) | {"ceiling_clearance": fc.wall_clearance,
+                                  "min_altitude": fc.min_altitude}
 
 
 def start_companion(sitl: Sitl, *, flight_control: bool = True,

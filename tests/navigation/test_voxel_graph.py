@@ -211,6 +211,14 @@ def test_no_viable_cube_above_the_planning_altitude() -> None:
     assert not g.free[10, 10, :].any()  # bounded: no way over it
 
 
+def test_no_viable_cube_below_the_floor_altitude() -> None:
+    # min_altitude 0.5 m: centres at 0.5 m (k=2) viable, 0.3 m (k=1) not, so no plan ducks
+    # under anything lower than flight control flies
+    g = build_graph(FAR, FIELD_MIN, FIELD_MAX, params(min_altitude=0.5))
+    assert g.viable[10, 10, 2] and not g.viable[10, 10, 1]
+    assert build_graph(FAR, FIELD_MIN, FIELD_MAX, params()).viable[10, 10, 1]  # without it
+
+
 def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
     return bool(np.array_equal(a.viable, b.viable) and np.array_equal(a.free, b.free)
                 and np.array_equal(a.edges, b.edges) and np.array_equal(a.counts, b.counts))
@@ -220,15 +228,17 @@ def _same(a, b) -> bool:  # type: ignore[no-untyped-def]
 @given(seed=st.integers(0, 2**31), added=st.integers(1, 30), removed=st.integers(0, 5),
        radius=st.sampled_from([0.0, 0.2, 0.35]), clearance=st.sampled_from([0.0, 0.2]),
        occupied=st.integers(0, 2), corridor=st.integers(1, 3),
-       ceiling=st.sampled_from([0.0, 0.4]), top=st.sampled_from([math.inf, 1.0]))
+       ceiling=st.sampled_from([0.0, 0.4]), top=st.sampled_from([math.inf, 1.0]),
+       bottom=st.sampled_from([0.0, 0.5]))
 def test_an_updated_graph_is_the_graph_a_full_build_gives(  # type: ignore[no-untyped-def]
-        seed, added, removed, radius, clearance, occupied, corridor, ceiling, top) -> None:
+        seed, added, removed, radius, clearance, occupied, corridor, ceiling, top,
+        bottom) -> None:
     """Points added anywhere (inside, near the walls, beside full cubes) and removed: the
     update recomputes a block only, and the graph is the full build's, cube for cube."""
     rng = np.random.default_rng(seed)
     gp = params(footprint_radius=radius, vertical_clearance=clearance,
                 occupied_threshold=occupied, corridor_threshold=corridor,
-                ceiling_clearance=ceiling, max_altitude=top)
+                ceiling_clearance=ceiling, max_altitude=top, min_altitude=bottom)
     before = rng.uniform(FIELD_MIN, FIELD_MAX, (60, 3))
     after = np.vstack([before[removed:], rng.uniform(FIELD_MIN, FIELD_MAX, (added, 3)),
                        before[:added] + rng.normal(0.0, 0.1, (added, 3))])
