@@ -63,7 +63,7 @@ class SquarePilot(Node):
 
     def __init__(self, corners: Sequence[Sequence[float]], *, altitude: float,
                  speed: float = 0.0, land_speed: float = 0.0, ready_timeout_s: float = 20.0,
-                 arm_attempts: int = 3, **kwargs: Any) -> None:
+                 arm_attempts: int = 5, **kwargs: Any) -> None:
         super().__init__("square_pilot", **kwargs)
         self.corners: FloatArray = np.asarray(corners, dtype=np.float64).reshape(-1, 3)
         if len(self.corners) == 0:
