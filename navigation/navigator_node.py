@@ -15,8 +15,11 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
   space is often in the way once seen. Every ``replan_period_s`` it plans again from here;
   when the leg being flown is no longer clear (the planner cannot go straight to its end)
   or the new path's length differs from what is left of the current one by more than
-  ``replan_tolerance`` (the live map changed the path's cost), it switches. A failed reach
-  is re-planned from where the vehicle is, up to ``max_reach_failures``.
+  ``replan_tolerance`` (the live map changed the path's cost), it switches. When the leg is
+  blocked and no new path is found (the goal may turn out to be inside a block whose faces
+  the camera had not seen), it stops, plans again ``plan_attempts`` times, then gives up
+  with no path. A failed reach is re-planned from where the vehicle is, up to
+  ``max_reach_failures``.
 - ``/navigation/explore``: the predefined exploration path of the arena and start pad
   (``explore_paths_file``, with loop closures) or, when there is none or the goal gives an
   area, boustrophedon lanes spaced by the down camera's footprint; each leg is planned like
@@ -70,6 +73,8 @@ TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
 REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
 TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
 POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
+_PLAN: Any = PLAN_PATH.Response
+_LEG_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH)  # plan failures that block a leg
 
 
 class FlyOutcome(Enum):
@@ -155,25 +160,41 @@ class NavigatorNode(Node):
             return None, str(response.message), stamp
         return path_points(response.path), str(response.message), stamp
 
-    async def _changed_path(self, path: np.ndarray, i: int, goal: np.ndarray,
-                            new: np.ndarray | None) -> np.ndarray | None:
-        """``new`` (a plan from here to ``goal``) when the current path must be left: its
-        leg ``i`` is no longer clear (the planner cannot go straight to its end) or what is
-        left of it differs from ``new`` in length by more than ``replan_tolerance``."""
+    async def _leg_blocked(self, path: np.ndarray, i: int) -> bool:
+        """Whether leg ``i`` of ``path`` is no longer clear from here: the planner cannot go
+        straight to its end, or says the end is in an obstacle or cut off from here. Not
+        when it cannot plan from here at all (the start too close to an obstacle: the
+        vehicle is flying out of it), which says nothing of the leg."""
+        request = interfaces.new(PLAN_PATH.Request, start=_point(*self._here()),
+                                 goal=_point(*path[i]))
+        response = await self.planner.call_async(request)
+        if response.success:
+            return len(response.path.poses) > 2
+        return int(response.result) in _LEG_BLOCKED
+
+    async def _changed_path(self, path: np.ndarray, i: int,
+                            new: np.ndarray | None) -> tuple[np.ndarray | None, bool]:
+        """(the path to switch to or None, whether leg ``i`` is blocked). ``new`` (a plan
+        from here to the goal) is switched to when leg ``i`` of the current path is blocked
+        or what is left of it differs from ``new`` in length by more than
+        ``replan_tolerance``. A blocked leg with no new path is the caller's to stop on:
+        flying on into what the map now shows is how random arena 1 crashed (its
+        exploration goal turned out to be inside a block, the re-plan failed, and the old
+        path was kept)."""
+        blocked = await self._leg_blocked(path, i)
         if new is None:
-            return None
+            return None, blocked
         here = self._here()
-        leg, _ = await self._plan(here, path[i])
-        blocked = leg is None or len(leg) > 2
         left = float(np.linalg.norm(path[i] - here)) + path_length(path[i:])
         if blocked or abs(path_length(new) - left) > self.params.replan_tolerance:
-            return new
-        return None
+            return new, blocked
+        return None, False
 
     async def _look_again(self, path: np.ndarray, i: int, goal: np.ndarray,
-                          handle: ServerGoalHandle, stop: Any) -> np.ndarray | None:
+                          handle: ServerGoalHandle, stop: Any
+                          ) -> tuple[np.ndarray | None, bool]:
         """After a turn: plan again on a map holding a depth cloud captured after it (up to
-        ``map_wait_s``), and return the new path when the current one must be left."""
+        ``map_wait_s``); :meth:`_changed_path`'s answer on that plan."""
         since_ns = self.now().nanoseconds
         deadline_ns = since_ns + int(self.params.map_wait_s * 1e9)
         while True:
@@ -181,9 +202,26 @@ class NavigatorNode(Node):
             if stamp >= since_ns or self.now().nanoseconds >= deadline_ns:
                 break
             if handle.is_cancel_requested or (stop is not None and stop()):
-                return None
+                return None, False
             await self.sleep(POLL_S)
-        return await self._changed_path(path, i, goal, new)
+        return await self._changed_path(path, i, new)
+
+    async def _plan_again(self, goal: np.ndarray, handle: ServerGoalHandle,
+                          stop: Any) -> tuple[np.ndarray | None, str]:
+        """The path ahead is blocked and the re-plan found none: hold here and try
+        ``plan_attempts`` times, ``replan_period_s`` apart (the map settles as the camera
+        looks); (path or None, the last planner message)."""
+        await self._hold(handle)
+        path: np.ndarray | None = None
+        message = ""
+        for _ in range(self.params.plan_attempts):
+            if handle.is_cancel_requested or (stop is not None and stop()):
+                break
+            path, message = await self._plan(self._here(), goal)
+            if path is not None:
+                break
+            await self.sleep(self.params.replan_period_s)
+        return path, f"the path ahead is blocked and no other path was found: {message}"
 
     def _reach_goal(self, target: np.ndarray, yaw: float, radius: float, speed: float,
                     stop: bool) -> Any:
@@ -239,7 +277,11 @@ class NavigatorNode(Node):
                 if ok is None:
                     return FlyResult(FlyOutcome.CANCELED if why == "canceled"
                                      else FlyOutcome.STOPPED, why)
-                new = await self._look_again(path, i, goal, handle, stop)
+                new, blocked = await self._look_again(path, i, goal, handle, stop)
+                if new is None and blocked:
+                    new, message = await self._plan_again(goal, handle, stop)
+                    if new is None:
+                        return FlyResult(FlyOutcome.NO_PATH, message)
                 if new is not None:
                     path, i = new, 1
                     continue
@@ -266,9 +308,14 @@ class NavigatorNode(Node):
                 if self.now().nanoseconds >= next_plan_ns:
                     next_plan_ns = self.now().nanoseconds + int(p.replan_period_s * 1e9)
                     new, _ = await self._plan(self._here(), goal)
-                    new = await self._changed_path(path, i, goal, new)
-                    if new is not None:
+                    new, blocked = await self._changed_path(path, i, new)
+                    if new is not None or blocked:
                         await fc.cancel_goal_async()
+                    if new is None and blocked:
+                        new, message = await self._plan_again(goal, handle, stop)
+                        if new is None:
+                            return FlyResult(FlyOutcome.NO_PATH, message)
+                    if new is not None:
                         path, i, switched = new, 1, True
                         break
                 await self.sleep(POLL_S)

@@ -177,12 +177,10 @@ class TurningFcu(ScriptedFcu):
         self._odometry_pub.publish(msg)
 
 
-def test_after_a_turn_it_plans_again_on_what_the_camera_sees_before_flying_on(
-        monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    """Facing east, sent north: it turns first. What it then faces, a wall across the
-    leg, reaches the map 0.5 s after the turn (as the depth camera's clouds do): the
-    navigator waits for a map captured after the turn and goes round, rather than flying
-    the leg planned before it looked."""
+def fly_north_revealing(monkeypatch: Any, hidden: np.ndarray) -> tuple[Any, np.ndarray]:
+    """Facing east at (1, 1) m, navigate to (1, 6) m, north: the vehicle turns first, and
+    ``hidden`` reaches the map 0.5 s after it faces north (as the depth camera's clouds
+    do). (the navigate result, the flown path)."""
     monkeypatch.setattr(rig_module, "ScriptedFcu", TurningFcu)
     rig = make_rig(flying_at=(1.0, 1.0, 1.5))
     ctx = rig.ex.context
@@ -194,11 +192,9 @@ def test_after_a_turn_it_plans_again_on_what_the_camera_sees_before_flying_on(
         rig.ex.add_node(node)
     mission.map_pub.publish(cloud_msg(WALL, Time(0).to_msg(), "map"))
     rig.ex.spin_for(0.5)
-    hidden = np.array([(x, 2.55, z) for x in np.arange(0.05, 3.0, 0.1)
-                       for z in np.arange(0.05, 4.0, 0.1)])
     state: dict[str, float] = {}
 
-    def camera() -> None:  # the map holds the wall 0.5 s after the vehicle faces north
+    def camera() -> None:  # the map holds ``hidden`` 0.5 s after the vehicle faces north
         facing = abs(rig.fcu.yaw - math.pi / 2) < 0.05  # type: ignore[attr-defined]
         if facing and "t" not in state:
             state["t"] = rig.t()
@@ -216,10 +212,34 @@ def test_after_a_turn_it_plans_again_on_what_the_camera_sees_before_flying_on(
         rig.ex.spin_for(0.05)
         camera()
     assert "sent" in state, "the vehicle never faced north"
-    r = result.result().result
+    assert result.done(), "no result after 60 s"
+    return result.result().result, np.array(mission.path)
+
+
+def test_after_a_turn_it_plans_again_on_what_the_camera_sees_before_flying_on(
+        monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """What it faces after the turn is a wall across the leg: the navigator waits for a
+    map captured after the turn and goes round, rather than flying the leg planned before
+    it looked."""
+    hidden = np.array([(x, 2.55, z) for x in np.arange(0.05, 3.0, 0.1)
+                       for z in np.arange(0.05, 4.0, 0.1)])
+    r, flown = fly_north_revealing(monkeypatch, hidden)
     assert r.success, r.message
-    flown = np.array(mission.path)
     on_the_old_leg = flown[(flown[:, 0] < 1.2) & (flown[:, 1] < 2.55)]
     assert on_the_old_leg[:, 1].max() < 1.3  # it did not set off north toward the wall
     beside = flown[flown[:, 0] < 3.0]
     assert np.min(np.abs(beside[:, 1] - 2.55)) > 0.35  # and went round its end
+
+
+def test_a_goal_found_inside_a_block_after_the_turn_stops_it_with_no_path(
+        monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Random arena 1's crash: the goal turns out to be inside a block (its faces seen
+    only after the turn, its inside unknown). The re-plan finds no path, and the navigator
+    stops and says so instead of flying on along the path planned before it looked."""
+    box = np.array([(x, y, z) for x in np.arange(0.05, 2.0, 0.1)
+                    for y in np.arange(4.95, 7.0, 0.1) for z in np.arange(0.05, 4.0, 0.1)
+                    if min(x - 0.05, 1.95 - x, y - 4.95, 6.95 - y) < 0.05])  # its faces
+    r, flown = fly_north_revealing(monkeypatch, box)
+    assert not r.success and r.result == NAVIGATE.Result.RESULT_NO_PATH, r.message
+    assert "blocked" in r.message
+    assert flown[:, 1].max() < 4.95 - 0.35  # it never flew into the block
