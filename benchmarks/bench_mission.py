@@ -11,7 +11,9 @@ success rate (issue target: at least 18/20, goal 20/20), the mean score ratio (t
 over the operator's planned points; also over the robot's whole table), and the p50 / max
 wall time per run, with the real-time factor. Quality figures first; wall times depend on
 the host and its load. The JSON is rewritten after every run, so a stopped benchmark
-keeps what it measured (``runs_done`` of ``runs_planned``).
+keeps what it measured (``runs_done`` of ``runs_planned``). Seeds can be flown in parts
+(``--seeds 1-10`` into one JSON, ``--seeds 11-20`` into another, even on two machines):
+``--merge OUT PART...`` joins them, a seed's last run winning.
 """
 
 from __future__ import annotations
@@ -31,10 +33,12 @@ TARGET_SUCCESSES = 18  # of 20 (the issue's); the goal is all of them
 
 
 def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        first, last = (int(v) for v in text.split("-", 1))
-        return list(range(first, last + 1))
-    return [int(v) for v in text.split(",")]
+    """Seeds from "1-20", "3,7" or "2-4,6-20"."""
+    seeds: list[int] = []
+    for item in text.split(","):
+        first, _, last = item.partition("-")
+        seeds += list(range(int(first), int(last or first) + 1))
+    return seeds
 
 
 def run_one(out: Path, seed: int) -> dict[str, Any]:
@@ -61,12 +65,19 @@ def run_one(out: Path, seed: int) -> dict[str, Any]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results/mission.json"))
-    parser.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 3,7")
+    parser.add_argument("--seeds", default="1-20", help="e.g. 1-20, 3,7 or 2-4,6-20")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")
     parser.add_argument("--runs", type=Path, default=Path("runs/mission_seeds"),
                         help="folder for each run's report.json and pictures")
+    parser.add_argument("--merge", nargs="+", type=Path, metavar="PART",
+                        help="join these results' runs into --out (no flying)")
     args = parser.parse_args()
     seeds = _seeds(args.seeds)
+    if args.merge:
+        merged = merge([json.loads(part.read_text()) for part in args.merge], len(seeds))
+        _write(args.out, merged)
+        print(json.dumps({k: v for k, v in merged.items() if k != "runs"}))
+        return
     runs: list[dict[str, Any]] = []
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = [pool.submit(run_one, args.runs / f"seed_{seed}", seed) for seed in seeds]
@@ -97,6 +108,13 @@ def summary(runs: list[dict[str, Any]], planned_runs: int, jobs: int) -> dict[st
         "jobs": jobs,
         "runs": runs,
     }
+
+
+def merge(parts: list[dict[str, Any]], planned_runs: int) -> dict[str, Any]:
+    """One result of several parts' runs, by seed (a later part's run of a seed wins)."""
+    by_seed = {r["seed"]: r for part in parts for r in part["runs"]}
+    jobs = max(int(part.get("jobs", 1)) for part in parts)
+    return summary([by_seed[s] for s in sorted(by_seed)], planned_runs, jobs)
 
 
 def _write(out: Path, result: dict[str, Any]) -> None:

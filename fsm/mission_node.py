@@ -288,8 +288,12 @@ class MissionNode(Node):
     async def _explore(self, target_robot: int) -> bool:
         self.pictures.clear()
         self._collecting = True
+        budget_ns = round(self.params.explore_budget_s * 1e9)
         result = await self._goal("explore", interfaces.new(
-            EXPLORE.Goal, altitude=self.params.cruise_altitude, stop_marker_ids=[target_robot]))
+            EXPLORE.Goal, altitude=self.params.cruise_altitude, stop_marker_ids=[target_robot],
+            time_budget=interfaces.new("builtin_interfaces/msg/Duration",
+                                       sec=budget_ns // 1_000_000_000,
+                                       nanosec=budget_ns % 1_000_000_000)))
         if result is None:
             return False
         if result.result == EXPLORE_RESULT.RESULT_MARKER_FOUND:

@@ -51,6 +51,9 @@ class MissionParams:
     target_robot: int = param(range=(0, 1000), description="the robot marker to find")
     cruise_altitude: float = param(unit="m", range=(0.5, 10.0),
                                    description="flight height for take-off, transit, search")
+    explore_budget_s: float = param(unit="s", range=(0.0, 36000.0),
+                                    description="explore at most this long, then stop with "
+                                                "robot_not_found; 0 = no limit")
     search_radius_near: float = param(unit="m", range=(0.0, 5.0),
                                       description="first landing attempt looks this far")
     search_radius_wide: float = param(unit="m", range=(0.0, 10.0),

@@ -63,27 +63,27 @@ def lane_spacing(altitude: float, fovy_deg: float, aspect: float, overlap: float
 
 
 def coverage_lanes(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float,
-                   start: npt.ArrayLike | None = None) -> FloatArray:
+                   start: npt.ArrayLike | None = None, *, across: bool = False) -> FloatArray:
     """Boustrophedon waypoints (N, 2) over the rectangle [lo, hi]: lanes along the longer
-    side, ``spacing`` apart (the first and last on the edges), starting from the corner
-    nearest ``start``."""
+    side (along the shorter one when ``across``), ``spacing`` apart (the first and last on
+    the edges), starting from the corner nearest ``start``."""
     lo_a = np.asarray(lo, dtype=np.float64).reshape(2)
     hi_a = np.asarray(hi, dtype=np.float64).reshape(2)
     if not np.all(hi_a >= lo_a) or not spacing > 0.0:
         raise ValueError(f"coverage lanes: area {lo_a.tolist()}..{hi_a.tolist()} m, spacing "
                          f"{spacing} m")
-    along = 0 if hi_a[0] - lo_a[0] >= hi_a[1] - lo_a[1] else 1
-    across = 1 - along
-    width = hi_a[across] - lo_a[across]
+    along = int((hi_a[0] - lo_a[0] >= hi_a[1] - lo_a[1]) == across)
+    side = 1 - along
+    width = hi_a[side] - lo_a[side]
     n = max(1, math.ceil(width / spacing - 1e-9) + 1)
-    offsets = np.linspace(lo_a[across], hi_a[across], n) if n > 1 else np.array([lo_a[across]])
+    offsets = np.linspace(lo_a[side], hi_a[side], n) if n > 1 else np.array([lo_a[side]])
     points = []
     forward = True
     for c in offsets:
         ends = (lo_a[along], hi_a[along]) if forward else (hi_a[along], lo_a[along])
         for e in ends:
             p = np.empty(2)
-            p[along], p[across] = e, c
+            p[along], p[side] = e, c
             points.append(p)
         forward = not forward
     lanes = np.asarray(points)
@@ -96,7 +96,7 @@ def coverage_lanes(lo: npt.ArrayLike, hi: npt.ArrayLike, spacing: float,
                 if flip_along:
                     v[:, along] = lo_a[along] + hi_a[along] - v[:, along]
                 if flip_across:
-                    v[:, across] = lo_a[across] + hi_a[across] - v[:, across]
+                    v[:, side] = lo_a[side] + hi_a[side] - v[:, side]
                 variants += [v, v[::-1]]
         lanes = min(variants, key=lambda v: float(np.linalg.norm(v[0] - s)))
     return lanes

@@ -25,6 +25,10 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
   area, boustrophedon lanes spaced by the down camera's footprint; each leg is planned like
   a navigate goal; a waypoint with no path is skipped. It stops as soon as one of
   ``stop_marker_ids`` is on ``/perception/markers`` (the vehicle then holds where it is).
+  While none is seen, it sweeps again, up to ``explore_sweeps`` times: lanes across the
+  area, then along it, in turn. A robot moves while the lanes are flown, and one sweep
+  can miss it (random arena 5's robot stayed 1.5-2.3 m beside each lane as the vehicle
+  passed); a sweep across the first crosses its track the other way.
 - ``/navigation/takeoff``: ``/flight_control/takeoff`` to the cruise altitude, then
   ``survey_turns`` quarter turns so the depth camera maps all around.
 
@@ -406,23 +410,29 @@ class NavigatorNode(Node):
                             position=_point(*self._here()))
 
     # -- explore ---------------------------------------------------------------------------
-    def explore_waypoints(self, area: np.ndarray, altitude: float) -> tuple[np.ndarray, str]:
+    def explore_waypoints(self, area: np.ndarray, altitude: float,
+                          sweep: int = 0) -> tuple[np.ndarray, str]:
         """The explore path (N, 3) for an area ((M, 2) polygon; empty = the field) and where
-        it came from."""
+        it came from. Sweep 0 is the predefined path (when the field has one) or lanes
+        along the area's longer side; later sweeps are lanes, across the area (along its
+        shorter side) on odd sweeps, each from the corner nearest the vehicle."""
         p = self.params
+        across = sweep % 2 == 1
+        how = "coverage lanes across" if across else "coverage lanes over"
         if len(area) == 0:
             predefined = self.explore_paths.get(p.arena, {}).get(p.start_pad)
-            if predefined is not None:
+            if predefined is not None and sweep == 0:
                 xy, source = predefined, f"explore path of {p.arena} pad {p.start_pad}"
             else:
                 lo = self.field_min[:2] + p.wall_margin
                 hi = self.field_max[:2] - p.wall_margin
-                xy = coverage_lanes(lo, hi, self._spacing(altitude), self._here()[:2])
-                source = "coverage lanes over the field"
+                xy = coverage_lanes(lo, hi, self._spacing(altitude), self._here()[:2],
+                                    across=across)
+                source = f"{how} the field"
         else:
             xy = coverage_lanes(area.min(axis=0), area.max(axis=0), self._spacing(altitude),
-                                self._here()[:2])
-            source = "coverage lanes over the area"
+                                self._here()[:2], across=across)
+            source = f"{how} the area"
         return np.column_stack([xy, np.full(len(xy), altitude)]), source
 
     def _spacing(self, altitude: float) -> float:
@@ -467,29 +477,41 @@ class NavigatorNode(Node):
             return interfaces.new("builtin_interfaces/msg/Duration", sec=ns // 1_000_000_000,
                                   nanosec=ns % 1_000_000_000)
 
-        skipped = 0
+        skipped = flown = 0
         outcome: tuple[int, bool, str] | None = None
-        self.get_logger().info(f"explore: {len(waypoints)} waypoints ({source})")
-        for k, wp in enumerate(waypoints):
-            def feedback(_path: np.ndarray, _i: int, wp: np.ndarray = wp) -> None:
-                handle.publish_feedback(interfaces.new(
-                    EXPLORE.Feedback, coverage=grid.fraction, elapsed=elapsed(),
-                    markers_found=seen(), next_waypoint=_point(*wp)))
+        stopped = False
+        sweeps = p.explore_sweeps if wanted else 1
+        for sweep in range(sweeps):
+            if sweep:
+                waypoints, source = self.explore_waypoints(area, altitude, sweep)
+            self.get_logger().info(f"explore sweep {sweep + 1}/{sweeps}: {len(waypoints)} "
+                                   f"waypoints ({source})")
+            for k, wp in enumerate(waypoints):
+                def feedback(_path: np.ndarray, _i: int, wp: np.ndarray = wp) -> None:
+                    handle.publish_feedback(interfaces.new(
+                        EXPLORE.Feedback, coverage=grid.fraction, elapsed=elapsed(),
+                        markers_found=seen(), next_waypoint=_point(*wp)))
 
-            if stop():
-                break
-            fly = await self._fly_to(wp, handle, radius=p.waypoint_radius,
-                                     speed=p.cruise_speed, stop=stop, feedback=feedback)
-            if fly.outcome is FlyOutcome.NO_PATH:
-                skipped += 1
-                continue
-            if fly.outcome is FlyOutcome.CANCELED:
-                outcome = (R.RESULT_CANCELED, False, "canceled")
-                break
-            if fly.outcome is FlyOutcome.FLIGHT_ERROR:
-                outcome = (R.RESULT_FLIGHT_ERROR, False, f"waypoint {k + 1}: {fly.message}")
-                break
-            if fly.outcome is FlyOutcome.STOPPED:
+                if stop():
+                    stopped = True
+                    break
+                fly = await self._fly_to(wp, handle, radius=p.waypoint_radius,
+                                         speed=p.cruise_speed, stop=stop, feedback=feedback)
+                if fly.outcome is FlyOutcome.NO_PATH:
+                    skipped += 1
+                    continue
+                if fly.outcome is FlyOutcome.CANCELED:
+                    outcome = (R.RESULT_CANCELED, False, "canceled")
+                    break
+                if fly.outcome is FlyOutcome.FLIGHT_ERROR:
+                    outcome = (R.RESULT_FLIGHT_ERROR, False,
+                               f"sweep {sweep + 1}, waypoint {k + 1}: {fly.message}")
+                    break
+                if fly.outcome is FlyOutcome.STOPPED:
+                    stopped = True
+                    break
+                flown += 1
+            if stopped or outcome is not None or stop():
                 break
         found = seen()
         if outcome is None:
@@ -502,8 +524,9 @@ class NavigatorNode(Node):
                 await self._hold(handle)
             else:
                 outcome = (R.RESULT_COVERED, True,
-                           f"{len(waypoints) - skipped}/{len(waypoints)} waypoints flown "
-                           f"({source}), {skipped} skipped without a path")
+                           f"{flown}/{flown + skipped} waypoints flown in {sweeps} "
+                           f"sweep{'s' * (sweeps > 1)} (last: {source}), {skipped} skipped "
+                           "without a path")
         code, success, message = outcome
         return self._finish(handle, EXPLORE, code, success, message, coverage=grid.fraction,
                             markers_found=found, elapsed=elapsed())

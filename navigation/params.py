@@ -119,6 +119,10 @@ class NavigatorParams:
     survey_turns: int = param(range=(0, 8), description="quarter turns after takeoff, to "
                                                          "map around with the depth camera")
     explore_paths_file: str = param(description="YAML of explore paths per arena and pad")
+    explore_sweeps: int = param(range=(1, 20),
+                                description="sweeps of the area while no stop marker is "
+                                            "seen: the explore path, then lanes across and "
+                                            "along in turn")
     lane_overlap: float = param(unit="1", range=(0.0, 0.9),
                                 description="coverage lanes overlap of the camera footprint")
     down_camera_fovy_deg: float = param(unit="deg", range=(1.0, 179.0),

@@ -59,6 +59,16 @@ def test_lanes_sweep_the_area_and_cover_it() -> None:
     assert grid.fraction > 0.99
 
 
+def test_lanes_across_run_along_the_shorter_side() -> None:
+    lo, hi = np.array([1.0, 1.0]), np.array([19.0, 13.0])
+    lanes = coverage_lanes(lo, hi, 1.3, start=(1.0, 1.0), across=True)
+    assert np.linalg.norm(lanes[0] - [1.0, 1.0]) < 1e-9
+    legs = np.diff(lanes, axis=0)[::2]  # every other leg runs a lane
+    assert np.allclose(legs[:, 0], 0.0) and np.allclose(np.abs(legs[:, 1]), 12.0)
+    xs = np.unique(np.round(lanes[:, 0], 6))
+    assert xs[0] == 1.0 and xs[-1] == 19.0 and np.max(np.diff(xs)) <= 1.3 + 1e-9
+
+
 def test_coverage_grid_marks_the_rotated_footprint() -> None:
     grid = CoverageGrid((0, 0), (10, 10), 0.5)
     grid.mark((5.0, 5.0), (2.0, 0.5), 0.0)  # 4 m across (y), 1 m along (x)

@@ -115,6 +115,21 @@ def test_explore_covers_an_area_with_lanes(stack) -> None:  # type: ignore[no-un
     assert r.coverage > 0.9
 
 
+def test_explore_sweeps_again_across_while_the_wanted_marker_is_not_seen(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 2.5), altitude=1.5,
+                          stop_marker_ids=[19])
+    r = run_goal(rig, mission.explore, goal, 240.0)
+    assert r.success and r.result == EXPLORE.Result.RESULT_COVERED, r.message
+    assert "in 3 sweeps" in r.message  # config/navigator.yaml's explore_sweeps
+    flown = np.array(mission.path)
+    step = np.diff(flown[:, :2], axis=0)
+    inside = (flown[1:, 0] > 1.5) & (flown[1:, 0] < 3.5)  # away from the x edges
+    north_south = inside & (np.abs(step[:, 1]) > 5 * np.abs(step[:, 0])) & (
+        np.abs(step[:, 1]) > 1e-3)
+    assert north_south.sum() > 20  # lanes along y inside the area: the sweep across
+
+
 def test_explore_stops_when_a_wanted_marker_is_seen(stack) -> None:  # type: ignore[no-untyped-def]
     rig, mission = stack
     goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 4.0), altitude=1.5,
