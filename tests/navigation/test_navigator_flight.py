@@ -115,6 +115,20 @@ def test_explore_covers_an_area_with_lanes(stack) -> None:  # type: ignore[no-un
     assert r.coverage > 0.9
 
 
+def test_explore_flies_a_lane_up_to_an_obstacle_holding_its_end(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    # the area's east edge is the wall (x = 5.05 m): every lane's east end is inside it
+    goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 5.05, 2.5), altitude=1.5)
+    r = run_goal(rig, mission.explore, goal, 120.0)
+    assert r.success and r.result == EXPLORE.Result.RESULT_COVERED, r.message
+    assert "0 skipped" in r.message
+    flown = np.array(mission.path)
+    for lane_y in (1.0, 1.75, 2.5):
+        on_lane = flown[np.abs(flown[:, 1] - lane_y) < 0.1]
+        assert on_lane[:, 0].max() > 4.3, lane_y  # flown up to the wall's inflation
+    assert flown[:, 0].max() < 5.05 - 0.35
+
+
 def test_explore_sweeps_again_across_while_the_wanted_marker_is_not_seen(stack) -> None:  # type: ignore[no-untyped-def]
     rig, mission = stack
     goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 2.5), altitude=1.5,
