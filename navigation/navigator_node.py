@@ -79,6 +79,7 @@ REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
 TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
 POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
 LANE_STEP_M = 0.5  # m, an unreachable explore waypoint is tried this much nearer its lane
+LANE_DETOUR = 1.2  # a replacement's path is at most this times the straight line (+ a step)
 _PLAN: Any = PLAN_PATH.Response
 _LEG_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH)  # plan failures that block a leg
 
@@ -545,14 +546,19 @@ class NavigatorNode(Node):
     async def _reachable_toward(self, wp: np.ndarray, partner: np.ndarray) -> np.ndarray | None:
         """The point nearest ``wp`` on the segment to ``partner`` (its lane's other end, or
         the path's previous waypoint), in ``LANE_STEP_M`` steps, that the planner reaches
-        from here; None when none is. A lane whose end is inside an obstacle is still
-        flown up to it: random arena 6's robot stayed between two lanes whose west ends
-        were in blocks, and skipping those ends skipped the lanes."""
+        from here along the lane: by a path at most ``LANE_DETOUR`` times the straight
+        line (plus one step), not round the far side of what blocks it. None when none is.
+        A lane whose end is inside an obstacle is then still flown up to it: random arena
+        6's robot drove between two lanes whose west ends were in blocks; skipping the
+        ends skipped the lanes, and a reachable point behind the block made the path cut
+        across the field instead of along the lane."""
         length = float(np.linalg.norm(partner - wp))
+        here = self._here()
         for d in np.arange(LANE_STEP_M, length, LANE_STEP_M):
             point = wp + (partner - wp) * (d / length)
-            path, _ = await self._plan(self._here(), point)
-            if path is not None:
+            path, _ = await self._plan(here, point)
+            straight = float(np.linalg.norm(point - here))
+            if path is not None and path_length(path) <= LANE_DETOUR * straight + LANE_STEP_M:
                 return point
         return None
 

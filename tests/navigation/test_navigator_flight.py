@@ -129,6 +129,23 @@ def test_explore_flies_a_lane_up_to_an_obstacle_holding_its_end(stack) -> None: 
     assert flown[:, 0].max() < 5.05 - 0.35
 
 
+def test_a_lane_end_in_a_block_behind_the_wall_is_replaced_on_this_side(stack) -> None:  # type: ignore[no-untyped-def]
+    rig, mission = stack
+    # the lanes' east ends are inside a block beyond the wall: the nearest reachable points
+    # toward them are just past the block, but only round the wall's far end; the lane is
+    # flown up to the wall instead
+    block = np.array([(x, y, z) for x in np.arange(7.45, 8.6, 0.1)
+                      for y in np.arange(0.45, 2.2, 0.1) for z in np.arange(0.05, 4.0, 0.1)])
+    mission.map_pub.publish(cloud_msg(np.vstack([WALL, block]), Time(0).to_msg(), "map"))
+    rig.ex.spin_for(0.5)
+    goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 8.0, 1.75), altitude=1.5)
+    r = run_goal(rig, mission.explore, goal, 120.0)
+    assert r.success and "0 skipped" in r.message, r.message
+    flown = np.array(mission.path)
+    assert flown[:, 0].max() < 5.05 - 0.35  # never round the wall
+    assert flown[np.abs(flown[:, 1] - 1.0) < 0.1, 0].max() > 4.3  # the lane up to it
+
+
 def test_explore_sweeps_again_across_while_the_wanted_marker_is_not_seen(stack) -> None:  # type: ignore[no-untyped-def]
     rig, mission = stack
     goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 2.5), altitude=1.5,
