@@ -6,8 +6,12 @@ its MPC_LAND_SPEED) and keeps streaming a hold setpoint that follows the vehicle
 so a cancel can take offboard back at once. ``speed`` > 0 is an offboard descent at that
 speed [m/s], holding x, y and the heading, the altitude left free. Once the FCU's land
 detector reports the touchdown the goal succeeds, after a disarm request when ``disarm``
-is set (SUCCEEDED as soon as the FCU reports the vehicle disarmed). A refused NAV_LAND,
-or a refused disarm with the vehicle still armed, ends it with FCU_REJECTED.
+is set (SUCCEEDED as soon as the FCU reports the vehicle disarmed). A refused NAV_LAND
+ends it with FCU_REJECTED, and so does a disarm refused ``DISARM_ATTEMPTS`` times (asked
+again ``DISARM_RETRY_NS`` after a refusal, once the land detector says landed again): the
+commander refuses a disarm while its land detector says "not landed", and the status the
+behaviour saw can be a moment older than that (random arena 20's mission stopped on a
+single refusal right after a touchdown inside pad 3).
 """
 
 from __future__ import annotations
@@ -20,12 +24,16 @@ import numpy as np
 from flight_control.behaviours.base import (
     DISARM,
     NAV_LAND,
+    CommandReply,
     Observation,
     Outcome,
     Setpoint,
     Step,
 )
 from flight_control.setpoints import FloatArray
+
+DISARM_ATTEMPTS = 3  # disarm requests before a refusal ends the landing
+DISARM_RETRY_NS = 1_000_000_000  # ns between a refused disarm and the next request
 
 
 @dataclass(frozen=True)
@@ -48,6 +56,8 @@ class Land:
         self.descend_at = position.copy()
         self._asked_land = False
         self._asked_disarm = False
+        self._refusals: list[CommandReply] = []  # disarm refusals so far
+        self._refused_at_ns = 0
 
     @property
     def expected_s(self) -> None:
@@ -69,11 +79,18 @@ class Land:
             if not self.disarm:
                 return Step(hold, feedback, Outcome.SUCCEEDED)
             if not self._asked_disarm:
+                if self._refusals and now_ns - self._refused_at_ns < DISARM_RETRY_NS:
+                    return Step(hold, feedback)
                 self._asked_disarm = True
                 return Step(hold, feedback, command=DISARM)
-            if reply is not None and reply.request == DISARM and not reply.accepted:
-                return Step(hold, feedback, Outcome.FCU_REJECTED, reason=reply.message)
-            return Step(hold, feedback)  # disarm accepted: until /fcu/status shows it
+            if (reply is not None and reply.request == DISARM and not reply.accepted
+                    and not any(reply is r for r in self._refusals)):
+                self._refusals.append(reply)
+                if len(self._refusals) >= DISARM_ATTEMPTS:
+                    return Step(hold, feedback, Outcome.FCU_REJECTED, reason=reply.message)
+                self._asked_disarm = False  # ask again in a moment
+                self._refused_at_ns = now_ns
+            return Step(hold, feedback)  # disarm asked or accepted: until /fcu/status shows it
         if self.speed > 0.0:
             x, y = self.descend_at[:2]
             return Step(Setpoint(np.array([x, y, math.nan]), np.array([0.0, 0.0, -self.speed]),

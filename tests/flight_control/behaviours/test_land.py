@@ -15,6 +15,7 @@ from flight_control.behaviours import (
     Outcome,
     Setpoint,
 )
+from flight_control.behaviours.land import DISARM_ATTEMPTS, DISARM_RETRY_NS
 from tests.flight_control.behaviours.observe import TICK_NS, observe
 
 AT = np.array([4.0, 5.0, 1.2])
@@ -83,13 +84,38 @@ def test_touchdown_asks_for_disarm_then_succeeds_once_disarmed() -> None:
     assert step.feedback.altitude == pytest.approx(-0.2)
 
 
-def test_a_refused_disarm_with_the_vehicle_armed_ends_it() -> None:
+def test_a_refused_disarm_is_asked_again_then_ends_it_after_the_last_attempt() -> None:
+    land = _land(speed=0.5)
+    assert land.step(observe(AT, landed=True), 0).command == DISARM
+    t = 0
+    for attempt in range(1, DISARM_ATTEMPTS + 1):
+        refused = _reply(DISARM, False)
+        t += TICK_NS
+        step = land.step(observe(AT, landed=True, reply=refused), t)
+        assert step.setpoint is not None and step.setpoint.position.tolist() == AT.tolist()
+        assert step.feedback.vertical_speed == 0.0
+        if attempt == DISARM_ATTEMPTS:
+            assert step.outcome is Outcome.FCU_REJECTED and step.reason == "refused: DENIED"
+            break
+        assert step.outcome is None and step.command is None
+        # the same refusal seen again is not another one; no new request before the pause
+        t += TICK_NS
+        step = land.step(observe(AT, landed=True, reply=refused), t)
+        assert step.outcome is None and step.command is None
+        t += DISARM_RETRY_NS
+        step = land.step(observe(AT, landed=True, reply=refused), t)
+        assert step.command == DISARM and step.outcome is None
+
+
+def test_a_disarm_accepted_on_the_second_request_succeeds() -> None:
     land = _land(speed=0.5)
     land.step(observe(AT, landed=True), 0)
-    step = land.step(observe(AT, landed=True, reply=_reply(DISARM, False)), TICK_NS)
-    assert step.outcome is Outcome.FCU_REJECTED and step.reason == "refused: DENIED"
-    assert step.setpoint is not None and step.setpoint.position.tolist() == AT.tolist()
-    assert step.feedback.vertical_speed == 0.0
+    land.step(observe(AT, landed=True, reply=_reply(DISARM, False)), TICK_NS)
+    again = land.step(observe(AT, landed=True), TICK_NS + DISARM_RETRY_NS)
+    assert again.command == DISARM
+    step = land.step(observe(AT, landed=True, armed=False, reply=_reply(DISARM, True)),
+                     2 * TICK_NS + DISARM_RETRY_NS)
+    assert step.outcome is Outcome.SUCCEEDED
 
 
 def test_disarmed_by_the_fcu_itself_is_a_success() -> None:
