@@ -23,8 +23,9 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
 - ``/navigation/explore``: the predefined exploration path of the arena and start pad
   (``explore_paths_file``, with loop closures) or, when there is none or the goal gives an
   area, boustrophedon lanes spaced by the down camera's footprint; each leg is planned like
-  a navigate goal; a waypoint with no path is replaced by the nearest point toward its
-  lane's other end that has one (or skipped when none has). It stops as soon as one of
+  a navigate goal; a waypoint with no path is skipped or, with
+  ``replace_blocked_lane_ends``, replaced by the nearest point toward its lane's other end
+  that has one. It stops as soon as one of
   ``stop_marker_ids`` is on ``/perception/markers`` (the vehicle then holds where it is).
   While none is seen, it sweeps again, up to ``explore_sweeps`` times: lanes across the
   area, then along it, in turn. A robot moves while the lanes are flown, and one sweep
@@ -500,8 +501,8 @@ class NavigatorNode(Node):
                     break
                 fly = await self._fly_to(wp, handle, radius=p.waypoint_radius,
                                          speed=p.cruise_speed, stop=stop, feedback=feedback)
-                if fly.outcome is FlyOutcome.NO_PATH:
-                    # the lane's end is in or behind an obstacle: fly the lane as far as it goes
+                if fly.outcome is FlyOutcome.NO_PATH and p.replace_blocked_lane_ends:
+                    # the lane's end is in an obstacle: fly the lane as far as it goes
                     partner = k ^ 1 if source.startswith("coverage lanes") else k - 1
                     nearer = (await self._reachable_toward(wp, waypoints[partner])
                               if 0 <= partner < len(waypoints) else None)

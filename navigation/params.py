@@ -119,6 +119,9 @@ class NavigatorParams:
     survey_turns: int = param(range=(0, 8), description="quarter turns after takeoff, to "
                                                          "map around with the depth camera")
     explore_paths_file: str = param(description="YAML of explore paths per arena and pad")
+    replace_blocked_lane_ends: bool = param(
+        description="an explore waypoint with no path is replaced by the nearest point "
+                    "toward its lane's other end reached along the lane (else skipped)")
     explore_sweeps: int = param(range=(1, 20),
                                 description="sweeps of the area while no stop marker is "
                                             "seen: the explore path, then lanes across and "

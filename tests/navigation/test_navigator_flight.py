@@ -22,7 +22,8 @@ from tests.flight_control.scripted_fcu import ScriptedFcu
 # a wall at x = 5 m from y = 0 to 5 m, full height: the way round is north of y = 5
 WALL = np.array([(5.05, y, z) for y in np.arange(0.05, 5.0, 0.1)
                  for z in np.arange(0.05, 4.0, 0.1)])
-NAV_OVERRIDES = FIELD | {"survey_turns": 0, "turn_first_angle": 3.15, "cruise_altitude": 1.5}
+NAV_OVERRIDES = FIELD | {"survey_turns": 0, "turn_first_angle": 3.15, "cruise_altitude": 1.5,
+                         "replace_blocked_lane_ends": True}
 
 
 class Mission(Node):
