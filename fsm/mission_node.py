@@ -43,6 +43,7 @@ from fsm.mission_table import ErrorCause, phase_of
 from fsm.params import FIELD_SOURCE, MissionParams, PadsParams
 from runtime import (
     ActionClient,
+    Duration,
     Node,
     ParameterError,
     QoSProfile,
@@ -288,12 +289,9 @@ class MissionNode(Node):
     async def _explore(self, target_robot: int) -> bool:
         self.pictures.clear()
         self._collecting = True
-        budget_ns = round(self.params.explore_budget_s * 1e9)
         result = await self._goal("explore", interfaces.new(
             EXPLORE.Goal, altitude=self.params.cruise_altitude, stop_marker_ids=[target_robot],
-            time_budget=interfaces.new("builtin_interfaces/msg/Duration",
-                                       sec=budget_ns // 1_000_000_000,
-                                       nanosec=budget_ns % 1_000_000_000)))
+            time_budget=Duration.from_seconds(self.params.explore_budget_s).to_msg()))
         if result is None:
             return False
         if result.result == EXPLORE_RESULT.RESULT_MARKER_FOUND:

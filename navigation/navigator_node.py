@@ -64,6 +64,7 @@ from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, path_msg, 
 from runtime import (
     ActionClient,
     ActionServer,
+    Duration,
     Node,
     ParameterError,
     ServerGoalHandle,
@@ -158,11 +159,15 @@ class NavigatorNode(Node):
         path, message, _ = await self._plan_stamped(start, goal)
         return path, message
 
+    async def _ask_planner(self, start: np.ndarray, goal: np.ndarray) -> Any:
+        """The ``/navigation/plan_path`` response from ``start`` to ``goal``."""
+        request = interfaces.new(PLAN_PATH.Request, start=_point(*start), goal=_point(*goal))
+        return await self.planner.call_async(request)
+
     async def _plan_stamped(self, start: np.ndarray, goal: np.ndarray
                             ) -> tuple[np.ndarray | None, str, int]:
         """(path or None, message, the stamp [ns] of the map it was planned on)."""
-        request = interfaces.new(PLAN_PATH.Request, start=_point(*start), goal=_point(*goal))
-        response = await self.planner.call_async(request)
+        response = await self._ask_planner(start, goal)
         stamp = Time.from_msg(response.path.header.stamp).nanoseconds
         if not response.success:
             return None, str(response.message), stamp
@@ -173,9 +178,7 @@ class NavigatorNode(Node):
         straight to its end, or says the end is in an obstacle or cut off from here. Not
         when it cannot plan from here at all (the start too close to an obstacle: the
         vehicle is flying out of it), which says nothing of the leg."""
-        request = interfaces.new(PLAN_PATH.Request, start=_point(*self._here()),
-                                 goal=_point(*path[i]))
-        response = await self.planner.call_async(request)
+        response = await self._ask_planner(self._here(), path[i])
         if response.success:
             return len(response.path.poses) > 2
         return int(response.result) in _LEG_BLOCKED
@@ -477,9 +480,7 @@ class NavigatorNode(Node):
             return False
 
         def elapsed() -> Any:
-            ns = self.now().nanoseconds - start_ns
-            return interfaces.new("builtin_interfaces/msg/Duration", sec=ns // 1_000_000_000,
-                                  nanosec=ns % 1_000_000_000)
+            return Duration(self.now().nanoseconds - start_ns).to_msg()
 
         skipped = flown = 0
         outcome: tuple[int, bool, str] | None = None

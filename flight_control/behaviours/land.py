@@ -56,7 +56,8 @@ class Land:
         self.descend_at = position.copy()
         self._asked_land = False
         self._asked_disarm = False
-        self._refusals: list[CommandReply] = []  # disarm refusals so far
+        self._refusals = 0  # disarm refusals so far
+        self._last_refusal: CommandReply | None = None  # seen again until the next ack
         self._refused_at_ns = 0
 
     @property
@@ -84,9 +85,10 @@ class Land:
                 self._asked_disarm = True
                 return Step(hold, feedback, command=DISARM)
             if (reply is not None and reply.request == DISARM and not reply.accepted
-                    and not any(reply is r for r in self._refusals)):
-                self._refusals.append(reply)
-                if len(self._refusals) >= DISARM_ATTEMPTS:
+                    and reply is not self._last_refusal):
+                self._refusals += 1
+                self._last_refusal = reply
+                if self._refusals >= DISARM_ATTEMPTS:
                     return Step(hold, feedback, Outcome.FCU_REJECTED, reason=reply.message)
                 self._asked_disarm = False  # ask again in a moment
                 self._refused_at_ns = now_ns
