@@ -463,7 +463,7 @@ class Node:
         self._guid_counter = 0
         self._entities: list[Any] = []
         self._tasks: list[Task[Any]] = []
-        self._handles: list[Handle] = []
+        self._sleeps: set[Handle] = set()  # pending sleeps, cancelled on destroy_node
         self._logger = NodeLogger(self.get_fully_qualified_name().lstrip("/"), context.loop.clock)
         self._parameters: dict[str, Parameter] = {}
         self._descriptors: dict[str, ParameterDescriptor] = {}
@@ -563,18 +563,24 @@ class Node:
         loop = self.context.loop
         future: Future[None] = Future(loop)
         t_ns = loop.clock.now().nanoseconds + max(0, seconds_to_ns(seconds))
-        handle = loop.call_at(t_ns, lambda: None if future.done() else future.set_result(None),
-                              (self._name, "sleep", ""))
-        self._handles = [h for h in self._handles if not h.cancelled]
-        self._handles.append(handle)
+        sleeps = self._sleeps
+
+        def wake() -> None:
+            sleeps.discard(handle)
+            if not future.done():
+                future.set_result(None)
+
+        handle = loop.call_at(t_ns, wake, (self._name, "sleep", ""))
+        sleeps.add(handle)
         return future
 
     def destroy_node(self) -> None:
         """Stop everything the node does: its entities, its tasks and pending sleeps."""
         for task in self._tasks:
             task.cancel()
-        for handle in self._handles:
+        for handle in self._sleeps:
             handle.cancel()
+        self._sleeps.clear()
         for entity in reversed(self._entities):
             entity.destroy()
         self._entities.clear()

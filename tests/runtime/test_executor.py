@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import gc
+import weakref
 from typing import Any
 
 import pytest
@@ -189,6 +191,22 @@ def test_a_destroyed_node_stops_everything_it_did(ex: DeterministicExecutor) -> 
     assert len(heard) == count == 3
     with pytest.raises(Exception, match="destroyed"):
         pub.publish(interfaces.new("std_msgs/msg/Int32", data=-1))
+
+
+def test_a_node_forgets_its_finished_sleeps(ex: DeterministicExecutor) -> None:
+    """A node that sleeps in a loop for a whole mission keeps only its pending sleeps:
+    nothing of a finished one stays alive (the node once kept every sleep it made, and
+    each new sleep scanned them all)."""
+    node = Node("sleeper", context=ex.context)
+    finished = weakref.ref(node.sleep(0.1))
+    pending = node.sleep(10.0)
+    ex.spin_for(1.0)
+    gc.collect()
+    assert finished() is None
+    assert not pending.done()
+    node.destroy_node()
+    ex.spin_for(20.0)
+    assert not pending.done()
 
 
 def test_a_service_whose_deferred_answer_fails_logs_and_keeps_serving(
