@@ -403,17 +403,19 @@ class Firmware:
         est = self.estimate
         if est is None:
             return
-        v = est.state.velocity_ned
-        rates = est.state.angular_velocity_frd
-        collective = float(np.sum(self.motor_commands))
+        vx, vy, vz = est.state.velocity_ned.tolist()
+        roll_rate, pitch_rate, _ = est.state.angular_velocity_frd.tolist()
+        ax, ay, az = self.accel_frd.tolist()
+        # floats, not numpy reductions, on 3 and 4 values: the same sums, bit for bit
+        collective = sum(self.motor_commands.tolist())
         self.land = self.land_detector.update(LandDetectorInputs(
             now_us=self._now_us,
             armed=self.armed,
             thrust=collective / (NUM_ROTORS * self.quad.max_motor_thrust),
-            vx=float(v[0]), vy=float(v[1]), vz=float(v[2]),
+            vx=vx, vy=vy, vz=vz,
             v_xy_valid=est.position_valid, v_z_valid=est.position_valid,
-            roll_rate=float(rates[0]), pitch_rate=float(rates[1]),
-            specific_force_norm=float(np.linalg.norm(self.accel_frd)),
+            roll_rate=roll_rate, pitch_rate=pitch_rate,
+            specific_force_norm=math.sqrt(ax * ax + ay * ay + az * az),
             climb_rate_control=True,
             vz_setpoint=float(self.setpoint.velocity[2]) if math.isfinite(
                 self.setpoint.velocity[2]) else math.nan,
@@ -577,13 +579,15 @@ class Firmware:
     def _on_vehicle_visual_odometry(self, msg: Any) -> None:
         sample_us = int(msg.timestamp_sample) or self._now_us
         _ = self.estimate  # the estimate of the last ekf_update, from before this fusion
-        q = np.asarray(msg.q, dtype=np.float64)
-        var = float(np.nanmax(msg.position_variance)) if np.isfinite(
-            msg.position_variance).any() else math.nan
+        q = msg.q.astype(np.float64)
+        variances = msg.position_variance.tolist()
+        # the largest variance that is not NaN, if any is finite (PX4 takes the largest)
+        var = max(v for v in variances if not math.isnan(v)) if any(
+            map(math.isfinite, variances)) else math.nan
         self.estimator.fuse_vision(VisionSample(
             sample_time_us=sample_us,
-            position_ned=np.asarray(msg.position, dtype=np.float64),
-            q=q if np.all(np.isfinite(q)) else None,
+            position_ned=msg.position.astype(np.float64),
+            q=q if all(map(math.isfinite, q.tolist())) else None,
             position_variance=var))
         if self.vision_observers:
             consumed = ConsumedVision(int(msg.timestamp), int(msg.timestamp_sample), self._now_us)
