@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -356,9 +356,8 @@ class FrequencyStats:
         return self.freq_hz**2 * self.interval_std_us * 1e-6
 
 
-@dataclass(frozen=True)
-class TickResult:
-    """What one main-loop tick did."""
+class TickResult(NamedTuple):
+    """What one main-loop tick did (a named tuple: one is made every tick)."""
 
     tick: int
     time_us: int
@@ -440,6 +439,10 @@ class _DutyMeter:
         )
 
 
+# below this interval, FOLD squared intervals sum exactly in int64: FOLD * (2**26)**2 < 2**63
+_EXACT_SQUARES_BELOW_US = 2**26
+
+
 class _RateMeter:
     """Call times in simulated microseconds -> achieved frequency and its spread.
 
@@ -477,10 +480,13 @@ class _RateMeter:
         else:
             previous = self._last_us
             rest = times
-        intervals = [b - a for a, b in zip([previous, *rest[:-1]], rest, strict=True)]
+        intervals = np.diff(np.array([previous, *rest], dtype=np.int64))
         self._n += len(intervals)
-        self._sum += sum(intervals)
-        self._sumsq += sum(i * i for i in intervals)
+        self._sum += int(intervals.sum())
+        if len(intervals) and int(intervals.max()) < _EXACT_SQUARES_BELOW_US:
+            self._sumsq += int(np.dot(intervals, intervals))  # exact in int64
+        else:  # intervals over a minute: Python's integers, which do not overflow
+            self._sumsq += sum(i * i for i in intervals.tolist())
         self.calls += len(times)
         self._last_us = times[-1]
         times.clear()
@@ -540,6 +546,7 @@ class Scheduler:
         )
         self._running = {p.fun: p.autorun for p in schedule.periodics}
         self._flags = {e.fun: False for e in schedule.events}
+        self._events = tuple(e.fun for e in schedule.events)  # in poll order
         self._initialised = False
         self._tick = 0
         self._overruns = 0
@@ -614,12 +621,13 @@ class Scheduler:
     def _poll(self, now: int, t0: int, called: list[str]) -> int:
         """Event poll started at host time ``t0``; returns the host time it ended."""
         flags = self._flags
-        for event in self.schedule.events:
-            if flags[event.fun]:
-                flags[event.fun] = False
-                self._functions[event.fun]()
-                self._event_calls[event.fun] += 1
-                called.append(event.fun)
+        if self._events:
+            for fun in self._events:
+                if flags[fun]:
+                    flags[fun] = False
+                    self._functions[fun]()
+                    self._event_calls[fun] += 1
+                    called.append(fun)
         t1 = self._timer()
         self._event_duty.record(t1 - t0, self._tick)
         self._poll_rate.record(now)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import statistics
 from collections.abc import Callable, Sequence
 
 import pytest
@@ -34,6 +35,7 @@ from sim.fcu import (
     resolve,
     sort_modules,
 )
+from sim.fcu.scheduler import _RateMeter
 
 G = TaskGroup
 MAIN_HZ = 500
@@ -744,3 +746,18 @@ def test_late_ticks_show_as_jitter_in_simulated_time() -> None:
     # standard deviation is sqrt(2) ms
     assert achieved.interval_std_us == pytest.approx(math.sqrt(2) * 1000, rel=0.01)
     assert achieved.std_hz > 100.0
+
+
+
+@pytest.mark.parametrize("spacing_us", [2000, 100_000_000])
+def test_the_interval_jitter_is_exact_for_any_interval(spacing_us: int) -> None:
+    """Intervals of 2 ms and of 100 s (a slow function: the sums of its squared intervals
+    overflow 64-bit integers) both give the exact population standard deviation."""
+    meter = _RateMeter()
+    stamps = list(itertools.accumulate(spacing_us + k % 7 for k in range(3000)))
+    for t in stamps:
+        meter.record(t)
+    intervals = [b - a for a, b in itertools.pairwise(stamps)]
+    stats = meter.stats()
+    assert stats.calls == len(stamps)
+    assert stats.interval_std_us == pytest.approx(statistics.pstdev(intervals), rel=1e-12)
