@@ -238,7 +238,10 @@ def _generate(typename: str, defs: list[Any]) -> tuple[Any, Any]:
     """The constructor and the validator of ``typename`` (see :class:`_Layout`)."""
     names = [fname for fname, _ in defs]
     env: dict[str, Any] = {"cls": typestore().types[typename], "M": _MISSING,
-                           "ndarray": np.ndarray, "validate": validate, "_check": _check}
+                           "ndarray": np.ndarray, "validate": validate, "_check": _check,
+                           # for the constructor, whose parameters are the field names (a
+                           # field may be called ``type``; none starts with ``_`` in ROS 2)
+                           "_type": type, "_ndarray": np.ndarray}
     if not all(n.isidentifier() and not keyword.iskeyword(n) for n in names):
         return None, None  # not expressible as parameters: the generic path
     args, checks = [], []
@@ -253,7 +256,10 @@ def _generate(typename: str, defs: list[Any]) -> tuple[Any, Any]:
             coerce = kind != Nodetype.NAME
             if coerce:
                 env[f"c{i}"] = functools.partial(_coerce, f"{typename}.{fname}", node)
-            value = f"c{i}({fname})" if coerce else fname
+            # an array given as an ndarray goes straight to the check: only lists and
+            # tuples are coerced (the common case costs no call)
+            value = f"({fname} if _type({fname}) is _ndarray else c{i}({fname}))" if (
+                coerce) else fname
             args.append(f"{fname}=z{i}() if {fname} is M else {value}")
         fast = _fast_check_expr(node, env, i)
         checks.append(f"    v = msg.{fname}")
