@@ -100,7 +100,9 @@ __all__ = [
     "quat_to_yaw",
     "quat_to_yaw_f",
     "variance_enu_to_ned",
+    "variance_enu_to_ned_f",
     "variance_ned_to_enu",
+    "variance_ned_to_enu_f",
     "wrap_pi",
     "yaw_enu_to_ned",
     "yaw_ned_to_enu",
@@ -539,23 +541,35 @@ def covariance_flu_to_frd(cov_flu: ArrayLike) -> FloatArray:
 # The conversions above for a single vector or quaternion given as Python floats (any
 # sequence of 3 or 4; a numpy array works but is slower than its ``.tolist()``), returned
 # as a tuple. Same formulas, same operation order, so the same bits (NaN's sign aside);
-# see the module docstring.
+# see the module docstring. A wrong length raises ValueError naming the argument.
 
-def _quat_f(q: FloatArray) -> Quat:
-    w, x, y, z = q.tolist()
+
+def _vec3_f(value: Sequence[float], name: str) -> Vec3:
+    try:
+        x, y, z = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected shape (3,), got {np.shape(value)}") from None
+    return (x, y, z)
+
+
+def _quat_f(value: Sequence[float], name: str) -> Quat:
+    try:
+        w, x, y, z = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected shape (4,), got {np.shape(value)}") from None
     return (w, x, y, z)
 
 
 _NAN4: Final[Quat] = (math.nan, math.nan, math.nan, math.nan)
-_Q_ENU_NED_F: Final = _quat_f(Q_ENU_NED)
-_Q_FRD_FLU_F: Final = _quat_f(Q_FRD_FLU)
-_Q_NED_ENU_F: Final = _quat_f(quat_conjugate(Q_ENU_NED))
-_Q_FLU_FRD_F: Final = _quat_f(quat_conjugate(Q_FRD_FLU))
+_Q_ENU_NED_F: Final = _quat_f(Q_ENU_NED.tolist(), "Q_ENU_NED")
+_Q_FRD_FLU_F: Final = _quat_f(Q_FRD_FLU.tolist(), "Q_FRD_FLU")
+_Q_NED_ENU_F: Final = _quat_f(quat_conjugate(Q_ENU_NED).tolist(), "Q_NED_ENU")
+_Q_FLU_FRD_F: Final = _quat_f(quat_conjugate(Q_FRD_FLU).tolist(), "Q_FLU_FRD")
 
 
 def quat_normalise_f(q: Sequence[float]) -> Quat:
     """:func:`quat_normalise` of one ``[w, x, y, z]``: all NaN unless ``q / |q|`` is finite."""
-    w, x, y, z = q
+    w, x, y, z = _quat_f(q, "q")
     norm = math.sqrt(w * w + x * x + y * y + z * z)
     if norm == 0.0:  # numpy's 0 / 0; Python would raise
         return _NAN4
@@ -565,14 +579,14 @@ def quat_normalise_f(q: Sequence[float]) -> Quat:
 
 def quat_conjugate_f(q: Sequence[float]) -> Quat:
     """:func:`quat_conjugate` of one ``[w, x, y, z]``: ``[w, -x, -y, -z]``."""
-    w, x, y, z = q
+    w, x, y, z = _quat_f(q, "q")
     return (w, -x, -y, -z)
 
 
 def quat_multiply_f(p: Sequence[float], q: Sequence[float]) -> Quat:
     """:func:`quat_multiply` of two quaternions: the Hamilton product ``p (x) q``."""
-    pw, px, py, pz = p
-    qw, qx, qy, qz = q
+    pw, px, py, pz = _quat_f(p, "p")
+    qw, qx, qy, qz = _quat_f(q, "q")
     return (pw * qw - px * qx - py * qy - pz * qz,
             pw * qx + px * qw + py * qz - pz * qy,
             pw * qy - px * qz + py * qw + pz * qx,
@@ -583,7 +597,7 @@ def quat_rotate_f(q: Sequence[float], v: Sequence[float]) -> Vec3:
     """:func:`quat_rotate` of one vector: ``v`` in frame b expressed in frame a, for
     ``q = q_a_b`` (normalised first; an invalid ``q`` gives all NaN)."""
     w, x, y, z = quat_normalise_f(q)
-    vx, vy, vz = v
+    vx, vy, vz = _vec3_f(v, "v")
     # t = 2 u x v, then v + w t + u x t, as np.cross orders the terms
     tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
     return (vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz),
@@ -608,26 +622,41 @@ def quat_to_yaw_f(q: Sequence[float]) -> float:
 
 def ned_to_enu_f(v_ned: Sequence[float]) -> Vec3:
     """:func:`ned_to_enu` of one world vector: ``(y, x, -z)``."""
-    x, y, z = v_ned
+    x, y, z = _vec3_f(v_ned, "v_ned")
     return (y, x, -z)
 
 
 def enu_to_ned_f(v_enu: Sequence[float]) -> Vec3:
     """:func:`enu_to_ned` of one world vector: ``(y, x, -z)``."""
-    return ned_to_enu_f(v_enu)
+    x, y, z = _vec3_f(v_enu, "v_enu")
+    return (y, x, -z)
 
 
 def frd_to_flu_f(v_frd: Sequence[float]) -> Vec3:
     """:func:`frd_to_flu` of one body vector: ``(x, -y, -z)``."""
-    x, y, z = v_frd
+    x, y, z = _vec3_f(v_frd, "v_frd")
     return (x, -y, -z)
+
+
+def variance_ned_to_enu_f(var_ned: Sequence[float]) -> Vec3:
+    """:func:`variance_ned_to_enu` of one world vector's variances: x and y swapped."""
+    x, y, z = _vec3_f(var_ned, "var_ned")
+    return (y, x, z)
+
+
+def variance_enu_to_ned_f(var_enu: Sequence[float]) -> Vec3:
+    """:func:`variance_enu_to_ned` of one world vector's variances: x and y swapped."""
+    x, y, z = _vec3_f(var_enu, "var_enu")
+    return (y, x, z)
 
 
 def quat_ned_frd_to_enu_flu_f(q_ned_frd: Sequence[float]) -> Quat:
     """:func:`quat_ned_frd_to_enu_flu` of one attitude (not normalised)."""
-    return quat_multiply_f(quat_multiply_f(_Q_ENU_NED_F, q_ned_frd), _Q_FRD_FLU_F)
+    q = _quat_f(q_ned_frd, "q_ned_frd")
+    return quat_multiply_f(quat_multiply_f(_Q_ENU_NED_F, q), _Q_FRD_FLU_F)
 
 
 def quat_enu_flu_to_ned_frd_f(q_enu_flu: Sequence[float]) -> Quat:
     """:func:`quat_enu_flu_to_ned_frd` of one attitude (not normalised)."""
-    return quat_multiply_f(quat_multiply_f(_Q_NED_ENU_F, q_enu_flu), _Q_FLU_FRD_F)
+    q = _quat_f(q_enu_flu, "q_enu_flu")
+    return quat_multiply_f(quat_multiply_f(_Q_NED_ENU_F, q), _Q_FLU_FRD_F)

@@ -453,6 +453,24 @@ def test_static_frame_changes_on_floats_are_bit_identical(v: np.ndarray) -> None
     same_bits(fr.ned_to_enu_f(vf), fr.ned_to_enu(v))
     same_bits(fr.enu_to_ned_f(vf), fr.enu_to_ned(v))
     same_bits(fr.frd_to_flu_f(vf), fr.frd_to_flu(v))
+    same_bits(fr.variance_ned_to_enu_f(vf), fr.variance_ned_to_enu(v))
+    same_bits(fr.variance_enu_to_ned_f(vf), fr.variance_enu_to_ned(v))
+
+
+@pytest.mark.parametrize(
+    ("call", "args"),
+    [
+        (fr.ned_to_enu_f, ([1.0, 2.0],)),
+        (fr.frd_to_flu_f, (1.0,)),
+        (fr.quat_normalise_f, ([1.0, 0.0, 0.0],)),
+        (fr.quat_rotate_f, ([1.0, 0.0, 0.0, 0.0], [1.0, 2.0, 3.0, 4.0])),
+        (fr.quat_enu_flu_to_ned_frd_f, ([1.0] * 5,)),
+    ],
+)
+def test_floats_of_the_wrong_length_are_a_value_error_naming_the_shape(
+        call: object, args: tuple[object, ...]) -> None:
+    with pytest.raises(ValueError, match="expected shape"):
+        call(*args)  # type: ignore[operator]
 
 
 @given(st.one_of(st.floats(-1e6, 1e6), st.sampled_from(
