@@ -24,16 +24,14 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 import interfaces
-from flight_control.frames import (
-    frd_to_flu,
-    quat_to_xyzw,
-)
+from flight_control.frames import FloatArray, frd_to_flu_f, quat_to_xyzw
 from flight_control.pose_history import PoseHistory, PoseSample
 from flight_control.px4_messages import (
     odometry_enu,
@@ -87,21 +85,21 @@ class BridgeParams:
                                   description="/fcu/status republish rate")
 
 
-def _vec3(msg_type: str, v: Any) -> Any:
-    x, y, z = v.tolist()
-    return interfaces.new(msg_type, x=float(x), y=float(y), z=float(z))
+def _vec3(msg_type: str, v: Sequence[float]) -> Any:
+    x, y, z = v
+    return interfaces.new(msg_type, x=x, y=y, z=z)
 
 
-def _all_finite(values: Any) -> bool:
-    """``np.isfinite(values).all()`` for a short float array, on Python floats."""
-    isfinite = math.isfinite
-    return all(isfinite(v) for v in values.tolist())
+def _all_finite(values: Sequence[float]) -> bool:
+    """``np.isfinite(values).all()`` for a few Python floats."""
+    return all(map(math.isfinite, values))
 
 
-def _nan_to_num(values: Any) -> Any:
-    """``np.nan_to_num(values)`` for a short float64 array; the array itself when it is
-    finite already (the common case, without numpy's per-call cost)."""
-    return values if _all_finite(values) else np.nan_to_num(values)
+def _nan_to_num(values: FloatArray) -> FloatArray:
+    """``np.nan_to_num(values)`` for a float64 array; the array itself when it is finite
+    already (the common case, without numpy's per-call cost: a NaN or an infinity makes
+    the sum non-finite, and a sum that overflows only takes the numpy path)."""
+    return values if math.isfinite(sum(values.tolist())) else np.nan_to_num(values)
 
 
 class FcuBridgeNode(Node):
@@ -189,10 +187,10 @@ class FcuBridgeNode(Node):
     def to_companion_ns(self, fcu_us: int) -> int:
         """An FCU time [us] on the companion clock [ns]; before the filter has converged,
         the receive time (PX4's sync_stamp does the same)."""
-        self._last_fcu_ns = self.now().nanoseconds
+        now_ns = self._last_fcu_ns = self.now().nanoseconds
         if not self.synced or fcu_us <= 0:
-            return self.now().nanoseconds
-        return min(self.timesync.remote_to_local(fcu_us) * 1000, self.now().nanoseconds)
+            return now_ns
+        return min(self.timesync.remote_to_local(fcu_us) * 1000, now_ns)
 
     def _stamp(self, fcu_us: int) -> Any:
         return Time(self.to_companion_ns(fcu_us)).to_msg()
@@ -235,11 +233,11 @@ class FcuBridgeNode(Node):
         stamp_ns = self.to_companion_ns(int(msg.timestamp_sample))
         odo = odometry_enu(msg)
         if _all_finite(odo.position) and _all_finite(odo.q):
-            self.history.add(PoseSample(stamp_ns, odo.position, odo.q,
-                                        _nan_to_num(odo.velocity)))
+            self.history.add(PoseSample(stamp_ns, np.array(odo.position), np.array(odo.q),
+                                        _nan_to_num(np.array(odo.velocity))))
         if not self.odometry_pub.get_subscription_count():
             return  # the history above answers /fcu/pose_at; nobody reads the topic
-        w, x, y, z = odo.q.tolist()
+        w, x, y, z = odo.q
         self.odometry_pub.publish(interfaces.new(
             "nav_msgs/msg/Odometry",
             header=interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
@@ -265,8 +263,8 @@ class FcuBridgeNode(Node):
     def _on_imu(self, msg: Any) -> None:
         if not self.imu_pub.get_subscription_count():
             return  # not built for nobody
-        gyro = frd_to_flu(np.asarray(msg.gyro_rad, dtype=np.float64))
-        accel = frd_to_flu(np.asarray(msg.accelerometer_m_s2, dtype=np.float64))
+        gyro = frd_to_flu_f(msg.gyro_rad.tolist())
+        accel = frd_to_flu_f(msg.accelerometer_m_s2.tolist())
         self.imu_pub.publish(interfaces.new(
             "sensor_msgs/msg/Imu",
             header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp)),
@@ -370,7 +368,7 @@ class FcuBridgeNode(Node):
             child_frame_id=BODY_FRAME,
             pose=interfaces.new("geometry_msgs/msg/PoseWithCovariance", pose=interfaces.new(
                 "geometry_msgs/msg/Pose",
-                position=_vec3("geometry_msgs/msg/Point", sample.position),
+                position=_vec3("geometry_msgs/msg/Point", sample.position.tolist()),
                 orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(x),
                                            y=float(y), z=float(z), w=float(w)))))
         return response

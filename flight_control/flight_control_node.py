@@ -34,7 +34,7 @@ from flight_control.behaviour_server import BehaviourServer, FcuCommands
 from flight_control.behaviours import OFFBOARD, CommandReply, Observation, Setpoint, arm_disarm
 from flight_control.command_protocol import CommandProtocol
 from flight_control.flight_actions import LAND, REACH, TAKEOFF, TURN, motion_actions, point, xyz
-from flight_control.frames import quat_rotate, quat_to_yaw
+from flight_control.frames import quat_rotate_f, quat_to_yaw_f
 from flight_control.goal_checks import GoalError, VehicleState, battery_critical, check_vehicle
 from flight_control.health import health_report
 from flight_control.params import FIELD_SOURCE, FieldParams, FlightControlParams
@@ -106,14 +106,16 @@ class FlightControlNode(Node):
     @property
     def yaw(self) -> float:
         """Heading [rad] from /fcu/odometry (ENU), 0 before any."""
-        return 0.0 if self._odometry is None else float(quat_to_yaw(self._odometry[3:7]))
+        return 0.0 if self._odometry is None else quat_to_yaw_f(self._odometry[3:7])
 
     @property
     def velocity(self) -> np.ndarray:
-        """Velocity [m/s] in the map frame: /fcu/odometry's FLU body velocity, rotated."""
+        """Velocity [m/s] in the map frame: /fcu/odometry's FLU body velocity, rotated
+        (``np.nan_to_num``: a NaN component, not known, is 0)."""
         if self._odometry is None:
             return np.zeros(3)
-        return np.nan_to_num(quat_rotate(self._odometry[3:7], self._odometry[7:]))
+        v = quat_rotate_f(self._odometry[3:7], self._odometry[7:])
+        return np.array(v) if all(map(math.isfinite, v)) else np.nan_to_num(np.array(v))
 
     def vehicle_state(self) -> VehicleState | None:
         """The latest /fcu/status, or None when it is older than ``status_timeout_s``."""

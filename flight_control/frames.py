@@ -40,11 +40,19 @@ computes in float64 and returns float64 (cast with ``.astype(np.float32)`` for a
 array field). NaN is PX4's "not set": it propagates per component through the static frame
 changes, to the whole result through a rotation, and never raises a floating-point
 warning. Shape errors raise ValueError naming the argument.
+
+The per-message paths (the bridge at 100 Hz, the flight-control node's observation) work on
+one vector at a time, where numpy's per-call cost is microseconds and the arithmetic
+nanoseconds: the ``*_f`` functions at the end of the module do the same conversions on a
+tuple of Python floats, with the same formulas in the same operation order, so they give
+bit-identical results (``tests/flight_control/test_frames.py`` pins each pair). A scalar
+:func:`wrap_pi` (and so the ``yaw_*`` conversions) computes on floats too.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, Final, overload
 
 import numpy as np
@@ -53,34 +61,48 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "Q_ENU_NED",
     "Q_FRD_FLU",
+    "Quat",
+    "Vec3",
     "covariance_enu_to_ned",
     "covariance_flu_to_frd",
     "covariance_frd_to_flu",
     "covariance_ned_to_enu",
     "enu_to_ned",
+    "enu_to_ned_f",
     "euler_enu_flu_to_ned_frd",
     "euler_ned_frd_to_enu_flu",
     "flu_to_frd",
     "frd_to_flu",
+    "frd_to_flu_f",
     "ned_to_enu",
+    "ned_to_enu_f",
     "quat_angle_between",
     "quat_canonical",
     "quat_conjugate",
+    "quat_conjugate_f",
     "quat_enu_flu_to_ned_frd",
+    "quat_enu_flu_to_ned_frd_f",
     "quat_from_euler",
     "quat_from_rotation_matrix",
     "quat_from_xyzw",
     "quat_from_yaw",
     "quat_multiply",
+    "quat_multiply_f",
     "quat_ned_frd_to_enu_flu",
+    "quat_ned_frd_to_enu_flu_f",
     "quat_normalise",
+    "quat_normalise_f",
     "quat_rotate",
+    "quat_rotate_f",
     "quat_to_euler",
     "quat_to_rotation_matrix",
     "quat_to_xyzw",
     "quat_to_yaw",
+    "quat_to_yaw_f",
     "variance_enu_to_ned",
+    "variance_enu_to_ned_f",
     "variance_ned_to_enu",
+    "variance_ned_to_enu_f",
     "wrap_pi",
     "yaw_enu_to_ned",
     "yaw_ned_to_enu",
@@ -90,6 +112,9 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 Scalar = float | np.floating[Any]
+#: One vector or quaternion as Python floats, for the ``*_f`` functions.
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
 
 
 def _frozen(values: list[float]) -> FloatArray:
@@ -99,6 +124,7 @@ def _frozen(values: list[float]) -> FloatArray:
 
 
 _SQRT_HALF: Final = math.sqrt(0.5)
+_TWO_PI: Final = 2.0 * math.pi
 
 #: Rotation NED -> ENU as a quaternion ``[w, x, y, z]``: a pi rotation about the axis
 #: (North + East) / sqrt(2); px4_ros_com's ``NED_ENU_Q`` (its own inverse up to sign).
@@ -151,16 +177,20 @@ def wrap_pi(angle: Scalar) -> float: ...
 @overload
 def wrap_pi(angle: NDArray[Any]) -> FloatArray: ...
 def wrap_pi(angle: Scalar | NDArray[Any]) -> float | FloatArray:
-    """``angle`` [rad] wrapped to (-pi, pi]; NaN stays NaN.
+    """``angle`` [rad] wrapped to (-pi, pi]; NaN (and +-inf) gives NaN.
 
-    A Python or numpy scalar gives a float, an array (0-d included) an array.
+    A Python or numpy scalar gives a float, computed on Python floats (whose ``%`` is
+    ``np.mod``: the sign of the divisor); an array (0-d included) gives an array.
     """
+    if not isinstance(angle, np.ndarray):
+        out = math.pi - (math.pi - float(angle)) % _TWO_PI
+        # the modulo may round a tiny negative up to exactly 2 pi, which would give -pi
+        return out + _TWO_PI if out <= -math.pi else out
     a = np.asarray(angle, dtype=np.float64)
     with np.errstate(invalid="ignore"):  # +-inf -> NaN without a warning
-        out = math.pi - np.mod(math.pi - a, 2.0 * math.pi)
-    # np.mod may round a tiny negative up to exactly 2 pi, which would give -pi
-    out = np.where(out <= -math.pi, out + 2.0 * math.pi, out)
-    return out if isinstance(angle, np.ndarray) else float(out)
+        arr = math.pi - np.mod(math.pi - a, _TWO_PI)
+    out_arr: FloatArray = np.where(arr <= -math.pi, arr + _TWO_PI, arr)
+    return out_arr
 
 
 # --- quaternion algebra (any frames; [w, x, y, z], Hamilton) ---------------------------
@@ -504,3 +534,129 @@ def covariance_frd_to_flu(cov_frd: ArrayLike) -> FloatArray:
 def covariance_flu_to_frd(cov_flu: ArrayLike) -> FloatArray:
     """A 3x3 body covariance from FLU to FRD; the inverse of :func:`covariance_frd_to_flu`."""
     return _permute_reflect(_mat3(cov_flu, "cov_flu"), _NEG_YZ, np.arange(3))
+
+
+# --- one vector or quaternion on Python floats -----------------------------------------
+#
+# The conversions above for a single vector or quaternion given as Python floats (any
+# sequence of 3 or 4; a numpy array works but is slower than its ``.tolist()``), returned
+# as a tuple. Same formulas, same operation order, so the same bits (NaN's sign aside);
+# see the module docstring. A wrong length raises ValueError naming the argument.
+
+
+def _vec3_f(value: Sequence[float], name: str) -> Vec3:
+    try:
+        x, y, z = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected shape (3,), got {np.shape(value)}") from None
+    return (x, y, z)
+
+
+def _quat_f(value: Sequence[float], name: str) -> Quat:
+    try:
+        w, x, y, z = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected shape (4,), got {np.shape(value)}") from None
+    return (w, x, y, z)
+
+
+_NAN4: Final[Quat] = (math.nan, math.nan, math.nan, math.nan)
+_Q_ENU_NED_F: Final = _quat_f(Q_ENU_NED.tolist(), "Q_ENU_NED")
+_Q_FRD_FLU_F: Final = _quat_f(Q_FRD_FLU.tolist(), "Q_FRD_FLU")
+_Q_NED_ENU_F: Final = _quat_f(quat_conjugate(Q_ENU_NED).tolist(), "Q_NED_ENU")
+_Q_FLU_FRD_F: Final = _quat_f(quat_conjugate(Q_FRD_FLU).tolist(), "Q_FLU_FRD")
+
+
+def quat_normalise_f(q: Sequence[float]) -> Quat:
+    """:func:`quat_normalise` of one ``[w, x, y, z]``: all NaN unless ``q / |q|`` is finite."""
+    w, x, y, z = _quat_f(q, "q")
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    if norm == 0.0:  # numpy's 0 / 0; Python would raise
+        return _NAN4
+    out = (w / norm, x / norm, y / norm, z / norm)
+    return out if all(map(math.isfinite, out)) else _NAN4
+
+
+def quat_conjugate_f(q: Sequence[float]) -> Quat:
+    """:func:`quat_conjugate` of one ``[w, x, y, z]``: ``[w, -x, -y, -z]``."""
+    w, x, y, z = _quat_f(q, "q")
+    return (w, -x, -y, -z)
+
+
+def quat_multiply_f(p: Sequence[float], q: Sequence[float]) -> Quat:
+    """:func:`quat_multiply` of two quaternions: the Hamilton product ``p (x) q``."""
+    pw, px, py, pz = _quat_f(p, "p")
+    qw, qx, qy, qz = _quat_f(q, "q")
+    return (pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw)
+
+
+def quat_rotate_f(q: Sequence[float], v: Sequence[float]) -> Vec3:
+    """:func:`quat_rotate` of one vector: ``v`` in frame b expressed in frame a, for
+    ``q = q_a_b`` (normalised first; an invalid ``q`` gives all NaN)."""
+    w, x, y, z = quat_normalise_f(q)
+    vx, vy, vz = _vec3_f(v, "v")
+    # t = 2 u x v, then v + w t + u x t, as np.cross orders the terms
+    tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))
+
+
+def quat_to_yaw_f(q: Sequence[float]) -> float:
+    """:func:`quat_to_yaw` of one quaternion: Euler yaw [rad] in (-pi, pi].
+
+    The gimbal-lock test uses ``math.hypot``, which can differ from ``np.hypot`` in the
+    last bit: the two may choose differently within an ulp of the threshold, where both
+    yaws describe the rotation.
+    """
+    w, x, y, z = quat_normalise_f(q)
+    m00, m10 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z)
+    if math.hypot(m00, m10) < _GIMBAL_LOCK_COS:  # see _euler_from_matrix
+        yaw = math.atan2(-2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z))
+    else:
+        yaw = math.atan2(m10, m00)
+    return wrap_pi(yaw)
+
+
+def ned_to_enu_f(v_ned: Sequence[float]) -> Vec3:
+    """:func:`ned_to_enu` of one world vector: ``(y, x, -z)``."""
+    x, y, z = _vec3_f(v_ned, "v_ned")
+    return (y, x, -z)
+
+
+def enu_to_ned_f(v_enu: Sequence[float]) -> Vec3:
+    """:func:`enu_to_ned` of one world vector: ``(y, x, -z)``."""
+    x, y, z = _vec3_f(v_enu, "v_enu")
+    return (y, x, -z)
+
+
+def frd_to_flu_f(v_frd: Sequence[float]) -> Vec3:
+    """:func:`frd_to_flu` of one body vector: ``(x, -y, -z)``."""
+    x, y, z = _vec3_f(v_frd, "v_frd")
+    return (x, -y, -z)
+
+
+def variance_ned_to_enu_f(var_ned: Sequence[float]) -> Vec3:
+    """:func:`variance_ned_to_enu` of one world vector's variances: x and y swapped."""
+    x, y, z = _vec3_f(var_ned, "var_ned")
+    return (y, x, z)
+
+
+def variance_enu_to_ned_f(var_enu: Sequence[float]) -> Vec3:
+    """:func:`variance_enu_to_ned` of one world vector's variances: x and y swapped."""
+    x, y, z = _vec3_f(var_enu, "var_enu")
+    return (y, x, z)
+
+
+def quat_ned_frd_to_enu_flu_f(q_ned_frd: Sequence[float]) -> Quat:
+    """:func:`quat_ned_frd_to_enu_flu` of one attitude (not normalised)."""
+    q = _quat_f(q_ned_frd, "q_ned_frd")
+    return quat_multiply_f(quat_multiply_f(_Q_ENU_NED_F, q), _Q_FRD_FLU_F)
+
+
+def quat_enu_flu_to_ned_frd_f(q_enu_flu: Sequence[float]) -> Quat:
+    """:func:`quat_enu_flu_to_ned_frd` of one attitude (not normalised)."""
+    q = _quat_f(q_enu_flu, "q_enu_flu")
+    return quat_multiply_f(quat_multiply_f(_Q_NED_ENU_F, q), _Q_FLU_FRD_F)

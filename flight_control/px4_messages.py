@@ -25,12 +25,18 @@ import numpy as np
 
 import interfaces
 from flight_control.frames import (
-    Q_ENU_NED,
-    Q_FRD_FLU,
     FloatArray,
-    enu_to_ned,
-    quat_enu_flu_to_ned_frd,
-    variance_enu_to_ned,
+    Quat,
+    Vec3,
+    enu_to_ned_f,
+    frd_to_flu_f,
+    ned_to_enu_f,
+    quat_conjugate_f,
+    quat_enu_flu_to_ned_frd_f,
+    quat_ned_frd_to_enu_flu_f,
+    quat_rotate_f,
+    variance_enu_to_ned_f,
+    variance_ned_to_enu_f,
     yaw_enu_to_ned,
     yaw_rate_enu_to_ned,
 )
@@ -39,8 +45,9 @@ from interfaces.px4 import ODOMETRY_QUALITY_BEST, PoseFrame, VelocityFrame
 __all__ = ["OdometryEnu", "odometry_enu", "offboard_control_mode", "trajectory_setpoint",
            "vision_odometry"]
 
-_POSITION_DIAG = (0, 7, 14)  # x, y, z in a 6x6 row-major ROS covariance
-_ATTITUDE_DIAG = (21, 28, 35)  # roll, pitch, yaw
+# a row-major 6x6's diagonal is every 7th of its 36 values: x, y, z, roll, pitch, yaw
+_POSITION_DIAG = slice(0, 21, 7)  # x, y, z
+_ATTITUDE_DIAG = slice(21, 36, 7)  # roll, pitch, yaw
 _NAN3 = np.full(3, math.nan, dtype=np.float32)
 VISION_QUALITY = ODOMETRY_QUALITY_BEST  # a simulated vision pose is never degraded
 
@@ -56,12 +63,13 @@ def vision_odometry(position_enu: Any, q_enu_flu: Any, covariance: Any, *, times
     return interfaces.new(
         "px4_msgs/msg/VehicleOdometry", timestamp=int(timestamp_us),
         timestamp_sample=int(timestamp_sample_us), pose_frame=int(PoseFrame.NED),
-        position=enu_to_ned(position_enu).astype(np.float32),
-        q=np.asarray(quat_enu_flu_to_ned_frd(q_enu_flu), dtype=np.float32),
+        position=np.array(enu_to_ned_f(position_enu), dtype=np.float32),
+        q=np.array(quat_enu_flu_to_ned_frd_f(q_enu_flu), dtype=np.float32),
         velocity_frame=int(VelocityFrame.NED), velocity=_NAN3.copy(),
         angular_velocity=_NAN3.copy(),
-        position_variance=variance_enu_to_ned(cov[list(_POSITION_DIAG)]).astype(np.float32),
-        orientation_variance=cov[list(_ATTITUDE_DIAG)].astype(np.float32),
+        position_variance=np.array(variance_enu_to_ned_f(cov[_POSITION_DIAG].tolist()),
+                                   dtype=np.float32),
+        orientation_variance=cov[_ATTITUDE_DIAG].astype(np.float32),
         velocity_variance=_NAN3.copy(), quality=VISION_QUALITY)
 
 
@@ -71,64 +79,36 @@ class OdometryEnu:
 
     ``position`` [m] and ``velocity`` [m/s] in the ENU map frame, ``q`` (w, x, y, z) the
     FLU body's attitude, ``body_velocity`` [m/s] and ``angular_velocity`` [rad/s] in FLU,
-    and the ROS 6x6 covariances (36 values, NaN where PX4 gave none)."""
+    each as Python floats; and the ROS 6x6 covariances (36 values, NaN where PX4 gave
+    none)."""
 
-    position: FloatArray
-    q: FloatArray
-    velocity: FloatArray
-    body_velocity: FloatArray
-    angular_velocity: FloatArray
+    position: Vec3
+    q: Quat
+    velocity: Vec3
+    body_velocity: Vec3
+    angular_velocity: Vec3
     pose_covariance: FloatArray
     twist_covariance: FloatArray
-
-
-def _f_quat_multiply(p: tuple[float, ...], q: tuple[float, ...]) -> tuple[float, ...]:
-    pw, px, py, pz = p
-    qw, qx, qy, qz = q
-    return (pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw)
-
-
-_Q_ENU_NED = tuple(Q_ENU_NED.tolist())
-_Q_FRD_FLU = tuple(Q_FRD_FLU.tolist())
 
 
 def odometry_enu(msg: Any) -> OdometryEnu:
     """Read a px4_msgs/VehicleOdometry (NED/FRD, velocity in NED) into ENU/FLU.
 
-    The same conversions as :mod:`flight_control.frames` (``quat_ned_frd_to_enu_flu``,
-    ``ned_to_enu``, ``frd_to_flu``, ``quat_rotate``), on Python floats: the bridge calls
-    this at 100 Hz, and numpy's broadcasting helpers cost more than the arithmetic on one
-    vector (``tests/flight_control/test_px4_messages.py`` checks it against them)."""
-    q = _f_quat_multiply(_f_quat_multiply(_Q_ENU_NED, tuple(msg.q.tolist())), _Q_FRD_FLU)
-    vn, ve, vd = msg.velocity.tolist()
-    velocity = (ve, vn, -vd)
-    n, e, d = msg.position.tolist()
-    wx, wy, wz = msg.angular_velocity.tolist()
-    pv = msg.position_variance.tolist()
-    ov = msg.orientation_variance.tolist()
-    vv = msg.velocity_variance.tolist()
-    pose_cov = [0.0] * 36
-    twist_cov = [0.0] * 36
-    for k, (i, j) in enumerate(zip(_POSITION_DIAG, _ATTITUDE_DIAG, strict=True)):
-        pose_cov[i] = pv[(1, 0, 2)[k]]
-        pose_cov[j] = ov[k]
-        twist_cov[i] = vv[(1, 0, 2)[k]]
-    # the body velocity: the ENU velocity rotated by the inverse of the normalised q
-    w, x, y, z = q
-    norm = math.sqrt(w * w + x * x + y * y + z * z)
-    if norm > 0.0 and math.isfinite(norm):
-        w, ux, uy, uz = w / norm, -x / norm, -y / norm, -z / norm
-    else:
-        w = ux = uy = uz = math.nan
-    vx, vy, vz = velocity
-    tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
-    body = (vx + w * tx + (uy * tz - uz * ty), vy + w * ty + (uz * tx - ux * tz),
-            vz + w * tz + (ux * ty - uy * tx))
+    The bridge calls this at 100 Hz, so the vectors go through the float versions of the
+    :mod:`flight_control.frames` conversions: the body velocity is the ENU velocity rotated
+    by the inverse of the (normalised) attitude."""
+    q = quat_ned_frd_to_enu_flu_f(msg.q.tolist())
+    velocity = ned_to_enu_f(msg.velocity.tolist())
+    pose_cov = np.zeros(36)
+    pose_cov[_POSITION_DIAG] = variance_ned_to_enu_f(msg.position_variance.tolist())
+    pose_cov[_ATTITUDE_DIAG] = msg.orientation_variance
+    twist_cov = np.zeros(36)
+    twist_cov[_POSITION_DIAG] = variance_ned_to_enu_f(msg.velocity_variance.tolist())
     return OdometryEnu(
-        position=np.array((e, n, -d)), q=np.array(q), velocity=np.array(velocity),
-        body_velocity=np.array(body), angular_velocity=np.array((wx, -wy, -wz)),
-        pose_covariance=np.array(pose_cov), twist_covariance=np.array(twist_cov))
+        position=ned_to_enu_f(msg.position.tolist()), q=q, velocity=velocity,
+        body_velocity=quat_rotate_f(quat_conjugate_f(q), velocity),
+        angular_velocity=frd_to_flu_f(msg.angular_velocity.tolist()),
+        pose_covariance=pose_cov, twist_covariance=twist_cov)
 
 
 def trajectory_setpoint(position_enu: Any, velocity_enu: Any, acceleration_enu: Any,
@@ -142,11 +122,11 @@ def trajectory_setpoint(position_enu: Any, velocity_enu: Any, acceleration_enu: 
     yaw = float(yaw_enu)
     return interfaces.new(
         "px4_msgs/msg/TrajectorySetpoint", timestamp=int(timestamp_us),
-        position=enu_to_ned(position_enu).astype(np.float32),
-        velocity=enu_to_ned(velocity_enu).astype(np.float32),
-        acceleration=enu_to_ned(acceleration_enu).astype(np.float32), jerk=_NAN3.copy(),
-        yaw=float(yaw_enu_to_ned(yaw)) if math.isfinite(yaw) else math.nan,
-        yawspeed=float(yaw_rate_enu_to_ned(float(yaw_rate_enu))))
+        position=np.array(enu_to_ned_f(position_enu), dtype=np.float32),
+        velocity=np.array(enu_to_ned_f(velocity_enu), dtype=np.float32),
+        acceleration=np.array(enu_to_ned_f(acceleration_enu), dtype=np.float32),
+        jerk=_NAN3.copy(), yaw=yaw_enu_to_ned(yaw) if math.isfinite(yaw) else math.nan,
+        yawspeed=yaw_rate_enu_to_ned(float(yaw_rate_enu)))
 
 
 def offboard_control_mode(setpoint: Any, *, timestamp_us: int) -> Any:
@@ -154,6 +134,10 @@ def offboard_control_mode(setpoint: Any, *, timestamp_us: int) -> Any:
     any axis of it is finite (PX4 tracks the finite axes and leaves NaN ones free)."""
     return interfaces.new(
         "px4_msgs/msg/OffboardControlMode", timestamp=int(timestamp_us),
-        position=bool(np.isfinite(setpoint.position).any()),
-        velocity=bool(np.isfinite(setpoint.velocity).any()),
-        acceleration=bool(np.isfinite(setpoint.acceleration).any()))
+        position=_any_finite(setpoint.position), velocity=_any_finite(setpoint.velocity),
+        acceleration=_any_finite(setpoint.acceleration))
+
+
+def _any_finite(values: Any) -> bool:
+    """``bool(np.isfinite(values).any())`` for a short array, on Python floats."""
+    return any(map(math.isfinite, values.tolist()))

@@ -412,6 +412,76 @@ def test_wrap_pi_range_and_equivalence(a: float) -> None:
     assert math.isclose(math.sin(w), math.sin(a), abs_tol=1e-9)
 
 
+# --- the float versions: the same bits as the array versions --------------------------
+
+# any quaternion, not only unit ones: zero, NaN and tiny components included
+some_quat = hnp.arrays(np.float64, 4, elements=st.one_of(
+    finite, st.sampled_from([0.0, -0.0, 1e-200, math.nan])))
+vec3_or_nan = hnp.arrays(np.float64, 3, elements=st.one_of(finite, st.just(math.nan)))
+
+
+def same_bits(got: tuple[float, ...] | float, want: np.ndarray) -> None:
+    """Equal to the last bit (-0.0 == 0.0; NaN matches NaN of either sign)."""
+    np.testing.assert_array_equal(np.asarray(got, dtype=np.float64), want, strict=True)
+
+
+@given(some_quat, some_quat)
+def test_quaternion_algebra_on_floats_is_bit_identical(p: np.ndarray, q: np.ndarray) -> None:
+    pf, qf = p.tolist(), q.tolist()
+    same_bits(fr.quat_multiply_f(pf, qf), fr.quat_multiply(p, q))
+    same_bits(fr.quat_normalise_f(qf), fr.quat_normalise(q))
+    same_bits(fr.quat_conjugate_f(qf), fr.quat_conjugate(q))
+    same_bits(fr.quat_ned_frd_to_enu_flu_f(qf), fr.quat_ned_frd_to_enu_flu(q))
+    same_bits(fr.quat_enu_flu_to_ned_frd_f(qf), fr.quat_enu_flu_to_ned_frd(q))
+
+
+@given(some_quat, vec3_or_nan)
+def test_rotation_and_yaw_on_floats_are_bit_identical(q: np.ndarray, v: np.ndarray) -> None:
+    same_bits(fr.quat_rotate_f(q.tolist(), v.tolist()), fr.quat_rotate(q, v))
+    same_bits(fr.quat_to_yaw_f(q.tolist()), fr.quat_to_yaw(q))
+
+
+@pytest.mark.parametrize("pitch", [math.pi / 2, -math.pi / 2])
+def test_yaw_on_floats_at_gimbal_lock(pitch: float) -> None:
+    q = fr.quat_from_euler(0.4, pitch, -1.1)
+    same_bits(fr.quat_to_yaw_f(q.tolist()), fr.quat_to_yaw(q))
+
+
+@given(vec3_or_nan)
+def test_static_frame_changes_on_floats_are_bit_identical(v: np.ndarray) -> None:
+    vf = v.tolist()
+    same_bits(fr.ned_to_enu_f(vf), fr.ned_to_enu(v))
+    same_bits(fr.enu_to_ned_f(vf), fr.enu_to_ned(v))
+    same_bits(fr.frd_to_flu_f(vf), fr.frd_to_flu(v))
+    same_bits(fr.variance_ned_to_enu_f(vf), fr.variance_ned_to_enu(v))
+    same_bits(fr.variance_enu_to_ned_f(vf), fr.variance_enu_to_ned(v))
+
+
+@pytest.mark.parametrize(
+    ("call", "args"),
+    [
+        (fr.ned_to_enu_f, ([1.0, 2.0],)),
+        (fr.frd_to_flu_f, (1.0,)),
+        (fr.quat_normalise_f, ([1.0, 0.0, 0.0],)),
+        (fr.quat_rotate_f, ([1.0, 0.0, 0.0, 0.0], [1.0, 2.0, 3.0, 4.0])),
+        (fr.quat_enu_flu_to_ned_frd_f, ([1.0] * 5,)),
+    ],
+)
+def test_floats_of_the_wrong_length_are_a_value_error_naming_the_shape(
+        call: object, args: tuple[object, ...]) -> None:
+    with pytest.raises(ValueError, match="expected shape"):
+        call(*args)  # type: ignore[operator]
+
+
+@given(st.one_of(st.floats(-1e6, 1e6), st.sampled_from(
+    [math.nan, math.inf, -math.inf, -1e-17, 1e-17, math.pi, -math.pi, 3 * math.pi])))
+def test_scalar_wrap_pi_is_the_array_wrap_pi(a: float) -> None:
+    got = fr.wrap_pi(a)
+    assert type(got) is float
+    same_bits(got, fr.wrap_pi(np.array(a)))
+    same_bits(fr.wrap_pi(np.float64(a)), fr.wrap_pi(np.array(a)))
+
+
 # --- purity ----------------------------------------------------------------------------
 
 
@@ -426,4 +496,4 @@ def test_module_imports_numpy_only() -> None:
             [a.name for a in node.names] if isinstance(node, ast.Import) else [node.module or ""]
         )
     }
-    assert imported <= {"__future__", "math", "typing", "numpy"}, imported
+    assert imported <= {"__future__", "collections", "math", "typing", "numpy"}, imported
