@@ -181,8 +181,9 @@ class _Layout:
 
     cls: type
     known: frozenset[str]
-    construct: Any  # (**fields) -> message; TypeError on an unknown keyword
+    construct: Any  # (**fields) -> message
     check: Any  # (msg, where) -> None; MessageError names the bad field
+    generated: bool  # construct is generated code: TypeError on an unknown keyword
 
 
 _MISSING = object()
@@ -283,6 +284,7 @@ def _generate(typename: str, defs: list[Any]) -> tuple[Any, Any]:
 def _layout(typename: str) -> _Layout:
     _, defs = _fielddefs(typename)
     construct, check = _generate(typename, defs)
+    generated = construct is not None
     if construct is None:
         fields = tuple((fname, node, _default_maker(node)) for fname, node in defs)
         cls = typestore().types[typename]
@@ -300,6 +302,7 @@ def _layout(typename: str) -> _Layout:
         known=frozenset(fname for fname, _ in defs),
         construct=construct,
         check=check,
+        generated=generated,
     )
 
 
@@ -308,11 +311,22 @@ def _normalised_msg(name: str) -> str:
     return _normalise(name, "msg")
 
 
+_CONSTRUCTORS: dict[str, Any] = {}
+"""Generated constructors by the type name callers wrote: the common case of :func:`new` is
+one dictionary lookup and one call (an unknown keyword is a TypeError there)."""
+
+
 def new(type_or_name: type | str, **fields: Any) -> Any:
     """Build a message with every field not given set to its ROS default (0, "", zeros...).
 
     Raises MessageError naming the field when a keyword is not a field of the type.
     """
+    construct = _CONSTRUCTORS.get(type_or_name) if isinstance(type_or_name, str) else None
+    if construct is not None:
+        try:
+            return construct(**fields)
+        except TypeError:
+            pass  # an unknown keyword, said below
     typename = type_or_name if isinstance(type_or_name, str) else type_name(type_or_name)
     layout = _layout(_normalised_msg(typename))
     if fields and not layout.known.issuperset(fields):
@@ -321,6 +335,8 @@ def new(type_or_name: type | str, **fields: Any) -> Any:
             f"{layout.cls.__msgtype__} has no field {unknown[0]!r}; its fields are "  # type: ignore[attr-defined]
             f"{sorted(layout.known)}"
         )
+    if layout.generated and isinstance(type_or_name, str):
+        _CONSTRUCTORS[type_or_name] = layout.construct
     return layout.construct(**fields)
 
 
