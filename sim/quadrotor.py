@@ -313,44 +313,64 @@ class ImuNoiseModel:
 
     Discretised per sample of period ``dt``: white noise std ``density / sqrt(dt)``, bias
     step std ``random_walk * sqrt(dt)``.
+
+    The model owns ``rng``: it draws the turn-on biases at once, then the standard normals
+    of ``block`` samples at a time (numpy fills an array in the order single draws would
+    come, so the noise is the same whatever the block), and works on Python floats, which
+    are cheaper than numpy on single 3-vectors and round the same. Another user of the
+    same generator would see its draws moved.
     """
 
-    def __init__(self, params: ImuNoiseParams, rng: np.random.Generator) -> None:
+    def __init__(self, params: ImuNoiseParams, rng: np.random.Generator,
+                 block: int = 512) -> None:
+        if block < 1:
+            raise ValueError(f"block: {block} samples must be >= 1")
         self._params = params
         self._rng = rng
-        self._accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
-        self._gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
-        # the standard deviations of one sample's draws: bias walks per sqrt(s) (3 + 3),
-        # white noise (3 + 3, set per call from dt)
-        self._scales = np.repeat([params.accel_bias_random_walk, params.gyro_bias_random_walk,
-                                  0.0, 0.0], 3)
-        self._densities = np.repeat([params.accel_noise_density, params.gyro_noise_density], 3)
+        self._block = block
+        accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
+        gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
+        self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
+        # per axis (accel x, y, z, gyro x, y, z): bias walk per sqrt(s), white noise density
+        self._walks = 3 * [params.accel_bias_random_walk] + 3 * [params.gyro_bias_random_walk]
+        self._densities = 3 * [params.accel_noise_density] + 3 * [params.gyro_noise_density]
+        self._normals: list[list[float]] = []  # the block's rows of 12, used from _next on
+        self._next = 0
 
     @property
     def accel_bias(self) -> FloatArray:
         """Current accelerometer bias [m/s^2]."""
-        return self._accel_bias.copy()
+        return np.array(self._bias[:3])
 
     @property
     def gyro_bias(self) -> FloatArray:
         """Current gyroscope bias [rad/s]."""
-        return self._gyro_bias.copy()
+        return np.array(self._bias[3:])
 
     def sample(self, accel: npt.ArrayLike, gyro: npt.ArrayLike, dt: float) -> ImuSample:
         """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
         if dt <= 0.0:
             raise ValueError(f"dt: {dt} s must be > 0")
-        # one draw of the 12 standard normals the four rng.normal(0, std, 3) calls would
-        # take, in their order (the same numbers: normal(0, s) is s * standard_normal)
-        z = self._rng.standard_normal(12)
+        if self._next == len(self._normals):
+            self._normals = self._rng.standard_normal((self._block, 12)).tolist()
+            self._next = 0
+        # the 12 standard normals the four rng.normal(0, std, 3) calls took, in their
+        # order: bias walks (accel, gyro), then white noise (accel, gyro); each scaled as
+        # normal(0, std) scales, std * z
+        z = self._normals[self._next]
+        self._next += 1
         sqrt_dt = math.sqrt(dt)
         white = 1.0 / sqrt_dt
-        s = self._scales
-        s[6:] = self._densities * white
-        z *= s
-        self._accel_bias = self._accel_bias + z[0:3] * sqrt_dt
-        self._gyro_bias = self._gyro_bias + z[3:6] * sqrt_dt
-        return ImuSample(
-            accel=np.asarray(accel, dtype=np.float64) + self._accel_bias + z[6:9],
-            gyro=np.asarray(gyro, dtype=np.float64) + self._gyro_bias + z[9:12],
-        )
+        bias = self._bias = [b + step * walk * sqrt_dt
+                             for b, step, walk in zip(self._bias, z[:6], self._walks, strict=True)]
+        truth = [*_three_floats(accel), *_three_floats(gyro)]
+        noisy = [t + b + noise * (density * white) for t, b, noise, density
+                 in zip(truth, bias, z[6:], self._densities, strict=True)]
+        return ImuSample(accel=np.array(noisy[:3]), gyro=np.array(noisy[3:]))
+
+
+def _three_floats(values: npt.ArrayLike) -> list[float]:
+    """``values`` (3 of them) as Python floats; quick for the usual float64 array."""
+    if type(values) is np.ndarray and values.shape == (3,):
+        return values.tolist()
+    return np.asarray(values, dtype=np.float64).reshape(3).tolist()
