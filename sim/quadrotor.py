@@ -331,9 +331,6 @@ class ImuNoiseModel:
         accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
         gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
         self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
-        # per axis (accel x, y, z, gyro x, y, z): bias walk per sqrt(s), white noise density
-        self._walks = 3 * [params.accel_bias_random_walk] + 3 * [params.gyro_bias_random_walk]
-        self._densities = 3 * [params.accel_noise_density] + 3 * [params.gyro_noise_density]
         self._normals: list[list[float]] = []  # the block's rows of 12, used from _next on
         self._next = 0
 
@@ -361,16 +358,20 @@ class ImuNoiseModel:
         self._next += 1
         sqrt_dt = math.sqrt(dt)
         white = 1.0 / sqrt_dt
-        bias = self._bias = [b + step * walk * sqrt_dt
-                             for b, step, walk in zip(self._bias, z[:6], self._walks, strict=True)]
-        truth = [*_three_floats(accel), *_three_floats(gyro)]
-        noisy = [t + b + noise * (density * white) for t, b, noise, density
-                 in zip(truth, bias, z[6:], self._densities, strict=True)]
-        return ImuSample(accel=np.array(noisy[:3]), gyro=np.array(noisy[3:]))
-
-
-def _three_floats(values: npt.ArrayLike) -> list[float]:
-    """``values`` (3 of them) as Python floats; quick for the usual float64 array."""
-    if type(values) is np.ndarray and values.shape == (3,):
-        return values.tolist()
-    return np.asarray(values, dtype=np.float64).reshape(3).tolist()
+        p = self._params
+        walk_a, walk_g = p.accel_bias_random_walk, p.gyro_bias_random_walk
+        noise_a, noise_g = p.accel_noise_density * white, p.gyro_noise_density * white
+        # written out per axis: quicker than loops, and the arithmetic (order included) of
+        # the numpy vectors it replaced, so the same numbers
+        b = self._bias
+        b = self._bias = [b[0] + z[0] * walk_a * sqrt_dt, b[1] + z[1] * walk_a * sqrt_dt,
+                          b[2] + z[2] * walk_a * sqrt_dt, b[3] + z[3] * walk_g * sqrt_dt,
+                          b[4] + z[4] * walk_g * sqrt_dt, b[5] + z[5] * walk_g * sqrt_dt]
+        ax, ay, az = np.asarray(accel, dtype=np.float64).tolist()
+        gx, gy, gz = np.asarray(gyro, dtype=np.float64).tolist()
+        return ImuSample(
+            accel=np.array([ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
+                            az + b[2] + z[8] * noise_a]),
+            gyro=np.array([gx + b[3] + z[9] * noise_g, gy + b[4] + z[10] * noise_g,
+                           gz + b[5] + z[11] * noise_g]),
+        )
