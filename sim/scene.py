@@ -58,6 +58,18 @@ class SceneIndex:
     top_camera: int
     robot_mocap: tuple[int, ...]  # mocap ids in arena.robots order
 
+    def __post_init__(self) -> None:
+        first = self.motors[0] if self.motors else 0
+        if self.motors != tuple(range(first, first + NUM_ROTORS)):
+            raise SimError(f"motors: actuator ids {self.motors} are not {NUM_ROTORS} in a row "
+                           "(sim.mjcf declares the motors together, in rotor order)")
+
+    @property
+    def motor_ctrl(self) -> slice:
+        """Where the motors' thrusts are in ``data.ctrl`` (one slice: quicker to write than
+        a list of ids)."""
+        return slice(self.motors[0], self.motors[0] + NUM_ROTORS)
+
     @classmethod
     def from_model(cls, model: mujoco.MjModel, arena: ArenaSpec) -> SceneIndex:
         """Resolve every name; raises :class:`SimError` if the model lacks one."""
@@ -122,7 +134,7 @@ def place_quadrotor(
 
 def set_motor_thrusts(data: mujoco.MjData, index: SceneIndex, thrusts: npt.ArrayLike) -> None:
     """Apply actual rotor thrusts [N] (the :class:`~sim.quadrotor.MotorModel` output)."""
-    data.ctrl[list(index.motors)] = np.asarray(thrusts, dtype=np.float64).reshape(NUM_ROTORS)
+    data.ctrl[index.motor_ctrl] = np.asarray(thrusts, dtype=np.float64).reshape(NUM_ROTORS)
 
 
 def set_robot_poses(data: mujoco.MjData, index: SceneIndex, arena: ArenaSpec, t: float) -> None:
