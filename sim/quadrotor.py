@@ -276,7 +276,8 @@ class MotorModel:
         if values.shape != (NUM_ROTORS,):
             values = np.broadcast_to(values, (NUM_ROTORS,))
         high = self._max
-        return [min(max(v, 0.0), high) for v in values.tolist()]  # NaN stays NaN, as np.clip
+        # NaN stays NaN, as in np.clip; conditionals are quicker here than min and max
+        return [0.0 if v < 0.0 else high if v > high else v for v in values.tolist()]
 
 
 @dataclass(frozen=True)

@@ -91,6 +91,14 @@ def test_motor_commands_are_clipped_to_the_motor_range() -> None:
     assert motors.rotor_speed[0] == pytest.approx(PARAMS.max_rotor_speed)
 
 
+def test_motor_clip_keeps_nan_and_takes_a_scalar() -> None:
+    motors = MotorModel(PARAMS, [-1.0, 20.0, math.nan, 3.0])
+    np.testing.assert_array_equal(motors.thrust, [0.0, PARAMS.max_motor_thrust, math.nan, 3.0])
+    motors.reset(-math.inf)
+    np.testing.assert_array_equal(motors.thrust, np.zeros(4))
+    assert motors.step(np.float32(4.5), 0.0).tolist() == [0.0] * 4, "dt 0: no change yet"
+
+
 def test_imu_noise_matches_its_densities_and_is_seeded() -> None:
     params = ImuNoiseParams(
         accel_noise_density=2e-3,
