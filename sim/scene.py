@@ -8,6 +8,7 @@ World frame ENU (z up); quaternions are MuJoCo's ``(w, x, y, z)``.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -64,7 +65,7 @@ class SceneIndex:
             raise SimError(f"motors: actuator ids {self.motors} are not {NUM_ROTORS} in a row "
                            "(sim.mjcf declares the motors together, in rotor order)")
 
-    @property
+    @functools.cached_property
     def motor_ctrl(self) -> slice:
         """Where the motors' thrusts are in ``data.ctrl`` (one slice: quicker to write than
         a list of ids)."""
@@ -152,7 +153,8 @@ def read_imu(data: mujoco.MjData, index: SceneIndex) -> ImuSample:
     describe the state at the start of it (one step old); ``mj_forward`` refreshes them.
     At rest the accelerometer reads ``+g`` on z.
     """
+    sensordata = data.sensordata
     return ImuSample(
-        accel=data.sensordata[index.accel_adr : index.accel_adr + 3].copy(),
-        gyro=data.sensordata[index.gyro_adr : index.gyro_adr + 3].copy(),
+        accel=sensordata[index.accel_adr : index.accel_adr + 3].copy(),
+        gyro=sensordata[index.gyro_adr : index.gyro_adr + 3].copy(),
     )

@@ -237,9 +237,15 @@ class Wind(Protocol):
     def force(self, t_ns: int) -> FloatArray: ...
 
 
+_NO_FORCE = np.zeros(3)
+_NO_FORCE.setflags(write=False)
+
+
 class NoWind:
+    """Still air: no force (one shared read-only zero vector, not a new one per update)."""
+
     def force(self, t_ns: int) -> FloatArray:
-        return np.zeros(3)
+        return _NO_FORCE
 
 
 @dataclass
