@@ -14,6 +14,7 @@ mapping keys are errors too.
 from __future__ import annotations
 
 import bisect
+import functools
 import itertools
 import math
 from collections.abc import Iterator, Mapping, Sequence
@@ -166,6 +167,20 @@ class GroundRobot:
         """Distance driven in one full cycle [m]."""
         return sum(math.dist(a, b) for a, b in self.route())
 
+    @functools.cached_property
+    def _route_table(self) -> _RouteTable:
+        """The route's segments, their lengths and where each ends along the cycle (worked
+        out once: :func:`robot_pose` runs at every robot update)."""
+        segments = tuple(self.route())
+        lengths = tuple(math.dist(a, b) for a, b in segments)
+        return _RouteTable(segments, lengths, tuple(itertools.accumulate(lengths)))
+
+
+class _RouteTable(NamedTuple):
+    segments: tuple[tuple[Vec2, Vec2], ...]
+    lengths: tuple[float, ...]
+    ends: tuple[float, ...]
+
 
 class RobotPose(NamedTuple):
     """Planar pose of a ground robot: position [m] and heading (yaw from +x, CCW) [rad]."""
@@ -176,9 +191,7 @@ class RobotPose(NamedTuple):
 
 def robot_pose(robot: GroundRobot, t: float) -> RobotPose:
     """Where ``robot`` is ``t`` seconds after the start, facing along its current segment."""
-    segments = list(robot.route())
-    lengths = [math.dist(a, b) for a, b in segments]
-    ends = list(itertools.accumulate(lengths))
+    segments, lengths, ends = robot._route_table
     travelled = (robot.speed * t) % ends[-1]
     index = min(bisect.bisect_right(ends, travelled), len(segments) - 1)
     (ax, ay), (bx, by) = segments[index]

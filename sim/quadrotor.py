@@ -228,14 +228,15 @@ class MotorModel:
 
     ``step`` holds the command constant over ``dt`` and integrates exactly:
     ``T += (1 - exp(-dt / tau)) * (clip(cmd) - T)``, so any ``dt`` is stable. Commands are
-    clipped to ``[0, max_motor_thrust]``.
+    clipped to ``[0, max_motor_thrust]``. The four thrusts are Python floats inside (cheaper
+    than numpy on four values, and rounded the same); what it returns are new arrays.
     """
 
     def __init__(self, params: QuadrotorParams, initial_thrust: npt.ArrayLike = 0.0) -> None:
         self._tau = params.motor_tau
         self._max = params.max_motor_thrust
         self._kf = params.kf
-        self._thrust = np.zeros(NUM_ROTORS)
+        self._thrust: list[float] = []
         self.reset(initial_thrust)
 
     @classmethod
@@ -252,26 +253,31 @@ class MotorModel:
         if dt < 0.0:
             raise ValueError(f"dt: {dt} s must be >= 0")
         alpha = -math.expm1(-dt / self._tau)
-        self._thrust = self._thrust + alpha * (self._clip(commanded) - self._thrust)
+        # the four rotors written out: quicker than a loop, in the same arithmetic
+        (t0, t1, t2, t3), (c0, c1, c2, c3) = self._thrust, self._clip(commanded)
+        self._thrust = [t0 + alpha * (c0 - t0), t1 + alpha * (c1 - t1),
+                        t2 + alpha * (c2 - t2), t3 + alpha * (c3 - t3)]
         return self.thrust
 
     @property
     def thrust(self) -> FloatArray:
-        """Actual rotor thrusts [N] (a copy)."""
-        return self._thrust.copy()
+        """Actual rotor thrusts [N] (a new array)."""
+        return np.array(self._thrust)
 
     @property
     def rotor_speed(self) -> FloatArray:
         """Rotor speeds [rad/s], from ``thrust = kf * omega^2``."""
-        result: FloatArray = np.sqrt(self._thrust / self._kf)
+        result: FloatArray = np.sqrt(self.thrust / self._kf)
         return result
 
-    def _clip(self, thrust: npt.ArrayLike) -> FloatArray:
-        if type(thrust) is np.ndarray and thrust.shape == (NUM_ROTORS,):  # the usual call
-            return np.minimum(np.maximum(thrust.astype(np.float64, copy=False), 0.0),
-                              self._max)
-        values = np.broadcast_to(np.asarray(thrust, dtype=np.float64), (NUM_ROTORS,))
-        return np.clip(values, 0.0, self._max)
+    def _clip(self, thrust: npt.ArrayLike) -> list[float]:
+        """``thrust`` (scalar or 4 values) within ``[0, max_motor_thrust]``, as floats."""
+        values = np.asarray(thrust, dtype=np.float64)
+        if values.shape != (NUM_ROTORS,):
+            values = np.broadcast_to(values, (NUM_ROTORS,))
+        high = self._max
+        # NaN stays NaN, as in np.clip; conditionals are quicker here than min and max
+        return [0.0 if v < 0.0 else high if v > high else v for v in values.tolist()]
 
 
 @dataclass(frozen=True)
@@ -313,44 +319,65 @@ class ImuNoiseModel:
 
     Discretised per sample of period ``dt``: white noise std ``density / sqrt(dt)``, bias
     step std ``random_walk * sqrt(dt)``.
+
+    The model owns ``rng``: it draws the turn-on biases at once, then the standard normals
+    of ``block`` samples at a time (numpy fills an array in the order single draws would
+    come, so the noise is the same whatever the block), and works on Python floats, which
+    are cheaper than numpy on single 3-vectors and round the same. Another user of the
+    same generator would see its draws moved.
     """
 
-    def __init__(self, params: ImuNoiseParams, rng: np.random.Generator) -> None:
+    def __init__(self, params: ImuNoiseParams, rng: np.random.Generator,
+                 block: int = 512) -> None:
+        if block < 1:
+            raise ValueError(f"block: {block} samples must be >= 1")
         self._params = params
         self._rng = rng
-        self._accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
-        self._gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
-        # the standard deviations of one sample's draws: bias walks per sqrt(s) (3 + 3),
-        # white noise (3 + 3, set per call from dt)
-        self._scales = np.repeat([params.accel_bias_random_walk, params.gyro_bias_random_walk,
-                                  0.0, 0.0], 3)
-        self._densities = np.repeat([params.accel_noise_density, params.gyro_noise_density], 3)
+        self._block = block
+        accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
+        gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
+        self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
+        self._normals: list[list[float]] = []  # the block's rows of 12, used from _next on
+        self._next = 0
 
     @property
     def accel_bias(self) -> FloatArray:
         """Current accelerometer bias [m/s^2]."""
-        return self._accel_bias.copy()
+        return np.array(self._bias[:3])
 
     @property
     def gyro_bias(self) -> FloatArray:
         """Current gyroscope bias [rad/s]."""
-        return self._gyro_bias.copy()
+        return np.array(self._bias[3:])
 
     def sample(self, accel: npt.ArrayLike, gyro: npt.ArrayLike, dt: float) -> ImuSample:
         """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
         if dt <= 0.0:
             raise ValueError(f"dt: {dt} s must be > 0")
-        # one draw of the 12 standard normals the four rng.normal(0, std, 3) calls would
-        # take, in their order (the same numbers: normal(0, s) is s * standard_normal)
-        z = self._rng.standard_normal(12)
+        if self._next == len(self._normals):
+            self._normals = self._rng.standard_normal((self._block, 12)).tolist()
+            self._next = 0
+        # the 12 standard normals the four rng.normal(0, std, 3) calls took, in their
+        # order: bias walks (accel, gyro), then white noise (accel, gyro); each scaled as
+        # normal(0, std) scales, std * z
+        z = self._normals[self._next]
+        self._next += 1
         sqrt_dt = math.sqrt(dt)
         white = 1.0 / sqrt_dt
-        s = self._scales
-        s[6:] = self._densities * white
-        z *= s
-        self._accel_bias = self._accel_bias + z[0:3] * sqrt_dt
-        self._gyro_bias = self._gyro_bias + z[3:6] * sqrt_dt
+        p = self._params
+        walk_a, walk_g = p.accel_bias_random_walk, p.gyro_bias_random_walk
+        noise_a, noise_g = p.accel_noise_density * white, p.gyro_noise_density * white
+        # written out per axis: quicker than loops, and the arithmetic (order included) of
+        # the numpy vectors it replaced, so the same numbers
+        b = self._bias
+        b = self._bias = [b[0] + z[0] * walk_a * sqrt_dt, b[1] + z[1] * walk_a * sqrt_dt,
+                          b[2] + z[2] * walk_a * sqrt_dt, b[3] + z[3] * walk_g * sqrt_dt,
+                          b[4] + z[4] * walk_g * sqrt_dt, b[5] + z[5] * walk_g * sqrt_dt]
+        ax, ay, az = np.asarray(accel, dtype=np.float64).tolist()
+        gx, gy, gz = np.asarray(gyro, dtype=np.float64).tolist()
         return ImuSample(
-            accel=np.asarray(accel, dtype=np.float64) + self._accel_bias + z[6:9],
-            gyro=np.asarray(gyro, dtype=np.float64) + self._gyro_bias + z[9:12],
+            accel=np.array([ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
+                            az + b[2] + z[8] * noise_a]),
+            gyro=np.array([gx + b[3] + z[9] * noise_g, gy + b[4] + z[10] * noise_g,
+                           gz + b[5] + z[11] * noise_g]),
         )

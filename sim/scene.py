@@ -8,6 +8,7 @@ World frame ENU (z up); quaternions are MuJoCo's ``(w, x, y, z)``.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -57,6 +58,18 @@ class SceneIndex:
     depth_camera: int
     top_camera: int
     robot_mocap: tuple[int, ...]  # mocap ids in arena.robots order
+
+    def __post_init__(self) -> None:
+        first = self.motors[0] if self.motors else 0
+        if self.motors != tuple(range(first, first + NUM_ROTORS)):
+            raise SimError(f"motors: actuator ids {self.motors} are not {NUM_ROTORS} in a row "
+                           "(sim.mjcf declares the motors together, in rotor order)")
+
+    @functools.cached_property
+    def motor_ctrl(self) -> slice:
+        """Where the motors' thrusts are in ``data.ctrl`` (one slice: quicker to write than
+        a list of ids)."""
+        return slice(self.motors[0], self.motors[0] + NUM_ROTORS)
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel, arena: ArenaSpec) -> SceneIndex:
@@ -122,7 +135,7 @@ def place_quadrotor(
 
 def set_motor_thrusts(data: mujoco.MjData, index: SceneIndex, thrusts: npt.ArrayLike) -> None:
     """Apply actual rotor thrusts [N] (the :class:`~sim.quadrotor.MotorModel` output)."""
-    data.ctrl[list(index.motors)] = np.asarray(thrusts, dtype=np.float64).reshape(NUM_ROTORS)
+    data.ctrl[index.motor_ctrl] = np.asarray(thrusts, dtype=np.float64).reshape(NUM_ROTORS)
 
 
 def set_robot_poses(data: mujoco.MjData, index: SceneIndex, arena: ArenaSpec, t: float) -> None:
@@ -140,7 +153,8 @@ def read_imu(data: mujoco.MjData, index: SceneIndex) -> ImuSample:
     describe the state at the start of it (one step old); ``mj_forward`` refreshes them.
     At rest the accelerometer reads ``+g`` on z.
     """
+    sensordata = data.sensordata
     return ImuSample(
-        accel=data.sensordata[index.accel_adr : index.accel_adr + 3].copy(),
-        gyro=data.sensordata[index.gyro_adr : index.gyro_adr + 3].copy(),
+        accel=sensordata[index.accel_adr : index.accel_adr + 3].copy(),
+        gyro=sensordata[index.gyro_adr : index.gyro_adr + 3].copy(),
     )

@@ -237,9 +237,15 @@ class Wind(Protocol):
     def force(self, t_ns: int) -> FloatArray: ...
 
 
+_NO_FORCE = np.zeros(3)
+_NO_FORCE.setflags(write=False)
+
+
 class NoWind:
+    """Still air: no force (one shared read-only zero vector, not a new one per update)."""
+
     def force(self, t_ns: int) -> FloatArray:
-        return np.zeros(3)
+        return _NO_FORCE
 
 
 @dataclass
@@ -360,26 +366,29 @@ class CrashDetector:
     name: str = "crash_detector"
     rate_hz: float = field(init=False)
     crash: Crash | None = None
-    _soft_geoms: frozenset[int] = frozenset()
+    _geoms: tuple[frozenset[int], frozenset[int]] | None = None
 
     def __post_init__(self) -> None:
         self.rate_hz = self.params.rate_hz
 
-    def _soft(self, scene: Scene) -> frozenset[int]:
-        if not self._soft_geoms:
+    def _geom_sets(self, scene: Scene) -> tuple[frozenset[int], frozenset[int]]:
+        """The geoms a drone may touch down on, and the quadrotor body's own (looked up
+        once: a detector watches one scene)."""
+        if self._geoms is None:
             model = scene.model
             names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
                      for g in range(model.ngeom)]
             # the floor and the pads are where a drone is allowed to touch down
-            self._soft_geoms = frozenset(
-                g for g, n in enumerate(names) if n == "floor" or n.startswith("pad_")
-            )
-        return self._soft_geoms
+            soft = frozenset(g for g, n in enumerate(names) if n == "floor" or n.startswith("pad_"))
+            bodies = model.geom_bodyid.tolist()
+            own = frozenset(g for g, body in enumerate(bodies) if body == scene.index.quad_body)
+            self._geoms = soft, own
+        return self._geoms
 
     def update(self, t_ns: int, scene: Scene) -> None:
         if self.crash is not None:
             return
-        data, model, index = scene.data, scene.model, scene.index
+        data, index = scene.data, scene.index
         x, y = data.qpos[index.qpos_adr + 4 : index.qpos_adr + 6].tolist()
         up_z = 1.0 - 2.0 * (x * x + y * y)  # body z axis, world z component
         reason = None
@@ -387,25 +396,26 @@ class CrashDetector:
             reason = f"tilt {math.degrees(math.acos(max(-1.0, min(1.0, up_z)))):.0f} deg"
         if reason is None and data.ncon == 0:
             return  # in the air and upright: the common case
-        state = quad_state(data, index)
-        soft = self._soft(scene)
-        for i in range(data.ncon):
-            contact = data.contact[i]
-            g1, g2 = int(contact.geom1), int(contact.geom2)
-            quad_geom = model.geom_bodyid[g1] == index.quad_body
-            other = g2 if quad_geom else g1
-            if model.geom_bodyid[other] == index.quad_body:
+        reason = self._contact_reason(scene) or reason
+        if reason is not None:
+            p = data.qpos[index.qpos_adr : index.qpos_adr + 3].tolist()
+            self.crash = Crash(t_ns / NS_PER_S, (p[0], p[1], p[2]), reason)
+
+    def _contact_reason(self, scene: Scene) -> str | None:
+        """Why the first bad contact of the quadrotor is a crash; None if none is."""
+        soft, own = self._geom_sets(scene)
+        data = scene.data
+        for g1, g2 in data.contact.geom.tolist():
+            other = g2 if g1 in own else g1
+            if other in own:
                 continue
             if other not in soft:
-                name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, other) or f"geom {other}"
-                reason = f"hit {name}"
-                break
-            if -state.velocity[2] > self.params.max_touchdown_speed:
-                reason = f"touchdown at {-state.velocity[2]:.1f} m/s"
-                break
-        if reason is not None:
-            p = state.position
-            self.crash = Crash(t_ns / NS_PER_S, (float(p[0]), float(p[1]), float(p[2])), reason)
+                name = mujoco.mj_id2name(scene.model, mujoco.mjtObj.mjOBJ_GEOM, other)
+                return f"hit {name or f'geom {other}'}"
+            descent = -float(data.qvel[scene.index.qvel_adr + 2])
+            if descent > self.params.max_touchdown_speed:
+                return f"touchdown at {descent:.1f} m/s"
+        return None
 
 
 @dataclass(frozen=True)

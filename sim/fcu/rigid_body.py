@@ -108,7 +108,8 @@ class RigidBody:
     """Quadrotor rigid body with motor lag, RK4-integrated; ENU/FLU.
 
     ``step(commanded_thrusts, dt_s)`` holds the commands over ``dt_s``; ``imu(dt_s)``
-    reads the noisy accelerometer (specific force) and gyro at the current state.
+    reads the noisy accelerometer (specific force) and gyro at the current state. ``rng``
+    becomes the IMU noise model's own (it draws ahead): give it a generator nothing else uses.
     """
 
     def __init__(

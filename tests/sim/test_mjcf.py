@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -10,6 +11,7 @@ import pytest
 
 from sim.arena import ArenaSpec
 from sim.arena_generator import generate_arena
+from sim.errors import SimError
 from sim.mjcf import DEFAULT_TIMESTEP_US, build_model, pad_geom_name
 from sim.quadrotor import GRAVITY, MotorModel, QuadrotorParams, mix
 from sim.scene import (
@@ -50,6 +52,14 @@ def test_default_model_matches_the_parameters(
     for pad in arena.pads:
         assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, pad_geom_name(pad.id)) >= 0
     np.testing.assert_allclose(model.actuator_ctrlrange[list(index.motors)], [[0.0, 9.2]] * 4)
+
+
+def test_motors_are_one_slice_of_ctrl(index: SceneIndex) -> None:
+    """set_motor_thrusts writes the four thrusts through one slice: the index refuses
+    motors whose actuator ids are not in a row."""
+    assert index.motor_ctrl == slice(index.motors[0], index.motors[0] + 4)
+    with pytest.raises(SimError, match=r"actuator ids \(0, 2, 1, 3\) are not 4 in a row"):
+        dataclasses.replace(index, motors=(0, 2, 1, 3))
 
 
 @pytest.mark.parametrize("seed", range(20))

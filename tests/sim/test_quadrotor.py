@@ -91,6 +91,14 @@ def test_motor_commands_are_clipped_to_the_motor_range() -> None:
     assert motors.rotor_speed[0] == pytest.approx(PARAMS.max_rotor_speed)
 
 
+def test_motor_clip_keeps_nan_and_takes_a_scalar() -> None:
+    motors = MotorModel(PARAMS, [-1.0, 20.0, math.nan, 3.0])
+    np.testing.assert_array_equal(motors.thrust, [0.0, PARAMS.max_motor_thrust, math.nan, 3.0])
+    motors.reset(-math.inf)
+    np.testing.assert_array_equal(motors.thrust, np.zeros(4))
+    assert motors.step(np.float32(4.5), 0.0).tolist() == [0.0] * 4, "dt 0: no change yet"
+
+
 def test_imu_noise_matches_its_densities_and_is_seeded() -> None:
     params = ImuNoiseParams(
         accel_noise_density=2e-3,
@@ -131,6 +139,33 @@ def test_imu_sample_is_the_four_normal_draws_it_replaced() -> None:
         np.testing.assert_array_equal(got.accel, want_a)
         np.testing.assert_array_equal(got.gyro, want_g)
     np.testing.assert_array_equal(model.accel_bias, accel_bias)
+
+
+def test_imu_block_draws_give_the_one_sample_at_a_time_noise() -> None:
+    """Drawing the normals of several samples at once changes nothing, across block
+    boundaries and with the period changing from sample to sample: the reference draws
+    12 normals per sample and works on numpy vectors, as the model once did."""
+    p = ImuNoiseParams()
+    rng = np.random.default_rng(7)
+    accel_bias = rng.normal(0.0, p.accel_bias_initial_std, 3)
+    gyro_bias = rng.normal(0.0, p.gyro_bias_initial_std, 3)
+    walks = np.repeat([p.accel_bias_random_walk, p.gyro_bias_random_walk], 3)
+    densities = np.repeat([p.accel_noise_density, p.gyro_noise_density], 3)
+    models = [ImuNoiseModel(p, np.random.default_rng(7), block=block) for block in (1, 3, 512)]
+    truth_a, truth_g = np.array([0.3, -0.1, 9.9]), np.array([-0.02, 0.05, 0.01])
+    for k, dt in enumerate([0.002, 0.004, 0.001, 0.002, 0.0025, 0.002, 0.01, 0.002]):
+        z = rng.standard_normal(12)
+        sqrt_dt = math.sqrt(dt)
+        accel_bias = accel_bias + z[0:3] * walks[0:3] * sqrt_dt
+        gyro_bias = gyro_bias + z[3:6] * walks[3:6] * sqrt_dt
+        white = z[6:12] * (densities * (1.0 / sqrt_dt))
+        want_a = truth_a + accel_bias + white[0:3]
+        want_g = truth_g + gyro_bias + white[3:6]
+        for model in models:
+            got = model.sample(truth_a, truth_g, dt)
+            np.testing.assert_array_equal(got.accel, want_a, err_msg=f"sample {k}")
+            np.testing.assert_array_equal(got.gyro, want_g, err_msg=f"sample {k}")
+            np.testing.assert_array_equal(model.gyro_bias, gyro_bias, err_msg=f"sample {k}")
 
 
 def test_imu_bias_wanders_and_noiseless_is_truth() -> None:

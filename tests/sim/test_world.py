@@ -19,6 +19,7 @@ from runtime.parameters import CONFIG_DIR_ENV, PACKAGE_CONFIG_DIR
 from sim.arena import ArenaSpec, default_arena
 from sim.quadrotor import MotorModel
 from sim.render import SceneRenderer
+from sim.scene import place_quadrotor
 from sim.sensors import (
     DEPTH_POINTS_TOPIC,
     DOWN_IMAGE_TOPIC,
@@ -84,6 +85,18 @@ def test_a_torque_imbalance_flips_the_vehicle_and_is_a_crash(contest: ArenaSpec)
                        parts=[Actuation(lopsided, MotorModel.hovering(scene.quad))])
     assert result.status is WorldStatus.CRASHED
     assert result.crash is not None and "tilt" in result.crash.reason
+
+
+def test_landing_on_an_obstacle_is_a_crash_that_names_it(contest: ArenaSpec) -> None:
+    scene = Scene.build(contest)
+    box = contest.obstacles[0]
+    top = box.height + scene.quad.leg_height + 0.05
+    place_quadrotor(scene.model, scene.data, scene.index, (*box.center, top))
+    result = run_world(scene, DeterministicExecutor(config_dir=None), duration_s=1.0,
+                       parts=[Actuation(MotorsOff(), MotorModel(scene.quad))])
+    assert result.status is WorldStatus.CRASHED
+    assert result.crash is not None and result.crash.reason == "hit obstacle_0"
+    assert result.crash.position[:2] == pytest.approx(box.center, abs=1e-3)
 
 
 def test_a_rate_that_does_not_divide_physics_is_refused(contest: ArenaSpec) -> None:
