@@ -240,6 +240,7 @@ def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
 
 
 _FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
+_ORIENTATION_VARIANCE = np.full(3, 1e-4, dtype=np.float32)  # rad^2, VehicleOdometry's
 
 
 def _flu_to_frd(v: FloatArray) -> FloatArray:
@@ -630,7 +631,7 @@ class Firmware:
             velocity_frame=int(VelocityFrame.NED), velocity=_arr(s.velocity_ned),
             angular_velocity=_arr(s.angular_velocity_frd),
             position_variance=_arr(est.position_variance_ned),
-            orientation_variance=_arr(np.full(3, 1e-4)),
+            orientation_variance=_ORIENTATION_VARIANCE.copy(),
             velocity_variance=_arr(est.velocity_variance_ned), quality=ODOMETRY_QUALITY_BEST)
 
     def _msg_vehicle_local_position(self) -> Any:

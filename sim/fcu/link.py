@@ -351,7 +351,7 @@ class Link:
         if size_bytes < 0:
             raise ValueError(f"size_bytes={size_bytes}: must be >= 0")
         p = state.params
-        u_loss, u_spike, u_magnitude = state.rng.random(3)
+        u_loss, u_spike, u_magnitude = state.rng.random(3).tolist()  # floats: cheaper
         jitter_us = float(state.rng.gamma(p.jitter_shape, p.jitter_scale_us))
         state.last_send_ns = send_time_ns
         state.sent += 1
