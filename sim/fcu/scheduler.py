@@ -23,6 +23,7 @@ from fractions import Fraction
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from sim.fcu.errors import BindingError, ModuleSpecError, RateError, SchedulerError
 from sim.fcu.modules import TASK_GROUP_ORDER, ModuleSpec, PeriodicSpec, TaskGroup
@@ -405,6 +406,16 @@ class _DutyMeter:
         if len(self.open) >= self.window:
             self.close(tick)
 
+    def add_window(self, durations: npt.NDArray[np.int64], tick: int) -> None:
+        """Close a whole window of ``durations`` at once (the scheduler's tick-aligned
+        meters, whose durations it keeps as host-clock marks until then)."""
+        n = len(durations)
+        if n == 0:
+            return
+        total, lo, hi = int(durations.sum()), int(durations.min()), int(durations.max())
+        self._windows.append(DutyWindow(n, total / n / 1e3, lo / 1e3, hi / 1e3, tick))
+        self._fold(n, total, lo, hi)
+
     def close(self, tick: int) -> None:
         """Close the open window at main-loop tick count ``tick``."""
         open_ = self.open
@@ -421,11 +432,13 @@ class _DutyMeter:
         self._total_min = min(self._total_min, lo)
         self._total_max = max(self._total_max, hi)
 
-    def stats(self) -> DutyStats:
+    def stats(self, pending: Sequence[int] = ()) -> DutyStats:
+        """Every duration so far: the closed windows, the open one and ``pending``
+        (durations not handed over yet)."""
         n, total = self._total_n, self._total_sum
         lo, hi = self._total_min, self._total_max
-        if self.open:
-            o = self.open
+        if self.open or len(pending):
+            o = [*self.open, *pending]
             lo = min(o) if n == 0 else min(lo, min(o))
             hi = max(o) if n == 0 else max(hi, max(o))
             n += len(o)
@@ -550,23 +563,27 @@ class Scheduler:
         self._initialised = False
         self._tick = 0
         self._overruns = 0
+        self._window = window_calls
         self._tick_duty = _DutyMeter(window_calls)
         self._group_duty = {g: _DutyMeter(window_calls) for g, _ in self._groups}
         self._event_duty = _DutyMeter(window_calls)
-        self._group_rate = {g: _RateMeter() for g, _ in self._groups}
+        # host-clock marks of the ticks of the open window, flat: per tick its start, the
+        # end of each group, the end of the event poll; the tick's, the groups' and the
+        # poll's durations are their differences, taken when the window closes
+        self._marks: list[int] = []
+        # every group runs on every tick, at the tick's time: one rate meter serves them all
+        self._tick_rate = _RateMeter()
         self._fun_rate = {p.fun: _RateMeter() for p in schedule.periodics}
         self._poll_rate = _RateMeter()
-        self._rate_meters = (*self._group_rate.values(), *self._fun_rate.values(),
-                             self._poll_rate)
+        self._rate_meters = (self._tick_rate, *self._fun_rate.values(), self._poll_rate)
         self._event_calls = dict.fromkeys(self._flags, 0)
-        # per group: its duty meter's open window, its rate meter, and (name, prescaler,
-        # offset, callable, call-time list) per function; the functions due at a tick
-        # depend only on the tick modulo the prescalers' least common multiple
+        # per group, (name, prescaler, offset, callable, call-time list) per function; the
+        # functions due at a tick depend only on the tick modulo the prescalers' least
+        # common multiple
         self._plan = tuple(
-            (self._group_duty[g], self._group_rate[g],
-             tuple((p.fun, p.prescaler, p.offset, self._functions[p.fun],
-                    self._fun_rate[p.fun].times) for p in periodics))
-            for g, periodics in self._groups
+            tuple((p.fun, p.prescaler, p.offset, self._functions[p.fun],
+                   self._fun_rate[p.fun].times) for p in periodics)
+            for _, periodics in self._groups
         )
         self._cycle = math.lcm(*(p.prescaler for p in schedule.periodics)) if (
             schedule.periodics) else 1
@@ -615,36 +632,52 @@ class Scheduler:
     def poll_events(self) -> tuple[str, ...]:
         """Call the flagged event functions (group then module order), clear their flags."""
         called: list[str] = []
-        self._poll(self._clock.now_us(), self._timer(), called)
+        t0 = self._timer()
+        self._run_events(called)
+        self._event_duty.record(self._timer() - t0, self._tick)
+        self._poll_rate.record(self._clock.now_us())
         return tuple(called)
 
-    def _poll(self, now: int, t0: int, called: list[str]) -> int:
-        """Event poll started at host time ``t0``; returns the host time it ended."""
+    def _run_events(self, called: list[str]) -> None:
         flags = self._flags
-        if self._events:
-            for fun in self._events:
-                if flags[fun]:
-                    flags[fun] = False
-                    self._functions[fun]()
-                    self._event_calls[fun] += 1
-                    called.append(fun)
-        t1 = self._timer()
-        self._event_duty.record(t1 - t0, self._tick)
-        self._poll_rate.record(now)
-        return t1
+        for fun in self._events:
+            if flags[fun]:
+                flags[fun] = False
+                self._functions[fun]()
+                self._event_calls[fun] += 1
+                called.append(fun)
 
     def _phase(self, phase: int) -> tuple[Any, ...]:
-        """Per group: its duty window and rate times, and the functions due at ``phase``."""
+        """Per group, the functions due at ``phase``: (name, callable, call-time list)."""
         plan = self._phases.get(phase)
         if plan is None:
             plan = tuple(
-                (duty.open, rate.times,
-                 tuple((fun, call, times) for fun, prescaler, offset, call, times in periodics
-                       if phase % prescaler == offset))
-                for duty, rate, periodics in self._plan)
+                tuple((fun, call, times) for fun, prescaler, offset, call, times in periodics
+                      if phase % prescaler == offset)
+                for periodics in self._plan)
             if len(self._phases) < _PHASES_CACHED:
                 self._phases[phase] = plan
         return plan
+
+    def _close_window(self, tick: int) -> None:
+        """Hand the open window's durations, from its host-clock marks, to the meters."""
+        tick_duty, groups, events = self._window_durations()
+        self._tick_duty.add_window(tick_duty, tick)
+        for i, meter in enumerate(self._group_duty.values()):
+            meter.add_window(groups[:, i], tick)
+        if self._event_duty.open:  # poll_events() was called between ticks
+            for d in events.tolist():
+                self._event_duty.record(d, tick)
+        else:
+            self._event_duty.add_window(events, tick)
+        self._marks.clear()
+
+    def _window_durations(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64],
+                                          npt.NDArray[np.int64]]:
+        """The open window's tick, group (one column each) and event-poll durations [ns]."""
+        marks = np.array(self._marks, dtype=np.int64).reshape(-1, len(self._groups) + 2)
+        steps = np.diff(marks, axis=1)
+        return marks[:, -1] - marks[:, 0], steps[:, :-1], steps[:, -1]
 
     def tick(self) -> TickResult:
         """One main-loop iteration: due periodic functions group by group, then events.
@@ -653,7 +686,8 @@ class Scheduler:
         every tick, as Paparazzi times its group functions) and for the whole tick; a
         tick longer than the main-loop period counts as an overrun. One host-clock read
         per group boundary: a group's duty runs from the previous boundary to its end.
-        The meters only append here; their windows fold every ``window_calls`` ticks.
+        The tick only appends the marks (and the call times); every ``window_calls`` ticks
+        the meters take the window's durations from them at once.
         """
         if not self._initialised:
             raise SchedulerError("init() must be called before tick()")
@@ -662,28 +696,31 @@ class Scheduler:
         called: list[str] = []
         running = self._running
         timer = self._timer
-        tick_start = t_prev = timer()
-        for duty_open, rate_times, due in self._phase(k % self._cycle):
-            for fun, call, times in due:
-                if running[fun]:
-                    call()
-                    times.append(now)
-                    called.append(fun)
-            t = timer()
-            duty_open.append(t - t_prev)
-            rate_times.append(now)
-            t_prev = t
-        t_end = self._poll(now, t_prev, called)
+        marks = self._marks
+        mark = marks.append
+        mark(tick_start := timer())
+        try:
+            for due in self._phase(k % self._cycle):
+                for fun, call, times in due:
+                    if running[fun]:
+                        call()
+                        times.append(now)
+                        called.append(fun)
+                mark(timer())
+            if self._events:
+                self._run_events(called)
+        except BaseException:  # the tick did not happen: drop its marks, keep the rows
+            del marks[len(marks) - len(marks) % (len(self._groups) + 2):]
+            raise
+        mark(t_end := timer())
+        self._tick_rate.times.append(now)
+        self._poll_rate.times.append(now)
         duty_ns = t_end - tick_start
         overrun = duty_ns > self._period_ns
         self._overruns += overrun
-        tick_duty = self._tick_duty
-        tick_duty.open.append(duty_ns)
         self._tick = k + 1
-        if len(tick_duty.open) >= tick_duty.window:  # every group's window closes with it
-            tick_duty.close(k + 1)
-            for meter in self._group_duty.values():
-                meter.close(k + 1)
+        if self._tick % self._window == 0:
+            self._close_window(k + 1)
         if self._tick % _RateMeter.FOLD == 0:
             for rate_meter in self._rate_meters:
                 rate_meter.fold_if_full()
@@ -705,15 +742,18 @@ class Scheduler:
 
     def report(self) -> SchedulerReport:
         """Duty and frequency statistics so far."""
+        tick_duty, groups, events = self._window_durations()
+        group_freq = self._tick_rate.stats()
         return SchedulerReport(
             main_freq_hz=self.schedule.main_freq_hz,
             strategy=self.schedule.strategy,
             ticks=self._tick,
             overruns=self._overruns,
-            tick_duty=self._tick_duty.stats(),
-            group_duty={g: m.stats() for g, m in self._group_duty.items()},
-            event_duty=self._event_duty.stats(),
-            group_freq={g: m.stats() for g, m in self._group_rate.items()},
+            tick_duty=self._tick_duty.stats(tick_duty.tolist()),
+            group_duty={g: m.stats(groups[:, i].tolist())
+                        for i, (g, m) in enumerate(self._group_duty.items())},
+            event_duty=self._event_duty.stats(events.tolist()),
+            group_freq=dict.fromkeys(self._group_duty, group_freq),
             function_freq={f: m.stats() for f, m in self._fun_rate.items()},
             event_poll_freq=self._poll_rate.stats(),
             event_calls=dict(self._event_calls),

@@ -761,3 +761,29 @@ def test_the_interval_jitter_is_exact_for_any_interval(spacing_us: int) -> None:
     stats = meter.stats()
     assert stats.calls == len(stamps)
     assert stats.interval_std_us == pytest.approx(statistics.pstdev(intervals), rel=1e-12)
+
+
+def test_a_tick_whose_function_raises_does_not_count_and_the_meters_go_on() -> None:
+    schedule = resolve([periodic_module("ctrl", 500), periodic_module("log", 250)])
+    failing = {"now": False}
+
+    def ctrl() -> None:
+        if failing["now"]:
+            raise RuntimeError("sensor gone")
+
+    bindings = noop_bindings(schedule) | {"ctrl_0": ctrl}
+    scheduler = Scheduler(schedule, bindings, window_calls=4)
+    scheduler.init()
+    for _ in range(3):
+        scheduler.tick()
+    failing["now"] = True
+    with pytest.raises(RuntimeError, match="sensor gone"):
+        scheduler.tick()
+    failing["now"] = False
+    for _ in range(6):
+        scheduler.tick()
+    report = scheduler.report()
+    assert report.ticks == scheduler.tick_count == 9
+    assert report.tick_duty.calls == 9
+    assert all(d.calls == 9 for d in report.group_duty.values())
+    assert [w.calls for w in report.tick_duty.windows] == [4, 4]
