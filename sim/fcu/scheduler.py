@@ -647,14 +647,16 @@ class Scheduler:
                 self._event_calls[fun] += 1
                 called.append(fun)
 
-    def _phase(self, phase: int) -> tuple[Any, ...]:
-        """Per group, the functions due at ``phase``: (name, callable, call-time list)."""
+    def _phase(self, phase: int) -> tuple[tuple[Any, ...], tuple[str, ...]]:
+        """Per group, the functions due at ``phase`` (name, callable, call-time list), and
+        all their names in call order."""
         plan = self._phases.get(phase)
         if plan is None:
-            plan = tuple(
+            groups = tuple(
                 tuple((fun, call, times) for fun, prescaler, offset, call, times in periodics
                       if phase % prescaler == offset)
                 for periodics in self._plan)
+            plan = groups, tuple(fun for due in groups for fun, _, _ in due)
             if len(self._phases) < _PHASES_CACHED:
                 self._phases[phase] = plan
         return plan
@@ -693,26 +695,32 @@ class Scheduler:
             raise SchedulerError("init() must be called before tick()")
         k = self._tick
         now = self._clock.now_us()
-        called: list[str] = []
         running = self._running
         timer = self._timer
         marks = self._marks
         mark = marks.append
+        groups, called = self._phase(k % self._cycle)
+        stopped: list[str] = []
         mark(tick_start := timer())
         try:
-            for due in self._phase(k % self._cycle):
+            for due in groups:
                 for fun, call, times in due:
                     if running[fun]:
                         call()
                         times.append(now)
-                        called.append(fun)
+                    else:
+                        stopped.append(fun)
                 mark(timer())
             if self._events:
-                self._run_events(called)
+                events: list[str] = []
+                self._run_events(events)
+                called += tuple(events)
         except BaseException:  # the tick did not happen: drop its marks, keep the rows
             del marks[len(marks) - len(marks) % (len(self._groups) + 2):]
             raise
         mark(t_end := timer())
+        if stopped:
+            called = tuple(fun for fun in called if fun not in stopped)
         self._tick_rate.times.append(now)
         self._poll_rate.times.append(now)
         duty_ns = t_end - tick_start
@@ -724,7 +732,7 @@ class Scheduler:
         if self._tick % _RateMeter.FOLD == 0:
             for rate_meter in self._rate_meters:
                 rate_meter.fold_if_full()
-        return TickResult(k, now, tuple(called), duty_ns, overrun)
+        return TickResult(k, now, called, duty_ns, overrun)
 
     def run_until(self, now_us: int) -> int:
         """Run every tick released at or before simulated time ``now_us``; return how many.
