@@ -159,7 +159,7 @@ def _add_down_camera(sitl: Sitl, renderers: list[SceneRenderer], seen: list[int]
     renderers.append(renderer)
     sitl.extra_parts.append(DownCamera(
         node, renderer, CameraIntrinsics.from_camera(sitl.scene.quad.down_camera),
-        rate_hz=node.params.down_camera.rate_hz))
+        rate_hz=node.params.down_camera.rate_hz, latency_s=node.params.down_camera.latency_s))
 
 
 def fly(*, camera: bool = False, physics_hz: int | None = None, time_ticks: bool = False,

@@ -12,6 +12,8 @@ left, z up in the image), the ROS ``camera_link`` convention, not the optical fr
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from types import TracebackType
 
@@ -95,6 +97,11 @@ _LEAN_FLAGS = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTIO
 renderer a pass each, and the cameras look down or ahead at the field, not the sky."""
 
 
+def _rgb_camera(camera: str) -> None:
+    if camera == DEPTH_CAMERA:
+        raise ParameterError(f"camera: {DEPTH_CAMERA!r} renders depth only; use depth()")
+
+
 class SceneRenderer:
     """Renders the down camera, the depth camera and the top-down view of a compiled scene.
 
@@ -113,6 +120,11 @@ class SceneRenderer:
         self._multisamples = multisamples
         self._lean = lean
         self._renderers: dict[str, mujoco.Renderer] = {}
+        # the render thread (made on first use of render_later): its own renderers, as a GL
+        # context belongs to the thread that made it, and each camera's frame in flight
+        self._worker: ThreadPoolExecutor | None = None
+        self._threaded: dict[str, mujoco.Renderer] = {}
+        self._in_flight: dict[str, Future[Image]] = {}
         self._onboard = mujoco.MjvOption()
         self._onboard.geomgroup[QUAD_GEOM_GROUP] = 0
         self._onboard.sitegroup[:] = 0
@@ -135,10 +147,19 @@ class SceneRenderer:
         self.close()
 
     def close(self) -> None:
-        """Release every GL context."""
+        """Release every GL context (the render thread's on that thread), then the thread."""
         for renderer in self._renderers.values():
             renderer.close()
         self._renderers.clear()
+        if self._worker is not None:
+            for future in self._in_flight.values():
+                future.exception()  # wait; a failed frame was reported to whoever read it
+            threaded = list(self._threaded.values())
+            self._worker.submit(lambda: [r.close() for r in threaded]).result()
+            self._worker.shutdown()
+            self._worker = None
+        self._threaded.clear()
+        self._in_flight.clear()
 
     def camera_size(self, camera: str) -> tuple[int, int]:
         """``(width, height)`` [px] of a named camera, from the model."""
@@ -175,13 +196,46 @@ class SceneRenderer:
 
     def rgb(self, data: mujoco.MjData, camera: str) -> Image:
         """An RGB image from ``camera`` (onboard cameras hide the drone itself)."""
-        if camera == DEPTH_CAMERA:
-            raise ParameterError(f"camera: {DEPTH_CAMERA!r} renders depth only; use depth()")
+        _rgb_camera(camera)
         renderer = self._renderer(camera)
-        option = self._overview if camera == TOP_CAMERA else self._onboard
-        renderer.update_scene(data, camera=camera, scene_option=option)
+        self._capture(renderer, data, camera)
         image: Image = renderer.render()
         return image
+
+    def _capture(self, renderer: mujoco.Renderer, data: mujoco.MjData, camera: str) -> None:
+        """Put ``data`` as ``camera`` sees it in ``renderer``'s scene (no GL call)."""
+        option = self._overview if camera == TOP_CAMERA else self._onboard
+        renderer.update_scene(data, camera=camera, scene_option=option)
+
+    def render_later(self, data: mujoco.MjData, camera: str,
+                     then: Callable[[Image], Image] | None = None) -> Future[Image]:
+        """What :meth:`rgb` gives now, rendered on the render thread: the scene is captured
+        here, at once, and drawn there while the caller goes on (MuJoCo releases the GIL
+        while it renders, so the frame costs the caller little on a second core). ``then``
+        runs on the render thread with the image (a sensor model), in frame order.
+
+        A camera's previous frame must be drawn before its scene is captured again: this
+        waits for it (a frame period longer than a render never waits).
+        """
+        _rgb_camera(camera)
+        if self._worker is None:
+            self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
+        worker = self._worker
+        previous = self._in_flight.get(camera)
+        if previous is not None:
+            previous.exception()  # its render reads the scene captured below
+        renderer = self._threaded.get(camera)
+        if renderer is None:  # made on the render thread: its GL context is current there
+            renderer = self._threaded[camera] = worker.submit(self._make_renderer,
+                                                              camera).result()
+        self._capture(renderer, data, camera)
+
+        def draw() -> Image:
+            image: Image = renderer.render()
+            return image if then is None else then(image)
+
+        future = self._in_flight[camera] = worker.submit(draw)
+        return future
 
     def depth(self, data: mujoco.MjData, camera: str = DEPTH_CAMERA) -> DepthImage:
         """Z-depth [m] along ``camera``'s optical axis, per pixel."""

@@ -15,6 +15,7 @@ the cameras' image size, field of view and mounting are the airframe's
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,9 +24,11 @@ import numpy as np
 import interfaces
 from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime import Node, Time, qos_profile_sensor_data
+from runtime.clock import seconds_to_ns
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
 from sim.camera_model import CameraSensorModel, camera_model_params, motion_blur_px
+from sim.mjcf import DOWN_CAMERA
 from sim.render import CameraIntrinsics, DepthPointCloud, Image, Points, SceneRenderer
 from sim.scene import quad_state
 from sim.world import Scene, divides
@@ -121,6 +124,9 @@ class DownCameraParams:
 
     rate_hz: float = param(unit="Hz", range=(0.1, 1000.0))
     """Images per second (must divide the physics rate)."""
+    latency_s: float = param(unit="s", range=(0.0, 1.0))
+    """From exposure to the image on its topic (stamped at the exposure). Above 0 the
+    frame is rendered on the render thread meanwhile; 0 renders it at once, in line."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
@@ -180,17 +186,34 @@ class DownCamera:
     name: str = "down_camera"
     frames_rendered: int = 0
     sensor: CameraSensorModel | None = None  # None: the rendered frame as it is
+    latency_s: float = 0.0
+    """Exposure to publication; above 0 the frame renders on the render thread meanwhile
+    (:meth:`SceneRenderer.render_later`), published ``latency_s`` later in simulated time
+    and stamped at the exposure: the same image, at a fixed time, so runs stay
+    deterministic."""
 
     def update(self, t_ns: int, scene: Scene) -> None:
         stamp = Time(t_ns)
         if self.node.down_info.get_subscription_count():
             self.node.down_info.publish(camera_info_msg(self.intrinsics, stamp, DOWN_FRAME))
-        if self.node.down_image.get_subscription_count():
+        if not self.node.down_image.get_subscription_count():
+            return
+        self.frames_rendered += 1
+        finish = None
+        if self.sensor is not None:
+            finish = functools.partial(self.sensor.apply,
+                                       blur_px=self._blur_px(scene, self.sensor.exposure_s))
+        if self.latency_s <= 0.0:
             image = self.renderer.down_image(scene.data)
-            if self.sensor is not None:
-                image = self.sensor.apply(image, self._blur_px(scene, self.sensor.exposure_s))
-            self.frames_rendered += 1
-            self.node.down_image.publish(image_msg(image, stamp, DOWN_FRAME))
+            self._publish(image if finish is None else finish(image), stamp)
+            return
+        frame = self.renderer.render_later(scene.data, DOWN_CAMERA, finish)
+        self.node.context.loop.call_at(
+            t_ns + seconds_to_ns(self.latency_s), lambda: self._publish(frame.result(), stamp),
+            (self.node.get_name(), "camera", DOWN_IMAGE_TOPIC))
+
+    def _publish(self, image: Image, stamp: Time) -> None:
+        self.node.down_image.publish(image_msg(image, stamp, DOWN_FRAME))
 
 
     def _blur_px(self, scene: Scene, exposure_s: float) -> tuple[float, float]:
@@ -263,7 +286,7 @@ def sensor_parts(
     return [
         DownCamera(node, renderer, CameraIntrinsics.from_camera(scene.quad.down_camera),
                    rate_hz=rate("down_camera.rate_hz", params.down_camera.rate_hz, camera_hz),
-                   sensor=sensor),
+                   sensor=sensor, latency_s=params.down_camera.latency_s),
         DepthCamera(node, DepthPointCloud(renderer, scene.quad.depth_camera,
                                           noise_std=noise, seed=seed),
                     rate_hz=rate("depth_camera.rate_hz", params.depth_camera.rate_hz, depth_hz)),

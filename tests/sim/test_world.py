@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
+from runtime.clock import seconds_to_ns
 from runtime.errors import ParameterError
 from runtime.parameters import CONFIG_DIR_ENV, PACKAGE_CONFIG_DIR
 from sim.arena import ArenaSpec, default_arena
@@ -23,6 +24,7 @@ from sim.scene import place_quadrotor
 from sim.sensors import (
     DEPTH_POINTS_TOPIC,
     DOWN_IMAGE_TOPIC,
+    DownCamera,
     SimSensorsNode,
     image_from_msg,
     points_from_msg,
@@ -154,7 +156,8 @@ def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec)
         def on_image(msg: Any) -> None:
             stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
             frames.append((stamp_ns, image_from_msg(msg)))
-            assert stamp_ns == ex.now().nanoseconds  # seen at its capture time
+            # stamped at its exposure, seen the configured latency later
+            assert ex.now().nanoseconds - stamp_ns == seconds_to_ns(camera.latency_s)
 
         listener.create_subscription("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, on_image,
                                      qos_profile_sensor_data)
@@ -163,6 +166,45 @@ def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec)
     stamps = np.diff([s for s, _ in frames])
     assert np.all(np.abs(stamps - 1e9 / 12) < 1.0)
     assert frames[0][1].shape == (480, 640, 3)
+
+
+def _down_frames(contest: ArenaSpec, latency_s: float) -> list[tuple[int, int, bytes]]:
+    """(seen at, stamp, pixels) of the down camera's frames over 1 s of a climb, with the
+    sensor model, its latency set to ``latency_s``."""
+    scene = Scene.build(contest)
+    scene.place_at_takeoff(height=1.0)
+    ex = DeterministicExecutor()
+    node = SimSensorsNode(context=ex.context)
+    frames: list[tuple[int, int, bytes]] = []
+
+    def on_image(msg: Any) -> None:
+        stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        frames.append((ex.now().nanoseconds, stamp_ns, image_from_msg(msg).tobytes()))
+
+    Node("listener", context=ex.context).create_subscription(
+        "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, on_image, qos_profile_sensor_data)
+    with SceneRenderer(scene.model) as renderer:
+        camera = sensor_parts(node, renderer, scene, seed=5)[0]
+        assert isinstance(camera, DownCamera)
+        camera.latency_s = latency_s
+        thrust = ConstantThrust(scene.quad.hover_thrust * 1.1)  # climbing: the view changes
+        run_world(scene, ex, duration_s=1.0,
+                  parts=[Actuation(thrust, MotorModel.hovering(scene.quad)), camera])
+    return frames
+
+
+def test_a_camera_with_latency_renders_on_a_thread_and_publishes_the_same_frames_later(
+        contest: ArenaSpec) -> None:
+    """The render thread draws the scene captured at the exposure: every frame, sensor
+    noise included, is the in-line frame, published 50 ms later (simulated time)."""
+    in_line = _down_frames(contest, 0.0)
+    later = _down_frames(contest, 0.05)
+    assert len(in_line) == len(later) == 12  # the last is seen at 0.967 s
+    assert [f[1:] for f in later] == [f[1:] for f in in_line]
+    assert all(seen - stamp == 50_000_000 for seen, stamp, _ in later)
+    assert all(seen == stamp for seen, stamp, _ in in_line)
+    assert len({pixels for _, _, pixels in in_line}) == 12  # the view changes: a real test
+    assert _down_frames(contest, 0.05) == later  # and runs repeat
 
 
 def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None:
