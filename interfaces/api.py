@@ -326,7 +326,8 @@ def new(type_or_name: type | str, **fields: Any) -> Any:
         try:
             return construct(**fields)
         except TypeError:
-            pass  # an unknown keyword, said below
+            if _layout(_normalised_msg(type_or_name)).known.issuperset(fields):
+                raise  # not an unknown keyword: the constructor's own error
     typename = type_or_name if isinstance(type_or_name, str) else type_name(type_or_name)
     layout = _layout(_normalised_msg(typename))
     if fields and not layout.known.issuperset(fields):

@@ -12,6 +12,7 @@ left, z up in the image), the ROS ``camera_link`` convention, not the optical fr
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -97,6 +98,10 @@ _LEAN_FLAGS = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTIO
 renderer a pass each, and the cameras look down or ahead at the field, not the sky."""
 
 
+#: headless backends whose GL contexts may live on any thread (GLFW's may not)
+_OFF_MAIN_THREAD_GL = os.environ.get("MUJOCO_GL", "").lower() in ("egl", "osmesa")
+
+
 def _rgb_camera(camera: str) -> None:
     if camera == DEPTH_CAMERA:
         raise ParameterError(f"camera: {DEPTH_CAMERA!r} renders depth only; use depth()")
@@ -152,12 +157,14 @@ class SceneRenderer:
             renderer.close()
         self._renderers.clear()
         if self._worker is not None:
-            for future in self._in_flight.values():
-                future.exception()  # wait; a failed frame was reported to whoever read it
+            worker, self._worker = self._worker, None
             threaded = list(self._threaded.values())
-            self._worker.submit(lambda: [r.close() for r in threaded]).result()
-            self._worker.shutdown()
-            self._worker = None
+            try:
+                for future in self._in_flight.values():
+                    future.exception()  # wait for it (its reader, if any, sees its error)
+                worker.submit(lambda: [r.close() for r in threaded]).result()
+            finally:
+                worker.shutdown()
         self._threaded.clear()
         self._in_flight.clear()
 
@@ -215,9 +222,16 @@ class SceneRenderer:
         runs on the render thread with the image (a sensor model), in frame order.
 
         A camera's previous frame must be drawn before its scene is captured again: this
-        waits for it (a frame period longer than a render never waits).
+        waits for it (a frame period longer than a render never waits). With a GL backend
+        whose contexts must stay on the main thread (GLFW, MuJoCo's default on a desktop)
+        the frame is drawn here, at once: the same image, only not overlapped.
         """
         _rgb_camera(camera)
+        if not _OFF_MAIN_THREAD_GL:
+            done: Future[Image] = Future()
+            image = self.rgb(data, camera)
+            done.set_result(image if then is None else then(image))
+            return done
         if self._worker is None:
             self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
         worker = self._worker

@@ -16,6 +16,7 @@ the cameras' image size, field of view and mounting are the airframe's
 from __future__ import annotations
 
 import functools
+from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Any
 
@@ -209,8 +210,12 @@ class DownCamera:
             return
         frame = self.renderer.render_later(scene.data, DOWN_CAMERA, finish)
         self.node.context.loop.call_at(
-            t_ns + seconds_to_ns(self.latency_s), lambda: self._publish(frame.result(), stamp),
+            t_ns + seconds_to_ns(self.latency_s), lambda: self._deliver(frame, stamp),
             (self.node.get_name(), "camera", DOWN_IMAGE_TOPIC))
+
+    def _deliver(self, frame: Future[Image], stamp: Time) -> None:
+        if self.node in self.node.context.nodes:  # not destroyed while the frame was drawn
+            self._publish(frame.result(), stamp)
 
     def _publish(self, image: Image, stamp: Time) -> None:
         self.node.down_image.publish(image_msg(image, stamp, DOWN_FRAME))

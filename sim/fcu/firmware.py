@@ -408,7 +408,9 @@ class Firmware:
         roll_rate, pitch_rate, _ = est.state.angular_velocity_frd.tolist()
         ax, ay, az = self.accel_frd.tolist()
         # floats, not numpy reductions, on 3 and 4 values: the same sums, bit for bit
-        collective = sum(self.motor_commands.tolist())
+        # (written out: Python 3.12's sum() compensates, numpy's does not)
+        c0, c1, c2, c3 = self.motor_commands.tolist()
+        collective = c0 + c1 + c2 + c3
         self.land = self.land_detector.update(LandDetectorInputs(
             now_us=self._now_us,
             armed=self.armed,

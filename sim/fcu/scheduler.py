@@ -452,8 +452,7 @@ class _DutyMeter:
         )
 
 
-# below this interval, FOLD squared intervals sum exactly in int64: FOLD * (2**26)**2 < 2**63
-_EXACT_SQUARES_BELOW_US = 2**26
+_INT64_LIMIT = 2**63  # the squared intervals are summed in int64 while they stay below it
 
 
 class _RateMeter:
@@ -496,9 +495,10 @@ class _RateMeter:
         intervals = np.diff(np.array([previous, *rest], dtype=np.int64))
         self._n += len(intervals)
         self._sum += int(intervals.sum())
-        if len(intervals) and int(intervals.max()) < _EXACT_SQUARES_BELOW_US:
+        largest = int(np.abs(intervals).max()) if len(intervals) else 0
+        if largest * largest * len(intervals) < _INT64_LIMIT:
             self._sumsq += int(np.dot(intervals, intervals))  # exact in int64
-        else:  # intervals over a minute: Python's integers, which do not overflow
+        else:  # long intervals: Python's integers, which do not overflow
             self._sumsq += sum(i * i for i in intervals.tolist())
         self.calls += len(times)
         self._last_us = times[-1]
@@ -667,7 +667,9 @@ class Scheduler:
         self._tick_duty.add_window(tick_duty, tick)
         for i, meter in enumerate(self._group_duty.values()):
             meter.add_window(groups[:, i], tick)
-        if self._event_duty.open:  # poll_events() was called between ticks
+        # the ticks' event polls close with their window; polls between ticks
+        # (poll_events) went into the open window when they ran
+        if self._event_duty.open:
             for d in events.tolist():
                 self._event_duty.record(d, tick)
         else:
@@ -677,7 +679,9 @@ class Scheduler:
     def _window_durations(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64],
                                           npt.NDArray[np.int64]]:
         """The open window's tick, group (one column each) and event-poll durations [ns]."""
-        marks = np.array(self._marks, dtype=np.int64).reshape(-1, len(self._groups) + 2)
+        width = len(self._groups) + 2
+        complete = len(self._marks) - len(self._marks) % width  # not a tick under way
+        marks = np.array(self._marks[:complete], dtype=np.int64).reshape(-1, width)
         steps = np.diff(marks, axis=1)
         return marks[:, -1] - marks[:, 0], steps[:, :-1], steps[:, -1]
 

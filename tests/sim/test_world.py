@@ -207,6 +207,24 @@ def test_a_camera_with_latency_renders_on_a_thread_and_publishes_the_same_frames
     assert _down_frames(contest, 0.05) == later  # and runs repeat
 
 
+def test_a_frame_in_flight_is_dropped_when_the_sensors_node_is_destroyed(
+        contest: ArenaSpec) -> None:
+    scene = Scene.build(contest)
+    scene.place_at_takeoff(height=1.0)
+    ex = DeterministicExecutor()
+    node = SimSensorsNode(context=ex.context)
+    seen: list[Any] = []
+    Node("listener", context=ex.context).create_subscription(
+        "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, seen.append, qos_profile_sensor_data)
+    with SceneRenderer(scene.model) as renderer:
+        camera = sensor_parts(node, renderer, scene)[0]
+        assert isinstance(camera, DownCamera) and camera.latency_s > 0.0
+        run_world(scene, ex, duration_s=0.01, parts=[camera])  # one exposure, at 0 s
+        node.destroy_node()
+        ex.spin_for(1.0)  # its delivery time passes: nothing published, nothing raised
+    assert camera.frames_rendered == 1 and seen == []
+
+
 def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None:
     def run(seed: int) -> tuple[Any, Any]:
         scene = Scene.build(contest)

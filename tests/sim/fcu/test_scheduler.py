@@ -28,6 +28,7 @@ from sim.fcu import (
     ResolvedSchedule,
     Scheduler,
     SchedulerError,
+    SchedulerReport,
     TaskGroup,
     UnknownStrategyError,
     call_pattern,
@@ -787,3 +788,16 @@ def test_a_tick_whose_function_raises_does_not_count_and_the_meters_go_on() -> N
     assert report.tick_duty.calls == 9
     assert all(d.calls == 9 for d in report.group_duty.values())
     assert [w.calls for w in report.tick_duty.windows] == [4, 4]
+
+
+def test_a_function_may_read_the_report_during_a_tick() -> None:
+    schedule = resolve([periodic_module("ctrl", 500), periodic_module("monitor", 50)])
+    reports: list[SchedulerReport] = []
+    scheduler: Scheduler
+    bindings = noop_bindings(schedule) | {"monitor_0": lambda: reports.append(scheduler.report())}
+    scheduler = Scheduler(schedule, bindings, window_calls=7)
+    scheduler.init()
+    for _ in range(40):
+        scheduler.tick()
+    assert [r.ticks for r in reports] == [0, 10, 20, 30]  # monitor_0 at offset 0, 50 Hz
+    assert [r.tick_duty.calls for r in reports] == [0, 10, 20, 30]  # finished ticks only
