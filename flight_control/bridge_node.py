@@ -97,9 +97,8 @@ def _all_finite(values: Sequence[float]) -> bool:
 
 def _nan_to_num(values: FloatArray) -> FloatArray:
     """``np.nan_to_num(values)`` for a float64 array; the array itself when it is finite
-    already (the common case, without numpy's per-call cost: a NaN or an infinity makes
-    the sum non-finite, and a sum that overflows only takes the numpy path)."""
-    return values if math.isfinite(sum(values.tolist())) else np.nan_to_num(values)
+    already (the common case, without numpy's per-call cost)."""
+    return values if _all_finite(values.tolist()) else np.nan_to_num(values)
 
 
 class FcuBridgeNode(Node):

@@ -165,7 +165,7 @@ class GroundRobot:
     @property
     def cycle_length(self) -> float:
         """Distance driven in one full cycle [m]."""
-        return sum(math.dist(a, b) for a, b in self.route())
+        return self._route_table.ends[-1]
 
     @functools.cached_property
     def _route_table(self) -> _RouteTable:

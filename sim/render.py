@@ -227,19 +227,16 @@ class SceneRenderer:
         the frame is drawn here, at once: the same image, only not overlapped.
         """
         _rgb_camera(camera)
-        if not _OFF_MAIN_THREAD_GL:
-            done: Future[Image] = Future()
-            image = self.rgb(data, camera)
-            done.set_result(image if then is None else then(image))
-            return done
-        if self._worker is None:
-            self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
-        worker = self._worker
         previous = self._in_flight.get(camera)
         if previous is not None:
             previous.exception()  # its render reads the scene captured below
-        renderer = self._threaded.get(camera)
-        if renderer is None:  # made on the render thread: its GL context is current there
+        if _OFF_MAIN_THREAD_GL and self._worker is None:
+            self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
+        worker = self._worker if _OFF_MAIN_THREAD_GL else None
+        if worker is None:
+            renderer = self._renderer(camera)
+        elif (renderer := self._threaded.get(camera)) is None:
+            # made on the render thread: its GL context is current there
             renderer = self._threaded[camera] = worker.submit(self._make_renderer,
                                                               camera).result()
         self._capture(renderer, data, camera)
@@ -248,6 +245,10 @@ class SceneRenderer:
             image: Image = renderer.render()
             return image if then is None else then(image)
 
+        if worker is None:
+            done: Future[Image] = Future()
+            done.set_result(draw())
+            return done
         future = self._in_flight[camera] = worker.submit(draw)
         return future
 

@@ -409,22 +409,19 @@ class _DutyMeter:
     def add_window(self, durations: npt.NDArray[np.int64], tick: int) -> None:
         """Close a whole window of ``durations`` at once (the scheduler's tick-aligned
         meters, whose durations it keeps as host-clock marks until then)."""
-        n = len(durations)
-        if n == 0:
-            return
-        total, lo, hi = int(durations.sum()), int(durations.min()), int(durations.max())
-        self._windows.append(DutyWindow(n, total / n / 1e3, lo / 1e3, hi / 1e3, tick))
-        self._fold(n, total, lo, hi)
+        if len(durations):
+            self._fold(len(durations), int(durations.sum()), int(durations.min()),
+                       int(durations.max()), tick)
 
     def close(self, tick: int) -> None:
         """Close the open window at main-loop tick count ``tick``."""
         open_ = self.open
-        n, total, lo, hi = len(open_), sum(open_), min(open_), max(open_)
-        self._windows.append(DutyWindow(n, total / n / 1e3, lo / 1e3, hi / 1e3, tick))
-        self._fold(n, total, lo, hi)
+        self._fold(len(open_), sum(open_), min(open_), max(open_), tick)
         open_.clear()
 
-    def _fold(self, n: int, total: int, lo: int, hi: int) -> None:
+    def _fold(self, n: int, total: int, lo: int, hi: int, tick: int) -> None:
+        """Keep one closed window of ``n`` durations and add it to the totals."""
+        self._windows.append(DutyWindow(n, total / n / 1e3, lo / 1e3, hi / 1e3, tick))
         if self._total_n == 0:
             self._total_min, self._total_max = lo, hi
         self._total_n += n
@@ -571,6 +568,7 @@ class Scheduler:
         # end of each group, the end of the event poll; the tick's, the groups' and the
         # poll's durations are their differences, taken when the window closes
         self._marks: list[int] = []
+        self._marks_per_tick = len(self._groups) + 2
         # every group runs on every tick, at the tick's time: one rate meter serves them all
         self._tick_rate = _RateMeter()
         self._fun_rate = {p.fun: _RateMeter() for p in schedule.periodics}
@@ -679,7 +677,7 @@ class Scheduler:
     def _window_durations(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64],
                                           npt.NDArray[np.int64]]:
         """The open window's tick, group (one column each) and event-poll durations [ns]."""
-        width = len(self._groups) + 2
+        width = self._marks_per_tick
         complete = len(self._marks) - len(self._marks) % width  # not a tick under way
         marks = np.array(self._marks[:complete], dtype=np.int64).reshape(-1, width)
         steps = np.diff(marks, axis=1)
@@ -720,7 +718,7 @@ class Scheduler:
                 self._run_events(events)
                 called += tuple(events)
         except BaseException:  # the tick did not happen: drop its marks, keep the rows
-            del marks[len(marks) - len(marks) % (len(self._groups) + 2):]
+            del marks[len(marks) - len(marks) % self._marks_per_tick:]
             raise
         mark(t_end := timer())
         if stopped:
