@@ -48,6 +48,7 @@ from runtime import (
     Node,
     QoSProfile,
     ReliabilityPolicy,
+    Subscription,
     Time,
     param,
     qos_profile_default,
@@ -159,7 +160,6 @@ class FcuBridgeNode(Node):
         self.create_subscription(ack.type, ack.name, self._on_ack, ACK_QOS)
         for short, handler in (
             ("vehicle_odometry", self._on_odometry),
-            ("sensor_combined", self._on_imu),
             ("battery_status", self._on_battery),
             ("vehicle_status", self._on_vehicle_status),
             ("vehicle_land_detected", self._on_land_detected),
@@ -168,6 +168,8 @@ class FcuBridgeNode(Node):
         ):
             topic = FMU_OUT[short]
             self.create_subscription(topic.type, topic.name, handler, px4_out)
+        self._imu_in: Subscription[Any] | None = None
+        self._follow_imu_readers()
         self.create_timer(1.0 / self.params.status_rate_hz, self._publish_status)
 
     def _fmu_publisher(self, short: str) -> Any:
@@ -259,9 +261,21 @@ class FcuBridgeNode(Node):
                 covariance=_nan_to_num(odo.twist_covariance)),
         ))
 
+    def _follow_imu_readers(self) -> None:
+        """Read /fmu/out/sensor_combined only while /fcu/imu has readers (checked with the
+        status, so within a status period of one joining): otherwise the FCU need not
+        build 100 SensorCombined messages a second for nobody (it still accounts for
+        their bytes on the serial line). A lazy subscription, as image_transport's."""
+        wanted = self.imu_pub.get_subscription_count() > 0
+        if wanted and self._imu_in is None:
+            topic = FMU_OUT["sensor_combined"]
+            self._imu_in = self.create_subscription(topic.type, topic.name, self._on_imu,
+                                                    BRIDGE_QOS)
+        elif not wanted and self._imu_in is not None:
+            self.destroy_subscription(self._imu_in)
+            self._imu_in = None
+
     def _on_imu(self, msg: Any) -> None:
-        if not self.imu_pub.get_subscription_count():
-            return  # not built for nobody
         gyro = frd_to_flu_f(msg.gyro_rad.tolist())
         accel = frd_to_flu_f(msg.accelerometer_m_s2.tolist())
         self.imu_pub.publish(interfaces.new(
@@ -311,6 +325,7 @@ class FcuBridgeNode(Node):
             result_param1=int(msg.result_param1)))
 
     def _publish_status(self) -> None:
+        self._follow_imu_readers()
         last = self._last_fcu_ns
         timeout_ns = self.params.connection_timeout_s * 1e9
         self._status.connected = last is not None and self.now().nanoseconds - last < timeout_ns

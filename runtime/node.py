@@ -527,6 +527,15 @@ class Node:
             Subscription(self, msg_type, topic, callback, as_qos(qos_profile), raw=raw)
         )
 
+    def destroy_subscription(self, subscription: Subscription[Any]) -> bool:
+        """Stop ``subscription`` (rclpy's): no further callbacks, its reader leaves the
+        topic. False when it is not one of this node's live subscriptions."""
+        if subscription not in self._entities:
+            return False
+        self._entities.remove(subscription)
+        subscription.destroy()
+        return True
+
     def create_timer(self, timer_period_sec: float, callback: Callable[[], None]) -> Timer:
         return self._keep(Timer(self, timer_period_sec, callback))
 

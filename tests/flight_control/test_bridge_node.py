@@ -152,6 +152,33 @@ def test_pose_history_answers_where_the_vehicle_was() -> None:
     assert not old.result().success and "outside the kept history" in old.result().message
 
 
+def test_the_fcu_builds_sensor_combined_only_while_fcu_imu_has_readers() -> None:
+    sitl = build_sitl(seed=15)
+    start_companion(sitl, flight_control=False)
+    sitl.run(1.0)
+    # nobody reads /fcu/imu: the bridge does not subscribe, so the FCU only accounts for
+    # SensorCombined's bytes on the serial line
+    assert sitl.agent.unread("sensor_combined")
+    sent = sitl.agent.sent["sensor_combined"]
+    sitl.run(1.0)
+    assert sitl.agent.sent["sensor_combined"] - sent > 90  # still on the line, 100 Hz
+
+    imu: list[Any] = []
+    reader = Node("reader", context=sitl.executor.context)
+    sub = reader.create_subscription("sensor_msgs/msg/Imu", "/fcu/imu", imu.append,
+                                     qos_profile_sensor_data)
+    sitl.run(0.5)  # the bridge follows its readers with its status (5 Hz)
+    assert not sitl.agent.unread("sensor_combined")
+    count = len(imu)
+    sitl.run(1.0)
+    assert len(imu) - count > 90
+    assert imu[-1].linear_acceleration.z == pytest.approx(9.81, abs=0.3)  # FLU, standing
+
+    reader.destroy_subscription(sub)
+    sitl.run(0.5)
+    assert sitl.agent.unread("sensor_combined")
+
+
 def test_cutting_the_vio_stream_invalidates_the_fcu_position() -> None:
     sitl, companion, pilot = _setup(seed=14)
     companion.vio.set_tracking(False)

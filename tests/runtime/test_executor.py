@@ -193,6 +193,26 @@ def test_a_destroyed_node_stops_everything_it_did(ex: DeterministicExecutor) -> 
         pub.publish(interfaces.new("std_msgs/msg/Int32", data=-1))
 
 
+def test_a_destroyed_subscription_hears_nothing_more(ex: DeterministicExecutor) -> None:
+    talker = Node("talker", context=ex.context)
+    pub = talker.create_publisher("std_msgs/msg/Int32", "/x", 10)
+    listener = Node("listener", context=ex.context)
+    heard: list[int] = []
+    sub = listener.create_subscription("std_msgs/msg/Int32", "/x",
+                                       lambda m: heard.append(m.data), 10)
+    pub.publish(interfaces.new("std_msgs/msg/Int32", data=1))
+    ex.spin_for(0.1)
+    assert pub.get_subscription_count() == 1
+    pub.publish(interfaces.new("std_msgs/msg/Int32", data=2))  # queued, not yet handled
+    assert listener.destroy_subscription(sub)
+    pub.publish(interfaces.new("std_msgs/msg/Int32", data=3))
+    ex.spin_for(0.1)
+    assert heard == [1]
+    assert pub.get_subscription_count() == 0
+    assert not listener.destroy_subscription(sub)  # already gone
+    assert not talker.destroy_subscription(sub)  # never the talker's
+
+
 def test_a_node_forgets_its_finished_sleeps(ex: DeterministicExecutor) -> None:
     """A node that sleeps in a loop for a whole mission keeps only its pending sleeps:
     nothing of a finished one stays alive (the node once kept every sleep it made, and
