@@ -1,5 +1,14 @@
 # quadmission: the two commands a user needs on a fresh machine.
-PYTHON ?= python3
+
+# The interpreter .venv is made from: the distribution's CPython when it is 3.11 or newer,
+# else the first python3 on PATH. Debian builds /usr/bin/python3 with profile-guided
+# optimisation and LTO, statically linked; a pyenv build (often first on PATH) has neither
+# and runs our pure-Python hot paths 10-20 % slower (benchmarks/bench_sitl.py records which
+# interpreter ran). Another one: make PYTHON=/path/to/python3 (after rm -rf .venv).
+ifeq ($(origin PYTHON),undefined)
+PYTHON := $(shell /usr/bin/python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' \
+            2>/dev/null && echo /usr/bin/python3 || echo python3)
+endif
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
@@ -13,11 +22,12 @@ OUT    ?= runs/default
 # are root; otherwise named.
 SYSTEM_LIBS := libusb-1.0.so.0 libEGL.so.1
 SYSTEM_BINS := /usr/bin/chromium
-SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver
+SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver python3-venv
 
 system-deps:
 	@missing=""; for lib in $(SYSTEM_LIBS); do ldconfig -p | grep -q "$$lib" || missing="$$missing $$lib"; done; \
 	for bin in $(SYSTEM_BINS); do test -x "$$bin" || missing="$$missing $$bin"; done; \
+	$(PYTHON) -c 'import ensurepip' 2>/dev/null || missing="$$missing ensurepip(venv)"; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    echo "installing system libraries:$$missing" >&2; \

@@ -210,6 +210,18 @@ def bare_world_rtf(sim_s: float, physics_hz: int | None) -> tuple[float, float]:
     return result.real_time_factor, result.cpu_time_factor
 
 
+def interpreter() -> dict[str, Any]:
+    """Which CPython ran: a build with libpython as a shared library (pyenv's default) runs
+    our pure-Python paths slower than a static, PGO + LTO one (Debian's /usr/bin/python3)."""
+    try:
+        with open("/proc/self/maps") as maps:
+            shared: bool | None = any("libpython" in line for line in maps)
+    except OSError:  # not Linux
+        shared = None
+    return {"executable": os.path.realpath(sys._base_executable),  # type: ignore[attr-defined]
+            "version": sys.version.split()[0], "libpython_shared": shared}
+
+
 def message_mix(sitl: Sitl) -> dict[tuple[str, str], int]:
     transport = sitl.executor.context.transport
     assert isinstance(transport, InProcessTransport)
@@ -474,6 +486,7 @@ def main(argv: list[str] | None = None) -> int:
     scheduler_us, dispatch_us, _ = min(meter_shares, key=lambda m: m[0])  # the fastest minute
     report: dict[str, Any] = {
         "scenario": "square, default arena, seed 0, through bridge + flight-control node",
+        "interpreter": interpreter(),
         "load_average_1min": round(os.getloadavg()[0], 2),
         "physics_hz": physics_hz,
         "sim_seconds": flight.sim_s,
