@@ -54,6 +54,7 @@ from runtime import (
     qos_profile_default,
     qos_profile_sensor_data,
 )
+from runtime.clock import NS_PER_S
 
 #: Seed 000's QoS for the bridge topics, both directions: best effort, keep last 1,
 #: transient local (a late subscriber still gets the last sample). It matches PX4's
@@ -66,6 +67,19 @@ ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
 MAP_FRAME = "map"
 BODY_FRAME = "base_link"
 COMPANION_COMPONENT = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
+
+# /fcu/odometry's classes, built directly at 100 Hz (every field given; validated when
+# published), as rclpy code would build them
+_ODOMETRY: Any = interfaces.get_message("nav_msgs/msg/Odometry")
+_HEADER: Any = interfaces.get_message("std_msgs/msg/Header")
+_TIME: Any = interfaces.get_message("builtin_interfaces/msg/Time")
+_POSE_COV: Any = interfaces.get_message("geometry_msgs/msg/PoseWithCovariance")
+_POSE: Any = interfaces.get_message("geometry_msgs/msg/Pose")
+_POINT: Any = interfaces.get_message("geometry_msgs/msg/Point")
+_QUATERNION: Any = interfaces.get_message("geometry_msgs/msg/Quaternion")
+_TWIST_COV: Any = interfaces.get_message("geometry_msgs/msg/TwistWithCovariance")
+_TWIST: Any = interfaces.get_message("geometry_msgs/msg/Twist")
+_VECTOR3: Any = interfaces.get_message("geometry_msgs/msg/Vector3")
 
 
 @dataclass(frozen=True)
@@ -239,25 +253,20 @@ class FcuBridgeNode(Node):
         if not self.odometry_pub.get_subscription_count():
             return  # the history above answers /fcu/pose_at; nobody reads the topic
         w, x, y, z = odo.q
-        self.odometry_pub.publish(interfaces.new(
-            "nav_msgs/msg/Odometry",
-            header=interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
-                                  frame_id=MAP_FRAME),
+        px, py, pz = odo.position
+        vx, vy, vz = odo.body_velocity
+        rx, ry, rz = odo.angular_velocity
+        sec, nanosec = divmod(stamp_ns, NS_PER_S)
+        self.odometry_pub.publish(_ODOMETRY(
+            header=_HEADER(stamp=_TIME(sec=sec, nanosec=nanosec), frame_id=MAP_FRAME),
             child_frame_id=BODY_FRAME,
-            pose=interfaces.new(
-                "geometry_msgs/msg/PoseWithCovariance",
-                pose=interfaces.new(
-                    "geometry_msgs/msg/Pose",
-                    position=_vec3("geometry_msgs/msg/Point", odo.position),
-                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=x, y=y, z=z,
-                                               w=w)),
+            pose=_POSE_COV(
+                pose=_POSE(position=_POINT(x=px, y=py, z=pz),
+                           orientation=_QUATERNION(x=x, y=y, z=z, w=w)),
                 covariance=_nan_to_num(odo.pose_covariance)),
-            twist=interfaces.new(
-                "geometry_msgs/msg/TwistWithCovariance",
-                twist=interfaces.new(
-                    "geometry_msgs/msg/Twist",
-                    linear=_vec3("geometry_msgs/msg/Vector3", odo.body_velocity),
-                    angular=_vec3("geometry_msgs/msg/Vector3", odo.angular_velocity)),
+            twist=_TWIST_COV(
+                twist=_TWIST(linear=_VECTOR3(x=vx, y=vy, z=vz),
+                             angular=_VECTOR3(x=rx, y=ry, z=rz)),
                 covariance=_nan_to_num(odo.twist_covariance)),
         ))
 
