@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from enum import IntEnum
 from pathlib import Path
@@ -229,14 +230,17 @@ class MotorModel:
     ``step`` holds the command constant over ``dt`` and integrates exactly:
     ``T += (1 - exp(-dt / tau)) * (clip(cmd) - T)``, so any ``dt`` is stable. Commands are
     clipped to ``[0, max_motor_thrust]``. The four thrusts are Python floats inside (cheaper
-    than numpy on four values, and rounded the same); what it returns are new arrays.
+    than numpy on four values, and rounded the same); :meth:`step` returns a new array,
+    :meth:`step_values` the floats.
     """
 
     def __init__(self, params: QuadrotorParams, initial_thrust: npt.ArrayLike = 0.0) -> None:
         self._tau = params.motor_tau
         self._max = params.max_motor_thrust
         self._kf = params.kf
-        self._thrust: list[float] = []
+        self._thrust: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        self._dt = math.nan  # the step the lag factor below is for (none yet)
+        self._alpha = math.nan
         self.reset(initial_thrust)
 
     @classmethod
@@ -250,14 +254,22 @@ class MotorModel:
 
     def step(self, commanded: npt.ArrayLike, dt: float) -> FloatArray:
         """Advance by ``dt`` seconds under ``commanded`` thrusts [N]; returns actual thrusts."""
-        if dt < 0.0:
-            raise ValueError(f"dt: {dt} s must be >= 0")
-        alpha = -math.expm1(-dt / self._tau)
+        self.step_values(commanded, dt)
+        return self.thrust
+
+    def step_values(self, commanded: npt.ArrayLike,
+                    dt: float) -> tuple[float, float, float, float]:
+        """:meth:`step`, returning the four actual thrusts [N] as floats."""
+        if dt != self._dt:
+            if dt < 0.0:
+                raise ValueError(f"dt: {dt} s must be >= 0")
+            self._dt, self._alpha = dt, -math.expm1(-dt / self._tau)
+        alpha = self._alpha
         # the four rotors written out: quicker than a loop, in the same arithmetic
         (t0, t1, t2, t3), (c0, c1, c2, c3) = self._thrust, self._clip(commanded)
-        self._thrust = [t0 + alpha * (c0 - t0), t1 + alpha * (c1 - t1),
-                        t2 + alpha * (c2 - t2), t3 + alpha * (c3 - t3)]
-        return self.thrust
+        thrust = self._thrust = (t0 + alpha * (c0 - t0), t1 + alpha * (c1 - t1),
+                                 t2 + alpha * (c2 - t2), t3 + alpha * (c3 - t3))
+        return thrust
 
     @property
     def thrust(self) -> FloatArray:
@@ -270,14 +282,18 @@ class MotorModel:
         result: FloatArray = np.sqrt(self.thrust / self._kf)
         return result
 
-    def _clip(self, thrust: npt.ArrayLike) -> list[float]:
+    def _clip(self, thrust: npt.ArrayLike) -> tuple[float, float, float, float]:
         """``thrust`` (scalar or 4 values) within ``[0, max_motor_thrust]``, as floats."""
         values = np.asarray(thrust, dtype=np.float64)
         if values.shape != (NUM_ROTORS,):
             values = np.broadcast_to(values, (NUM_ROTORS,))
         high = self._max
+        c0, c1, c2, c3 = values.tolist()
         # NaN stays NaN, as in np.clip; conditionals are quicker here than min and max
-        return [0.0 if v < 0.0 else high if v > high else v for v in values.tolist()]
+        return (0.0 if c0 < 0.0 else high if c0 > high else c0,
+                0.0 if c1 < 0.0 else high if c1 > high else c1,
+                0.0 if c2 < 0.0 else high if c2 > high else c2,
+                0.0 if c3 < 0.0 else high if c3 > high else c3)
 
 
 @dataclass(frozen=True)
@@ -339,6 +355,9 @@ class ImuNoiseModel:
         self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
         self._normals: list[list[float]] = []  # the block's rows of 12, used from _next on
         self._next = 0
+        self._walk_a, self._walk_g = params.accel_bias_random_walk, params.gyro_bias_random_walk
+        self._dt = math.nan  # the sample period the scales below are for (none yet)
+        self._sqrt_dt = self._noise_a = self._noise_g = math.nan
 
     @property
     def accel_bias(self) -> FloatArray:
@@ -352,8 +371,15 @@ class ImuNoiseModel:
 
     def sample(self, accel: npt.ArrayLike, gyro: npt.ArrayLike, dt: float) -> ImuSample:
         """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
-        if dt <= 0.0:
-            raise ValueError(f"dt: {dt} s must be > 0")
+        ax, ay, az = np.asarray(accel, dtype=np.float64).tolist()
+        gx, gy, gz = np.asarray(gyro, dtype=np.float64).tolist()
+        return self.sample_values((ax, ay, az, gx, gy, gz), dt)
+
+    def sample_values(self, truth: Sequence[float], dt: float) -> ImuSample:
+        """:meth:`sample` on the six true values as floats, accelerometer then gyro (what
+        :attr:`sim.scene.SceneViews.imu` holds), without building arrays from them."""
+        if dt != self._dt:
+            self._set_period(dt)
         if self._next == len(self._normals):
             self._normals = self._rng.standard_normal((self._block, 12)).tolist()
             self._next = 0
@@ -362,22 +388,28 @@ class ImuNoiseModel:
         # normal(0, std) scales, std * z
         z = self._normals[self._next]
         self._next += 1
-        sqrt_dt = math.sqrt(dt)
-        white = 1.0 / sqrt_dt
-        p = self._params
-        walk_a, walk_g = p.accel_bias_random_walk, p.gyro_bias_random_walk
-        noise_a, noise_g = p.accel_noise_density * white, p.gyro_noise_density * white
+        sqrt_dt, noise_a, noise_g = self._sqrt_dt, self._noise_a, self._noise_g
+        walk_a, walk_g = self._walk_a, self._walk_g
         # written out per axis: quicker than loops, and the arithmetic (order included) of
         # the numpy vectors it replaced, so the same numbers
         b = self._bias
         b = self._bias = [b[0] + z[0] * walk_a * sqrt_dt, b[1] + z[1] * walk_a * sqrt_dt,
                           b[2] + z[2] * walk_a * sqrt_dt, b[3] + z[3] * walk_g * sqrt_dt,
                           b[4] + z[4] * walk_g * sqrt_dt, b[5] + z[5] * walk_g * sqrt_dt]
-        ax, ay, az = np.asarray(accel, dtype=np.float64).tolist()
-        gx, gy, gz = np.asarray(gyro, dtype=np.float64).tolist()
-        return ImuSample(
-            accel=np.array([ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
-                            az + b[2] + z[8] * noise_a]),
-            gyro=np.array([gx + b[3] + z[9] * noise_g, gy + b[4] + z[10] * noise_g,
-                           gz + b[5] + z[11] * noise_g]),
-        )
+        ax, ay, az, gx, gy, gz = truth
+        noisy = np.array((ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
+                          az + b[2] + z[8] * noise_a, gx + b[3] + z[9] * noise_g,
+                          gy + b[4] + z[10] * noise_g, gz + b[5] + z[11] * noise_g))
+        return ImuSample(accel=noisy[:3], gyro=noisy[3:])  # views of one array
+
+    def _set_period(self, dt: float) -> None:
+        """The per-sample scales for sample period ``dt`` (kept until the period changes)."""
+        if dt <= 0.0:
+            raise ValueError(f"dt: {dt} s must be > 0")
+        sqrt_dt = math.sqrt(dt)
+        white = 1.0 / sqrt_dt
+        p = self._params
+        self._dt = dt
+        self._sqrt_dt = sqrt_dt
+        self._noise_a = p.accel_noise_density * white
+        self._noise_g = p.gyro_noise_density * white

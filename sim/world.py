@@ -18,6 +18,7 @@ see only the topics the parts publish.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -47,10 +48,8 @@ from sim.quadrotor import (
 )
 from sim.scene import (
     SceneIndex,
+    SceneViews,
     place_quadrotor,
-    quad_state,
-    read_imu,
-    set_motor_thrusts,
     set_robot_poses,
 )
 
@@ -153,6 +152,11 @@ class Scene:
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
         return cls(arena, quad, model, data, SceneIndex.from_model(model, arena), physics_hz)
+
+    @functools.cached_property
+    def views(self) -> SceneViews:
+        """Views into :attr:`data` that the parts read and write (made once)."""
+        return SceneViews.of(self.data, self.index)
 
     def time_ns(self, step: int) -> int:
         return step * NS_PER_S // self.physics_hz
@@ -263,9 +267,10 @@ class Actuation:
     name: str = "actuation"
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        thrust = self.motors.step(self.commands.commands(t_ns, scene), 1.0 / self.rate_hz)
-        set_motor_thrusts(scene.data, scene.index, thrust)
-        scene.data.xfrc_applied[scene.index.quad_body, :3] = self.wind.force(t_ns)
+        thrust = self.motors.step_values(self.commands.commands(t_ns, scene), 1.0 / self.rate_hz)
+        views = scene.views
+        views.motor_ctrl[:] = thrust
+        views.quad_force[:] = self.wind.force(t_ns)
 
 
 @dataclass
@@ -292,8 +297,8 @@ class Imu:
                    rate_hz=rate_hz)
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        truth = read_imu(scene.data, scene.index)
-        self.latest = self.noise.sample(truth.accel, truth.gyro, 1.0 / self.rate_hz)
+        truth = scene.views.imu.tolist()  # accel then gyro, as floats
+        self.latest = self.noise.sample_values(truth, 1.0 / self.rate_hz)
         self.latest_t_ns = t_ns
 
 
@@ -328,13 +333,12 @@ class TrajectoryRecorder:
 
     rate_hz: float = field(default_factory=lambda: world_params().trajectory_rate_hz)
     name: str = "trajectory"
-    _rows: list[FloatArray] = field(default_factory=list)
+    _rows: list[tuple[float, ...]] = field(default_factory=list)
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        state = quad_state(scene.data, scene.index)
-        self._rows.append(
-            np.concatenate(([t_ns / NS_PER_S], state.position, state.quaternion, state.velocity))
-        )
+        views = scene.views
+        vx, vy, vz, _, _, _ = views.quad_qvel.tolist()
+        self._rows.append((t_ns / NS_PER_S, *views.quad_qpos.tolist(), vx, vy, vz))
 
     def trajectory(self) -> Trajectory:
         rows = np.array(self._rows).reshape(-1, 11)
@@ -370,6 +374,8 @@ class CrashDetector:
 
     def __post_init__(self) -> None:
         self.rate_hz = self.params.rate_hz
+        # the body z axis's world z component below which the tilt is a crash
+        self._min_up_z = math.cos(math.radians(self.params.max_tilt_deg))
 
     def _geom_sets(self, scene: Scene) -> tuple[frozenset[int], frozenset[int]]:
         """The geoms a drone may touch down on, and the quadrotor body's own (looked up
@@ -388,18 +394,16 @@ class CrashDetector:
     def update(self, t_ns: int, scene: Scene) -> None:
         if self.crash is not None:
             return
-        data, index = scene.data, scene.index
-        x, y = data.qpos[index.qpos_adr + 4 : index.qpos_adr + 6].tolist()
+        px, py, pz, _, x, y, _ = scene.views.quad_qpos.tolist()  # position, quaternion
         up_z = 1.0 - 2.0 * (x * x + y * y)  # body z axis, world z component
         reason = None
-        if up_z < math.cos(math.radians(self.params.max_tilt_deg)):
+        if up_z < self._min_up_z:
             reason = f"tilt {math.degrees(math.acos(max(-1.0, min(1.0, up_z)))):.0f} deg"
-        if reason is None and data.ncon == 0:
+        if reason is None and scene.data.ncon == 0:
             return  # in the air and upright: the common case
         reason = self._contact_reason(scene) or reason
         if reason is not None:
-            p = data.qpos[index.qpos_adr : index.qpos_adr + 3].tolist()
-            self.crash = Crash(t_ns / NS_PER_S, (p[0], p[1], p[2]), reason)
+            self.crash = Crash(t_ns / NS_PER_S, (px, py, pz), reason)
 
     def _contact_reason(self, scene: Scene) -> str | None:
         """Why the first bad contact of the quadrotor is a crash; None if none is."""
