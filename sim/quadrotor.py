@@ -353,7 +353,7 @@ class ImuNoiseModel:
         accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
         gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
         self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
-        self._normals: list[list[float]] = []  # the block's rows of 12, used from _next on
+        self._normals: list[float] = []  # the block's normals, 12 a sample, used from _next on
         self._next = 0
         self._walk_a, self._walk_g = params.accel_bias_random_walk, params.gyro_bias_random_walk
         self._dt = math.nan  # the sample period the scales below are for (none yet)
@@ -380,14 +380,15 @@ class ImuNoiseModel:
         :attr:`sim.scene.SceneViews.imu` holds), without building arrays from them."""
         if dt != self._dt:
             self._set_period(dt)
-        if self._next == len(self._normals):
-            self._normals = self._rng.standard_normal((self._block, 12)).tolist()
-            self._next = 0
+        k = self._next
+        if k == len(self._normals):
+            self._normals = self._rng.standard_normal(self._block * 12).tolist()
+            k = 0
         # the 12 standard normals the four rng.normal(0, std, 3) calls took, in their
         # order: bias walks (accel, gyro), then white noise (accel, gyro); each scaled as
         # normal(0, std) scales, std * z
-        z = self._normals[self._next]
-        self._next += 1
+        z = self._normals[k : k + 12]
+        self._next = k + 12
         sqrt_dt, noise_a, noise_g = self._sqrt_dt, self._noise_a, self._noise_g
         walk_a, walk_g = self._walk_a, self._walk_g
         # written out per axis: quicker than loops, and the arithmetic (order included) of

@@ -83,7 +83,7 @@ class VisionPose:
     def __post_init__(self) -> None:
         self._rng = np.random.default_rng(self.seed)
         self._drift = (0.0, 0.0, 0.0)
-        self._normals: list[list[float]] = []  # a block's rows of 7, used from _next on
+        self._normals: list[float] = []  # a block's normals, 7 an update, used from _next on
         self._next = 0
 
     @classmethod
@@ -98,11 +98,12 @@ class VisionPose:
         # std, 3) (white noise) and rng.normal(0, std) (yaw) took, in their order, drawn
         # a block of updates at a time (the same sequence); each scaled as normal(loc,
         # std) scales, loc + std * z
-        if self._next == len(self._normals):
-            self._normals = self._rng.standard_normal((_BLOCK, 7)).tolist()
-            self._next = 0
-        zs = self._normals[self._next]
-        self._next += 1
+        k = self._next
+        if k == len(self._normals):
+            self._normals = self._rng.standard_normal(_BLOCK * 7).tolist()
+            k = 0
+        zs = self._normals[k : k + 7]
+        self._next = k + 7
         step = n.drift_rate * math.sqrt(1.0 / self.rate_hz)
         white, d = n.position_std, self._drift
         d = self._drift = (d[0] + (0.0 + step * zs[0]), d[1] + (0.0 + step * zs[1]),

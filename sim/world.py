@@ -18,6 +18,7 @@ see only the topics the parts publish.
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 import time
@@ -446,6 +447,38 @@ class WorldResult:
         return self.sim_time_s / self.cpu_time_s if self.cpu_time_s > 0 else math.inf
 
 
+class _UpdatePlan:
+    """Which parts are due at a physics step, and the next step at which any is.
+
+    A part with a period of ``p`` steps runs at every multiple of ``p``; the pattern
+    repeats every ``cycle`` steps (the periods' least common multiple, which divides the
+    physics rate), so it is worked out once per phase of the cycle, not at every step.
+    """
+
+    def __init__(self, parts: Sequence[Part], periods: Sequence[int]) -> None:
+        self.cycle = cycle = math.lcm(*periods)
+        # the phases at which something is due (0 always is), and what is, in part order
+        self._phases = sorted({k for p in periods for k in range(0, cycle, p)})
+        self._due = {k: tuple(part for part, p in zip(parts, periods, strict=True) if k % p == 0)
+                     for k in self._phases}
+        # from such a phase, the steps to the next one
+        following = [*self._phases[1:], cycle]
+        self._gap = {k: n - k for k, n in zip(self._phases, following, strict=True)}
+
+    def due(self, step: int) -> tuple[Part, ...]:
+        """The parts due at ``step``, in their order."""
+        return self._due.get(step % self.cycle, ())
+
+    def next_due(self, step: int) -> int:
+        """The first step after ``step`` at which a part is due."""
+        phase = step % self.cycle
+        gap = self._gap.get(phase)
+        if gap is None:  # nothing due at step (a run's first step can be such)
+            later = bisect.bisect_right(self._phases, phase)
+            gap = (self._phases[later] if later < len(self._phases) else self.cycle) - phase
+        return step + gap
+
+
 def run_world(
     scene: Scene,
     executor: DeterministicExecutor,
@@ -468,26 +501,24 @@ def run_world(
     crash_detector = crash_detector or CrashDetector()
     recorder = recorder or TrajectoryRecorder()
     schedule = [*parts, crash_detector, recorder]
-    periods = [scene.period_steps(p.name, p.rate_hz) for p in schedule]
+    plan = _UpdatePlan(schedule, [scene.period_steps(p.name, p.rate_hz) for p in schedule])
     start_step = round(scene.data.time * scene.physics_hz)
-    # parts run on absolute multiples of their period, so successive runs continue the
-    # same schedule; a run covers [start, end) and the next one starts where it ended
-    next_due = [-(-start_step // period) * period for period in periods]
     end_step = start_step + round(duration_s * scene.physics_hz)
     step = start_step
     status = WorldStatus.COMPLETED
     wall_start = time.perf_counter()
     cpu_start = time.process_time()
     model, data = scene.model, scene.data
+    # parts run on absolute multiples of their period, so successive runs continue the
+    # same schedule; a run covers [start, end) and the next one starts where it ended
+    due = plan.due(step)
     while True:
-        t_ns = max(scene.time_ns(step), executor.now().nanoseconds)
+        t_ns = max(scene.time_ns(step), executor.now_ns())
         executor.spin_until(t_ns)  # node callbacks due up to now; the clock reads t_ns
         if step >= end_step:
             break
-        for i, part in enumerate(schedule):
-            if next_due[i] == step:
-                part.update(t_ns, scene)
-                next_due[i] += periods[i]
+        for part in due:
+            part.update(t_ns, scene)
         executor.spin_until(t_ns)  # what the parts just published, at its sample time
         if crash_detector.crash is not None:
             status = WorldStatus.CRASHED
@@ -497,9 +528,10 @@ def run_world(
             mujoco.mj_step(model, data)  # this step's parts ran: a next run starts after it
             step += 1
             break
-        target = min(min(next_due), end_step)
+        target = min(plan.next_due(step), end_step)
         mujoco.mj_step(model, data, nstep=target - step)
         step = target
+        due = plan.due(step)
     return WorldResult(
         status=status,
         sim_time_s=(step - start_step) / scene.physics_hz,
