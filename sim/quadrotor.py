@@ -323,11 +323,22 @@ class ImuNoiseParams:
         return cls(*(0.0 for _ in fields(cls)))
 
 
+ImuValues = tuple[float, float, float, float, float, float]
+"""An IMU sample as floats: specific force (x, y, z) [m/s^2], then angular rate [rad/s]."""
+
+
 class ImuSample(NamedTuple):
     """Body-frame specific force [m/s^2] and angular rate [rad/s] (FLU)."""
 
     accel: FloatArray
     gyro: FloatArray
+
+    @classmethod
+    def of(cls, values: Sequence[float]) -> ImuSample:
+        """From six floats, specific force then angular rate (:data:`ImuValues`): two views
+        of one new array."""
+        both = np.array(values, dtype=np.float64)
+        return cls(both[:3], both[3:])
 
 
 class ImuNoiseModel:
@@ -373,11 +384,11 @@ class ImuNoiseModel:
         """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
         ax, ay, az = np.asarray(accel, dtype=np.float64).tolist()
         gx, gy, gz = np.asarray(gyro, dtype=np.float64).tolist()
-        return self.sample_values((ax, ay, az, gx, gy, gz), dt)
+        return ImuSample.of(self.noisy_values((ax, ay, az, gx, gy, gz), dt))
 
-    def sample_values(self, truth: Sequence[float], dt: float) -> ImuSample:
-        """:meth:`sample` on the six true values as floats, accelerometer then gyro (what
-        :attr:`sim.scene.SceneViews.imu` holds), without building arrays from them."""
+    def noisy_values(self, truth: Sequence[float], dt: float) -> ImuValues:
+        """:meth:`sample` on floats: the six true values, specific force then angular rate
+        (what :attr:`sim.scene.SceneViews.imu` holds), in and out."""
         if dt != self._dt:
             self._set_period(dt)
         k = self._next
@@ -398,10 +409,9 @@ class ImuNoiseModel:
                           b[2] + z[2] * walk_a * sqrt_dt, b[3] + z[3] * walk_g * sqrt_dt,
                           b[4] + z[4] * walk_g * sqrt_dt, b[5] + z[5] * walk_g * sqrt_dt]
         ax, ay, az, gx, gy, gz = truth
-        noisy = np.array((ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
-                          az + b[2] + z[8] * noise_a, gx + b[3] + z[9] * noise_g,
-                          gy + b[4] + z[10] * noise_g, gz + b[5] + z[11] * noise_g))
-        return ImuSample(accel=noisy[:3], gyro=noisy[3:])  # views of one array
+        return (ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
+                az + b[2] + z[8] * noise_a, gx + b[3] + z[9] * noise_g,
+                gy + b[4] + z[10] * noise_g, gz + b[5] + z[11] * noise_g)
 
     def _set_period(self, dt: float) -> None:
         """The per-sample scales for sample period ``dt`` (kept until the period changes)."""

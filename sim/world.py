@@ -44,6 +44,7 @@ from sim.quadrotor import (
     ImuNoiseModel,
     ImuNoiseParams,
     ImuSample,
+    ImuValues,
     MotorModel,
     QuadrotorParams,
 )
@@ -289,17 +290,27 @@ class Imu:
     noise: ImuNoiseModel
     rate_hz: float
     name: str = "imu"
-    latest: ImuSample | None = None
+    latest_values: ImuValues | None = None
+    """The latest sample as six floats: specific force (x, y, z), then angular rate."""
     latest_t_ns: int = -1
+    _latest: ImuSample | None = field(default=None, init=False, repr=False)
 
     @classmethod
     def seeded(cls, seed: int, *, rate_hz: float, params: ImuNoiseParams | None = None) -> Imu:
         return cls(ImuNoiseModel(params or ImuNoiseParams(), np.random.default_rng(seed)),
                    rate_hz=rate_hz)
 
+    @property
+    def latest(self) -> ImuSample | None:
+        """The latest sample as arrays (made from :attr:`latest_values` when first read)."""
+        if self._latest is None and self.latest_values is not None:
+            self._latest = ImuSample.of(self.latest_values)
+        return self._latest
+
     def update(self, t_ns: int, scene: Scene) -> None:
         truth = scene.views.imu.tolist()  # accel then gyro, as floats
-        self.latest = self.noise.sample_values(truth, 1.0 / self.rate_hz)
+        self.latest_values = self.noise.noisy_values(truth, 1.0 / self.rate_hz)
+        self._latest = None
         self.latest_t_ns = t_ns
 
 
@@ -409,16 +420,16 @@ class CrashDetector:
     def _contact_reason(self, scene: Scene) -> str | None:
         """Why the first bad contact of the quadrotor is a crash; None if none is."""
         soft, own = self._geom_sets(scene)
-        data = scene.data
-        for g1, g2 in data.contact.geom.tolist():
+        descent = -float(scene.views.quad_qvel[2])  # what a touchdown on a soft geom is judged by
+        too_fast = descent > self.params.max_touchdown_speed
+        for g1, g2 in scene.data.contact.geom.tolist():
             other = g2 if g1 in own else g1
             if other in own:
                 continue
             if other not in soft:
                 name = mujoco.mj_id2name(scene.model, mujoco.mjtObj.mjOBJ_GEOM, other)
                 return f"hit {name or f'geom {other}'}"
-            descent = -float(data.qvel[scene.index.qvel_adr + 2])
-            if descent > self.params.max_touchdown_speed:
+            if too_fast:
                 return f"touchdown at {descent:.1f} m/s"
         return None
 

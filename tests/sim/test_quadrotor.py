@@ -14,6 +14,7 @@ from sim.quadrotor import (
     GRAVITY,
     ImuNoiseModel,
     ImuNoiseParams,
+    ImuSample,
     MotorModel,
     QuadrotorParams,
     Spin,
@@ -178,19 +179,21 @@ def test_imu_block_draws_give_the_one_sample_at_a_time_noise() -> None:
             np.testing.assert_array_equal(model.gyro_bias, gyro_bias, err_msg=f"sample {k}")
 
 
-def test_imu_sample_values_is_sample_on_floats() -> None:
-    """The float path the world's IMU takes gives what ``sample`` gives, bit for bit,
-    accel and gyro as views of one array."""
+def test_imu_noisy_values_is_sample_on_floats() -> None:
+    """The float path the world's IMU takes gives what ``sample`` gives, bit for bit."""
     truth_a, truth_g = [0.3, -0.1, 9.9], [-0.02, 0.05, 0.01]
     arrays = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(9), block=2)
     floats = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(9), block=2)
     for dt in (0.002, 0.002, 0.004, 0.002, 0.002):
         want = arrays.sample(truth_a, truth_g, dt)
-        got = floats.sample_values((*truth_a, *truth_g), dt)
-        np.testing.assert_array_equal(got.accel, want.accel)
-        np.testing.assert_array_equal(got.gyro, want.gyro)
+        got = floats.noisy_values((*truth_a, *truth_g), dt)
+        assert all(type(v) is float for v in got)
+        assert got == (*want.accel.tolist(), *want.gyro.tolist())
+        sample = ImuSample.of(got)
+        np.testing.assert_array_equal(sample.accel, want.accel)
+        np.testing.assert_array_equal(sample.gyro, want.gyro)
     with pytest.raises(ValueError, match="must be > 0"):
-        floats.sample_values((0.0,) * 6, 0.0)
+        floats.noisy_values((0.0,) * 6, 0.0)
 
 
 def test_imu_bias_wanders_and_noiseless_is_truth() -> None:

@@ -287,6 +287,21 @@ def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None
     assert np.array_equal(data, again) and not np.array_equal(data, other)
 
 
+def test_the_imu_sample_as_arrays_is_made_from_its_floats_when_read(contest: ArenaSpec) -> None:
+    scene = Scene.build(contest)
+    scene.place_at_takeoff()
+    imu = Imu.seeded(1, rate_hz=500.0)
+    assert imu.latest is None and imu.latest_values is None
+    imu.update(0, scene)
+    first = imu.latest
+    assert first is not None and imu.latest is first  # made once per sample
+    assert (*first.accel.tolist(), *first.gyro.tolist()) == imu.latest_values
+    imu.update(2_000_000, scene)
+    again = imu.latest
+    assert again is not None and again is not first
+    assert (*again.accel.tolist(), *again.gyro.tolist()) == imu.latest_values
+
+
 # -- the world's tuning comes from config/sim_world.yaml --------------------------------------
 
 
