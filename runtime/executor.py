@@ -103,7 +103,10 @@ class DeterministicExecutor:
         return handle
 
     def call_soon(self, callback: Callable[[], None], label: Label) -> Handle:
-        return self.call_at(self._clock.nanoseconds, callback, label)
+        # call_at at the clock's time, never in the past: no check
+        handle = Handle(callback, label)
+        heapq.heappush(self._heap, (self._clock.nanoseconds, next(self._order), handle))
+        return handle
 
     # nodes -------------------------------------------------------------------------------
     def add_node(self, node: Node) -> None:
@@ -176,7 +179,8 @@ class DeterministicExecutor:
             heapq.heappop(heap)
             if not handle.cancelled:
                 self._run(t_ns, handle)
-        clock.advance_to(t_end)
+        if t_end != clock.nanoseconds:
+            clock.advance_to(t_end)
 
     def spin_for(self, seconds: float) -> None:
         """Advance simulated time by ``seconds``, running everything due."""
