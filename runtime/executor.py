@@ -167,7 +167,7 @@ class DeterministicExecutor:
 
     def spin_until(self, t: Time | int) -> None:
         """Run every callback due at or before ``t``, then set the clock to ``t``."""
-        t_end = t.nanoseconds if isinstance(t, Time) else int(t)
+        t_end = t if type(t) is int else t.nanoseconds if isinstance(t, Time) else int(t)
         clock = self._clock
         if t_end < clock.nanoseconds:
             raise ClockError(f"cannot spin back to {t_end} ns from {clock.nanoseconds} ns")
