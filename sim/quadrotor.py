@@ -349,9 +349,13 @@ class ImuNoiseModel:
 
     The model owns ``rng``: it draws the turn-on biases at once, then the standard normals
     of ``block`` samples at a time (numpy fills an array in the order single draws would
-    come, so the noise is the same whatever the block), and works on Python floats, which
-    are cheaper than numpy on single 3-vectors and round the same. Another user of the
-    same generator would see its draws moved.
+    come, so the noise is the same whatever the block). For the samples still to come in
+    the block it works out, in numpy and at once, the bias after each (a running sum:
+    ``np.add.accumulate`` adds in order, as one sample at a time would) and the white
+    noise, with the arithmetic of the per-sample formulas (order included), so the same
+    numbers; a sample then only adds them to the truth, on Python floats. A change of
+    period works them out again from that sample on. Another user of the same generator
+    would see its draws moved.
     """
 
     def __init__(self, params: ImuNoiseParams, rng: np.random.Generator,
@@ -364,11 +368,19 @@ class ImuNoiseModel:
         accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
         gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
         self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
-        self._normals: list[float] = []  # the block's normals, 12 a sample, used from _next on
-        self._next = 0
-        self._walk_a, self._walk_g = params.accel_bias_random_walk, params.gyro_bias_random_walk
-        self._dt = math.nan  # the sample period the scales below are for (none yet)
-        self._sqrt_dt = self._noise_a = self._noise_g = math.nan
+        self._walks = np.repeat([params.accel_bias_random_walk,
+                                 params.gyro_bias_random_walk], 3)
+        self._densities = np.repeat([params.accel_noise_density, params.gyro_noise_density], 3)
+        # the block's standard normals, 12 a sample: bias walks (accel, gyro), then white
+        # noise (accel, gyro), the order of the four rng.normal(0, std, 3) calls they replaced
+        self._normals = np.empty((0, 12))
+        self._next = 0  # the block's next sample
+        # from sample _planned_from of the block on, for sample period _dt: the bias after
+        # each sample and its white noise, six values a sample, flat
+        self._dt = math.nan
+        self._planned_from = 0
+        self._bias_after: list[float] = []
+        self._white: list[float] = []
 
     @property
     def accel_bias(self) -> FloatArray:
@@ -389,38 +401,33 @@ class ImuNoiseModel:
     def noisy_values(self, truth: Sequence[float], dt: float) -> ImuValues:
         """:meth:`sample` on floats: the six true values, specific force then angular rate
         (what :attr:`sim.scene.SceneViews.imu` holds), in and out."""
-        if dt != self._dt:
-            self._set_period(dt)
+        if dt != self._dt and dt <= 0.0:
+            raise ValueError(f"dt: {dt} s must be > 0")
         k = self._next
         if k == len(self._normals):
-            self._normals = self._rng.standard_normal(self._block * 12).tolist()
+            self._normals = self._rng.standard_normal((self._block, 12))
             k = 0
-        # the 12 standard normals the four rng.normal(0, std, 3) calls took, in their
-        # order: bias walks (accel, gyro), then white noise (accel, gyro); each scaled as
-        # normal(0, std) scales, std * z
-        z = self._normals[k : k + 12]
-        self._next = k + 12
-        sqrt_dt, noise_a, noise_g = self._sqrt_dt, self._noise_a, self._noise_g
-        walk_a, walk_g = self._walk_a, self._walk_g
-        # written out per axis: quicker than loops, and the arithmetic (order included) of
-        # the numpy vectors it replaced, so the same numbers
-        b = self._bias
-        b = self._bias = [b[0] + z[0] * walk_a * sqrt_dt, b[1] + z[1] * walk_a * sqrt_dt,
-                          b[2] + z[2] * walk_a * sqrt_dt, b[3] + z[3] * walk_g * sqrt_dt,
-                          b[4] + z[4] * walk_g * sqrt_dt, b[5] + z[5] * walk_g * sqrt_dt]
+            self._plan(0, dt)
+        elif dt != self._dt:
+            self._plan(k, dt)
+        self._next = k + 1
+        i = 6 * (k - self._planned_from)
+        b = self._bias = self._bias_after[i : i + 6]
+        w = self._white[i : i + 6]
         ax, ay, az, gx, gy, gz = truth
-        return (ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
-                az + b[2] + z[8] * noise_a, gx + b[3] + z[9] * noise_g,
-                gy + b[4] + z[10] * noise_g, gz + b[5] + z[11] * noise_g)
+        return (ax + b[0] + w[0], ay + b[1] + w[1], az + b[2] + w[2],
+                gx + b[3] + w[3], gy + b[4] + w[4], gz + b[5] + w[5])
 
-    def _set_period(self, dt: float) -> None:
-        """The per-sample scales for sample period ``dt`` (kept until the period changes)."""
-        if dt <= 0.0:
-            raise ValueError(f"dt: {dt} s must be > 0")
+    def _plan(self, first: int, dt: float) -> None:
+        """The bias after each sample of the block from ``first`` on, and their white
+        noise, for sample period ``dt``: per sample and axis ``bias + z * walk * sqrt(dt)``
+        and ``z * (density * (1 / sqrt(dt)))``, as the per-sample formulas round."""
         sqrt_dt = math.sqrt(dt)
-        white = 1.0 / sqrt_dt
-        p = self._params
+        z = self._normals[first:]
+        steps = z[:, :6] * self._walks * sqrt_dt
+        bias_after = np.add.accumulate(np.vstack((self._bias, steps)), axis=0)[1:]
+        white = z[:, 6:] * (self._densities * (1.0 / sqrt_dt))
         self._dt = dt
-        self._sqrt_dt = sqrt_dt
-        self._noise_a = p.accel_noise_density * white
-        self._noise_g = p.gyro_noise_density * white
+        self._planned_from = first
+        self._bias_after = bias_after.ravel().tolist()
+        self._white = white.ravel().tolist()

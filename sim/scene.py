@@ -103,7 +103,7 @@ class SceneIndex:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SceneViews:
     """Views into one ``MjData`` at a :class:`SceneIndex`'s addresses: they read and write
     the data in place, and cost nothing per use (slicing the data anew every update does).

@@ -196,6 +196,18 @@ def test_imu_noisy_values_is_sample_on_floats() -> None:
         floats.noisy_values((0.0,) * 6, 0.0)
 
 
+def test_a_refused_period_draws_nothing() -> None:
+    """A period <= 0 is refused before anything is drawn, at a block's end too."""
+    truth = (0.3, -0.1, 9.9, -0.02, 0.05, 0.01)
+    model = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(2), block=2)
+    reference = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(2), block=2)
+    for _ in range(2):  # the first block used up
+        assert model.noisy_values(truth, 0.002) == reference.noisy_values(truth, 0.002)
+    with pytest.raises(ValueError, match="must be > 0"):
+        model.noisy_values(truth, -0.002)
+    assert model.noisy_values(truth, 0.002) == reference.noisy_values(truth, 0.002)
+
+
 def test_imu_bias_wanders_and_noiseless_is_truth() -> None:
     biased = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(1))
     start = biased.gyro_bias
