@@ -137,7 +137,9 @@ class _InProcessWriter:
         self.samples_written += 1
         if self.history is not None:
             self.history.append((data, request_id))
-        for reader in self._matched_readers():
+        matched = (self._matched if self._matched_version == self._channel.version
+                   else self._matched_readers())
+        for reader in matched:
             reader.on_sample(data, request_id)
 
     def matched_count(self) -> int:

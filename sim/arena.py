@@ -173,13 +173,16 @@ class GroundRobot:
         out once: :func:`robot_pose` runs at every robot update)."""
         segments = tuple(self.route())
         lengths = tuple(math.dist(a, b) for a, b in segments)
-        return _RouteTable(segments, lengths, tuple(itertools.accumulate(lengths)))
+        yaws = tuple(math.atan2(by - ay, bx - ax) for (ax, ay), (bx, by) in segments)
+        return _RouteTable(segments, lengths, tuple(itertools.accumulate(lengths)), yaws)
 
 
 class _RouteTable(NamedTuple):
     segments: tuple[tuple[Vec2, Vec2], ...]
     lengths: tuple[float, ...]
     ends: tuple[float, ...]
+    yaws: tuple[float, ...]
+    """The heading along each segment [rad]."""
 
 
 class RobotPose(NamedTuple):
@@ -191,12 +194,12 @@ class RobotPose(NamedTuple):
 
 def robot_pose(robot: GroundRobot, t: float) -> RobotPose:
     """Where ``robot`` is ``t`` seconds after the start, facing along its current segment."""
-    segments, lengths, ends = robot._route_table
+    segments, lengths, ends, yaws = robot._route_table
     travelled = (robot.speed * t) % ends[-1]
     index = min(bisect.bisect_right(ends, travelled), len(segments) - 1)
     (ax, ay), (bx, by) = segments[index]
     u = (travelled - (ends[index] - lengths[index])) / lengths[index]
-    return RobotPose(xy=(ax + u * (bx - ax), ay + u * (by - ay)), yaw=math.atan2(by - ay, bx - ax))
+    return RobotPose((ax + u * (bx - ax), ay + u * (by - ay)), yaws[index])  # xy, yaw
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from enum import IntEnum
 from pathlib import Path
@@ -229,14 +230,17 @@ class MotorModel:
     ``step`` holds the command constant over ``dt`` and integrates exactly:
     ``T += (1 - exp(-dt / tau)) * (clip(cmd) - T)``, so any ``dt`` is stable. Commands are
     clipped to ``[0, max_motor_thrust]``. The four thrusts are Python floats inside (cheaper
-    than numpy on four values, and rounded the same); what it returns are new arrays.
+    than numpy on four values, and rounded the same); :meth:`step` returns a new array,
+    :meth:`step_values` the floats.
     """
 
     def __init__(self, params: QuadrotorParams, initial_thrust: npt.ArrayLike = 0.0) -> None:
         self._tau = params.motor_tau
         self._max = params.max_motor_thrust
         self._kf = params.kf
-        self._thrust: list[float] = []
+        self._thrust: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+        self._dt = math.nan  # the step the lag factor below is for (none yet)
+        self._alpha = math.nan
         self.reset(initial_thrust)
 
     @classmethod
@@ -250,14 +254,22 @@ class MotorModel:
 
     def step(self, commanded: npt.ArrayLike, dt: float) -> FloatArray:
         """Advance by ``dt`` seconds under ``commanded`` thrusts [N]; returns actual thrusts."""
-        if dt < 0.0:
-            raise ValueError(f"dt: {dt} s must be >= 0")
-        alpha = -math.expm1(-dt / self._tau)
+        self.step_values(commanded, dt)
+        return self.thrust
+
+    def step_values(self, commanded: npt.ArrayLike,
+                    dt: float) -> tuple[float, float, float, float]:
+        """:meth:`step`, returning the four actual thrusts [N] as floats."""
+        if dt != self._dt:
+            if dt < 0.0:
+                raise ValueError(f"dt: {dt} s must be >= 0")
+            self._dt, self._alpha = dt, -math.expm1(-dt / self._tau)
+        alpha = self._alpha
         # the four rotors written out: quicker than a loop, in the same arithmetic
         (t0, t1, t2, t3), (c0, c1, c2, c3) = self._thrust, self._clip(commanded)
-        self._thrust = [t0 + alpha * (c0 - t0), t1 + alpha * (c1 - t1),
-                        t2 + alpha * (c2 - t2), t3 + alpha * (c3 - t3)]
-        return self.thrust
+        thrust = self._thrust = (t0 + alpha * (c0 - t0), t1 + alpha * (c1 - t1),
+                                 t2 + alpha * (c2 - t2), t3 + alpha * (c3 - t3))
+        return thrust
 
     @property
     def thrust(self) -> FloatArray:
@@ -270,14 +282,18 @@ class MotorModel:
         result: FloatArray = np.sqrt(self.thrust / self._kf)
         return result
 
-    def _clip(self, thrust: npt.ArrayLike) -> list[float]:
+    def _clip(self, thrust: npt.ArrayLike) -> tuple[float, float, float, float]:
         """``thrust`` (scalar or 4 values) within ``[0, max_motor_thrust]``, as floats."""
         values = np.asarray(thrust, dtype=np.float64)
         if values.shape != (NUM_ROTORS,):
             values = np.broadcast_to(values, (NUM_ROTORS,))
         high = self._max
+        c0, c1, c2, c3 = values.tolist()
         # NaN stays NaN, as in np.clip; conditionals are quicker here than min and max
-        return [0.0 if v < 0.0 else high if v > high else v for v in values.tolist()]
+        return (0.0 if c0 < 0.0 else high if c0 > high else c0,
+                0.0 if c1 < 0.0 else high if c1 > high else c1,
+                0.0 if c2 < 0.0 else high if c2 > high else c2,
+                0.0 if c3 < 0.0 else high if c3 > high else c3)
 
 
 @dataclass(frozen=True)
@@ -307,11 +323,22 @@ class ImuNoiseParams:
         return cls(*(0.0 for _ in fields(cls)))
 
 
+ImuValues = tuple[float, float, float, float, float, float]
+"""An IMU sample as floats: specific force (x, y, z) [m/s^2], then angular rate [rad/s]."""
+
+
 class ImuSample(NamedTuple):
     """Body-frame specific force [m/s^2] and angular rate [rad/s] (FLU)."""
 
     accel: FloatArray
     gyro: FloatArray
+
+    @classmethod
+    def of(cls, values: Sequence[float]) -> ImuSample:
+        """From six floats, specific force then angular rate (:data:`ImuValues`): two views
+        of one new array."""
+        both = np.array(values, dtype=np.float64)
+        return cls(both[:3], both[3:])
 
 
 class ImuNoiseModel:
@@ -322,9 +349,13 @@ class ImuNoiseModel:
 
     The model owns ``rng``: it draws the turn-on biases at once, then the standard normals
     of ``block`` samples at a time (numpy fills an array in the order single draws would
-    come, so the noise is the same whatever the block), and works on Python floats, which
-    are cheaper than numpy on single 3-vectors and round the same. Another user of the
-    same generator would see its draws moved.
+    come, so the noise is the same whatever the block). For the samples still to come in
+    the block it works out, in numpy and at once, the bias after each (a running sum:
+    ``np.add.accumulate`` adds in order, as one sample at a time would) and the white
+    noise, with the arithmetic of the per-sample formulas (order included), so the same
+    numbers; a sample then only adds them to the truth, on Python floats. A change of
+    period works them out again from that sample on. Another user of the same generator
+    would see its draws moved.
     """
 
     def __init__(self, params: ImuNoiseParams, rng: np.random.Generator,
@@ -337,8 +368,19 @@ class ImuNoiseModel:
         accel_bias = rng.normal(0.0, params.accel_bias_initial_std, 3)
         gyro_bias = rng.normal(0.0, params.gyro_bias_initial_std, 3)
         self._bias: list[float] = [*accel_bias.tolist(), *gyro_bias.tolist()]  # accel, gyro
-        self._normals: list[list[float]] = []  # the block's rows of 12, used from _next on
-        self._next = 0
+        self._walks = np.repeat([params.accel_bias_random_walk,
+                                 params.gyro_bias_random_walk], 3)
+        self._densities = np.repeat([params.accel_noise_density, params.gyro_noise_density], 3)
+        # the block's standard normals, 12 a sample: bias walks (accel, gyro), then white
+        # noise (accel, gyro), the order of the four rng.normal(0, std, 3) calls they replaced
+        self._normals = np.empty((0, 12))
+        self._next = 0  # the block's next sample
+        # from sample _planned_from of the block on, for sample period _dt: the bias after
+        # each sample and its white noise, six values a sample, flat
+        self._dt = math.nan
+        self._planned_from = 0
+        self._bias_after: list[float] = []
+        self._white: list[float] = []
 
     @property
     def accel_bias(self) -> FloatArray:
@@ -352,32 +394,40 @@ class ImuNoiseModel:
 
     def sample(self, accel: npt.ArrayLike, gyro: npt.ArrayLike, dt: float) -> ImuSample:
         """A noisy reading of the true ``accel`` and ``gyro``; ``dt`` is the sample period [s]."""
-        if dt <= 0.0:
-            raise ValueError(f"dt: {dt} s must be > 0")
-        if self._next == len(self._normals):
-            self._normals = self._rng.standard_normal((self._block, 12)).tolist()
-            self._next = 0
-        # the 12 standard normals the four rng.normal(0, std, 3) calls took, in their
-        # order: bias walks (accel, gyro), then white noise (accel, gyro); each scaled as
-        # normal(0, std) scales, std * z
-        z = self._normals[self._next]
-        self._next += 1
-        sqrt_dt = math.sqrt(dt)
-        white = 1.0 / sqrt_dt
-        p = self._params
-        walk_a, walk_g = p.accel_bias_random_walk, p.gyro_bias_random_walk
-        noise_a, noise_g = p.accel_noise_density * white, p.gyro_noise_density * white
-        # written out per axis: quicker than loops, and the arithmetic (order included) of
-        # the numpy vectors it replaced, so the same numbers
-        b = self._bias
-        b = self._bias = [b[0] + z[0] * walk_a * sqrt_dt, b[1] + z[1] * walk_a * sqrt_dt,
-                          b[2] + z[2] * walk_a * sqrt_dt, b[3] + z[3] * walk_g * sqrt_dt,
-                          b[4] + z[4] * walk_g * sqrt_dt, b[5] + z[5] * walk_g * sqrt_dt]
         ax, ay, az = np.asarray(accel, dtype=np.float64).tolist()
         gx, gy, gz = np.asarray(gyro, dtype=np.float64).tolist()
-        return ImuSample(
-            accel=np.array([ax + b[0] + z[6] * noise_a, ay + b[1] + z[7] * noise_a,
-                            az + b[2] + z[8] * noise_a]),
-            gyro=np.array([gx + b[3] + z[9] * noise_g, gy + b[4] + z[10] * noise_g,
-                           gz + b[5] + z[11] * noise_g]),
-        )
+        return ImuSample.of(self.noisy_values((ax, ay, az, gx, gy, gz), dt))
+
+    def noisy_values(self, truth: Sequence[float], dt: float) -> ImuValues:
+        """:meth:`sample` on floats: the six true values, specific force then angular rate
+        (what :attr:`sim.scene.SceneViews.imu` holds), in and out."""
+        if dt != self._dt and dt <= 0.0:
+            raise ValueError(f"dt: {dt} s must be > 0")
+        k = self._next
+        if k == len(self._normals):
+            self._normals = self._rng.standard_normal((self._block, 12))
+            k = 0
+            self._plan(0, dt)
+        elif dt != self._dt:
+            self._plan(k, dt)
+        self._next = k + 1
+        i = 6 * (k - self._planned_from)
+        b = self._bias = self._bias_after[i : i + 6]
+        w = self._white[i : i + 6]
+        ax, ay, az, gx, gy, gz = truth
+        return (ax + b[0] + w[0], ay + b[1] + w[1], az + b[2] + w[2],
+                gx + b[3] + w[3], gy + b[4] + w[4], gz + b[5] + w[5])
+
+    def _plan(self, first: int, dt: float) -> None:
+        """The bias after each sample of the block from ``first`` on, and their white
+        noise, for sample period ``dt``: per sample and axis ``bias + z * walk * sqrt(dt)``
+        and ``z * (density * (1 / sqrt(dt)))``, as the per-sample formulas round."""
+        sqrt_dt = math.sqrt(dt)
+        z = self._normals[first:]
+        steps = z[:, :6] * self._walks * sqrt_dt
+        bias_after = np.add.accumulate(np.vstack((self._bias, steps)), axis=0)[1:]
+        white = z[:, 6:] * (self._densities * (1.0 / sqrt_dt))
+        self._dt = dt
+        self._planned_from = first
+        self._bias_after = bias_after.ravel().tolist()
+        self._white = white.ravel().tolist()

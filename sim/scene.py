@@ -64,12 +64,22 @@ class SceneIndex:
         if self.motors != tuple(range(first, first + NUM_ROTORS)):
             raise SimError(f"motors: actuator ids {self.motors} are not {NUM_ROTORS} in a row "
                            "(sim.mjcf declares the motors together, in rotor order)")
+        if self.gyro_adr != self.accel_adr + 3:
+            raise SimError(f"the gyro's sensor data (at {self.gyro_adr}) does not follow the "
+                           f"accelerometer's (at {self.accel_adr}); sim.mjcf declares them "
+                           "in a row")
 
     @functools.cached_property
     def motor_ctrl(self) -> slice:
         """Where the motors' thrusts are in ``data.ctrl`` (one slice: quicker to write than
         a list of ids)."""
         return slice(self.motors[0], self.motors[0] + NUM_ROTORS)
+
+    @functools.cached_property
+    def imu_values(self) -> slice:
+        """Where the IMU's six values are in ``data.sensordata``: specific force, then
+        angular rate."""
+        return slice(self.accel_adr, self.accel_adr + 6)
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel, arena: ArenaSpec) -> SceneIndex:
@@ -93,6 +103,34 @@ class SceneIndex:
         )
 
 
+@dataclass(frozen=True, eq=False)
+class SceneViews:
+    """Views into one ``MjData`` at a :class:`SceneIndex`'s addresses: they read and write
+    the data in place, and cost nothing per use (slicing the data anew every update does).
+    Valid as long as that ``MjData`` lives; :meth:`of` makes them."""
+
+    quad_qpos: FloatArray
+    """The quadrotor's position (3) and quaternion (4), ``data.qpos``."""
+    quad_qvel: FloatArray
+    """Its linear velocity (3, world) and angular velocity (3, body), ``data.qvel``."""
+    quad_force: FloatArray
+    """The force (3, world) applied to its body, ``data.xfrc_applied``."""
+    motor_ctrl: FloatArray
+    """The motors' thrusts in rotor order, ``data.ctrl``."""
+    imu: FloatArray
+    """The IMU's specific force (3), then angular rate (3), ``data.sensordata``."""
+
+    @classmethod
+    def of(cls, data: mujoco.MjData, index: SceneIndex) -> SceneViews:
+        return cls(
+            quad_qpos=data.qpos[index.qpos_adr : index.qpos_adr + 7],
+            quad_qvel=data.qvel[index.qvel_adr : index.qvel_adr + 6],
+            quad_force=data.xfrc_applied[index.quad_body, :3],
+            motor_ctrl=data.ctrl[index.motor_ctrl],
+            imu=data.sensordata[index.imu_values],
+        )
+
+
 class QuadState(NamedTuple):
     """Ground-truth rigid-body state of the quadrotor (evaluation only, never to the companion).
 
@@ -108,13 +146,13 @@ class QuadState(NamedTuple):
 
 def quad_state(data: mujoco.MjData, index: SceneIndex) -> QuadState:
     """Copy of the quadrotor's free-joint state."""
-    qpos = data.qpos[index.qpos_adr : index.qpos_adr + 7]
-    qvel = data.qvel[index.qvel_adr : index.qvel_adr + 6]
-    return QuadState(
-        position=qpos[:3].copy(),
-        quaternion=qpos[3:].copy(),
-        velocity=qvel[:3].copy(),
-        angular_velocity=qvel[3:].copy(),
+    qpos = data.qpos[index.qpos_adr : index.qpos_adr + 7].copy()
+    qvel = data.qvel[index.qvel_adr : index.qvel_adr + 6].copy()
+    return QuadState(  # views of the two copies
+        position=qpos[:3],
+        quaternion=qpos[3:],
+        velocity=qvel[:3],
+        angular_velocity=qvel[3:],
     )
 
 
@@ -140,10 +178,11 @@ def set_motor_thrusts(data: mujoco.MjData, index: SceneIndex, thrusts: npt.Array
 
 def set_robot_poses(data: mujoco.MjData, index: SceneIndex, arena: ArenaSpec, t: float) -> None:
     """Move every ground robot's mocap body to its pose at time ``t`` [s]."""
+    mocap_pos, mocap_quat = data.mocap_pos, data.mocap_quat
     for robot, mocap in zip(arena.robots, index.robot_mocap, strict=True):
         (x, y), yaw = robot_pose(robot, t)
-        data.mocap_pos[mocap] = (x, y, 0.0)
-        data.mocap_quat[mocap] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
+        mocap_pos[mocap] = (x, y, 0.0)
+        mocap_quat[mocap] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
 
 
 def read_imu(data: mujoco.MjData, index: SceneIndex) -> ImuSample:
@@ -153,8 +192,5 @@ def read_imu(data: mujoco.MjData, index: SceneIndex) -> ImuSample:
     describe the state at the start of it (one step old); ``mj_forward`` refreshes them.
     At rest the accelerometer reads ``+g`` on z.
     """
-    sensordata = data.sensordata
-    return ImuSample(
-        accel=sensordata[index.accel_adr : index.accel_adr + 3].copy(),
-        gyro=sensordata[index.gyro_adr : index.gyro_adr + 3].copy(),
-    )
+    values = data.sensordata[index.imu_values].copy()
+    return ImuSample(accel=values[:3], gyro=values[3:])

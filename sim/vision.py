@@ -20,11 +20,11 @@ import interfaces
 from runtime import Node, Time, qos_profile_sensor_data
 from runtime.clock import seconds_to_ns
 from runtime.parameters import param, validate_parameters
-from sim.scene import quad_state
 from sim.world import Scene
 
 VISION_POSE_TOPIC = "/sim/vision/pose"
 MAP_FRAME = "map"
+_BLOCK = 256  # updates whose standard normals are drawn at once
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,9 @@ class VisionPose:
 
     def __post_init__(self) -> None:
         self._rng = np.random.default_rng(self.seed)
-        self._drift = np.zeros(3)
+        self._drift = (0.0, 0.0, 0.0)
+        self._normals: list[float] = []  # a block's normals, 7 an update, used from _next on
+        self._next = 0
 
     @classmethod
     def from_node(cls, node: VisionNode, seed: int = 0,
@@ -92,14 +94,26 @@ class VisionPose:
 
     def update(self, t_ns: int, scene: Scene) -> None:
         n = self.noise
-        self._drift += self._rng.normal(0.0, n.drift_rate * math.sqrt(1.0 / self.rate_hz), 3)
-        white = self._rng.normal(0.0, n.position_std, 3)
-        dyaw = float(self._rng.normal(0.0, n.yaw_std))
+        # the 7 standard normals that rng.normal(0, std, 3) (drift step), rng.normal(0,
+        # std, 3) (white noise) and rng.normal(0, std) (yaw) took, in their order, drawn
+        # a block of updates at a time (the same sequence); each scaled as normal(loc,
+        # std) scales, loc + std * z
+        k = self._next
+        if k == len(self._normals):
+            self._normals = self._rng.standard_normal(_BLOCK * 7).tolist()
+            k = 0
+        zs = self._normals[k : k + 7]
+        self._next = k + 7
+        step = n.drift_rate * math.sqrt(1.0 / self.rate_hz)
+        white, d = n.position_std, self._drift
+        d = self._drift = (d[0] + (0.0 + step * zs[0]), d[1] + (0.0 + step * zs[1]),
+                           d[2] + (0.0 + step * zs[2]))
+        dyaw = 0.0 + n.yaw_std * zs[6]
         if not self.tracking:
             return
-        state = quad_state(scene.data, scene.index)
-        position = state.position + self._drift + white
-        w, x, y, z = state.quaternion
+        px, py, pz, w, x, y, z = scene.views.quad_qpos.tolist()  # position, quaternion
+        position = (px + d[0] + (0.0 + white * zs[3]), py + d[1] + (0.0 + white * zs[4]),
+                    pz + d[2] + (0.0 + white * zs[5]))
         half = dyaw / 2.0  # yaw noise: rotate about world z
         cw, sz = math.cos(half), math.sin(half)
         q = (cw * w - sz * z, cw * x - sz * y, cw * y + sz * x, cw * z + sz * w)
@@ -117,10 +131,10 @@ class VisionPose:
                 "geometry_msgs/msg/PoseWithCovariance",
                 pose=interfaces.new(
                     "geometry_msgs/msg/Pose",
-                    position=interfaces.new("geometry_msgs/msg/Point", x=float(position[0]),
-                                            y=float(position[1]), z=float(position[2])),
-                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(q[1]),
-                                               y=float(q[2]), z=float(q[3]), w=float(q[0]))),
+                    position=interfaces.new("geometry_msgs/msg/Point", x=position[0],
+                                            y=position[1], z=position[2]),
+                    orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=q[1],
+                                               y=q[2], z=q[3], w=q[0])),
                 covariance=cov),
         )
         publish_at = t_ns + seconds_to_ns(n.latency_s)

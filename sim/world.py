@@ -18,6 +18,8 @@ see only the topics the parts publish.
 
 from __future__ import annotations
 
+import bisect
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -42,15 +44,14 @@ from sim.quadrotor import (
     ImuNoiseModel,
     ImuNoiseParams,
     ImuSample,
+    ImuValues,
     MotorModel,
     QuadrotorParams,
 )
 from sim.scene import (
     SceneIndex,
+    SceneViews,
     place_quadrotor,
-    quad_state,
-    read_imu,
-    set_motor_thrusts,
     set_robot_poses,
 )
 
@@ -153,6 +154,11 @@ class Scene:
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
         return cls(arena, quad, model, data, SceneIndex.from_model(model, arena), physics_hz)
+
+    @functools.cached_property
+    def views(self) -> SceneViews:
+        """Views into :attr:`data` that the parts read and write (made once)."""
+        return SceneViews.of(self.data, self.index)
 
     def time_ns(self, step: int) -> int:
         return step * NS_PER_S // self.physics_hz
@@ -263,9 +269,10 @@ class Actuation:
     name: str = "actuation"
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        thrust = self.motors.step(self.commands.commands(t_ns, scene), 1.0 / self.rate_hz)
-        set_motor_thrusts(scene.data, scene.index, thrust)
-        scene.data.xfrc_applied[scene.index.quad_body, :3] = self.wind.force(t_ns)
+        thrust = self.motors.step_values(self.commands.commands(t_ns, scene), 1.0 / self.rate_hz)
+        views = scene.views
+        views.motor_ctrl[:] = thrust
+        views.quad_force[:] = self.wind.force(t_ns)
 
 
 @dataclass
@@ -283,17 +290,27 @@ class Imu:
     noise: ImuNoiseModel
     rate_hz: float
     name: str = "imu"
-    latest: ImuSample | None = None
+    latest_values: ImuValues | None = None
+    """The latest sample as six floats: specific force (x, y, z), then angular rate."""
     latest_t_ns: int = -1
+    _latest: ImuSample | None = field(default=None, init=False, repr=False)
 
     @classmethod
     def seeded(cls, seed: int, *, rate_hz: float, params: ImuNoiseParams | None = None) -> Imu:
         return cls(ImuNoiseModel(params or ImuNoiseParams(), np.random.default_rng(seed)),
                    rate_hz=rate_hz)
 
+    @property
+    def latest(self) -> ImuSample | None:
+        """The latest sample as arrays (made from :attr:`latest_values` when first read)."""
+        if self._latest is None and self.latest_values is not None:
+            self._latest = ImuSample.of(self.latest_values)
+        return self._latest
+
     def update(self, t_ns: int, scene: Scene) -> None:
-        truth = read_imu(scene.data, scene.index)
-        self.latest = self.noise.sample(truth.accel, truth.gyro, 1.0 / self.rate_hz)
+        truth = scene.views.imu.tolist()  # accel then gyro, as floats
+        self.latest_values = self.noise.noisy_values(truth, 1.0 / self.rate_hz)
+        self._latest = None
         self.latest_t_ns = t_ns
 
 
@@ -328,13 +345,12 @@ class TrajectoryRecorder:
 
     rate_hz: float = field(default_factory=lambda: world_params().trajectory_rate_hz)
     name: str = "trajectory"
-    _rows: list[FloatArray] = field(default_factory=list)
+    _rows: list[tuple[float, ...]] = field(default_factory=list)
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        state = quad_state(scene.data, scene.index)
-        self._rows.append(
-            np.concatenate(([t_ns / NS_PER_S], state.position, state.quaternion, state.velocity))
-        )
+        views = scene.views
+        vx, vy, vz, _, _, _ = views.quad_qvel.tolist()
+        self._rows.append((t_ns / NS_PER_S, *views.quad_qpos.tolist(), vx, vy, vz))
 
     def trajectory(self) -> Trajectory:
         rows = np.array(self._rows).reshape(-1, 11)
@@ -370,6 +386,8 @@ class CrashDetector:
 
     def __post_init__(self) -> None:
         self.rate_hz = self.params.rate_hz
+        # the body z axis's world z component below which the tilt is a crash
+        self._min_up_z = math.cos(math.radians(self.params.max_tilt_deg))
 
     def _geom_sets(self, scene: Scene) -> tuple[frozenset[int], frozenset[int]]:
         """The geoms a drone may touch down on, and the quadrotor body's own (looked up
@@ -388,32 +406,30 @@ class CrashDetector:
     def update(self, t_ns: int, scene: Scene) -> None:
         if self.crash is not None:
             return
-        data, index = scene.data, scene.index
-        x, y = data.qpos[index.qpos_adr + 4 : index.qpos_adr + 6].tolist()
+        px, py, pz, _, x, y, _ = scene.views.quad_qpos.tolist()  # position, quaternion
         up_z = 1.0 - 2.0 * (x * x + y * y)  # body z axis, world z component
         reason = None
-        if up_z < math.cos(math.radians(self.params.max_tilt_deg)):
+        if up_z < self._min_up_z:
             reason = f"tilt {math.degrees(math.acos(max(-1.0, min(1.0, up_z)))):.0f} deg"
-        if reason is None and data.ncon == 0:
+        if reason is None and scene.data.ncon == 0:
             return  # in the air and upright: the common case
         reason = self._contact_reason(scene) or reason
         if reason is not None:
-            p = data.qpos[index.qpos_adr : index.qpos_adr + 3].tolist()
-            self.crash = Crash(t_ns / NS_PER_S, (p[0], p[1], p[2]), reason)
+            self.crash = Crash(t_ns / NS_PER_S, (px, py, pz), reason)
 
     def _contact_reason(self, scene: Scene) -> str | None:
         """Why the first bad contact of the quadrotor is a crash; None if none is."""
         soft, own = self._geom_sets(scene)
-        data = scene.data
-        for g1, g2 in data.contact.geom.tolist():
+        descent = -float(scene.views.quad_qvel[2])  # what a touchdown on a soft geom is judged by
+        too_fast = descent > self.params.max_touchdown_speed
+        for g1, g2 in scene.data.contact.geom.tolist():
             other = g2 if g1 in own else g1
             if other in own:
                 continue
             if other not in soft:
                 name = mujoco.mj_id2name(scene.model, mujoco.mjtObj.mjOBJ_GEOM, other)
                 return f"hit {name or f'geom {other}'}"
-            descent = -float(data.qvel[scene.index.qvel_adr + 2])
-            if descent > self.params.max_touchdown_speed:
+            if too_fast:
                 return f"touchdown at {descent:.1f} m/s"
         return None
 
@@ -442,6 +458,38 @@ class WorldResult:
         return self.sim_time_s / self.cpu_time_s if self.cpu_time_s > 0 else math.inf
 
 
+class _UpdatePlan:
+    """Which parts are due at a physics step, and the next step at which any is.
+
+    A part with a period of ``p`` steps runs at every multiple of ``p``; the pattern
+    repeats every ``cycle`` steps (the periods' least common multiple, which divides the
+    physics rate), so it is worked out once per phase of the cycle, not at every step.
+    """
+
+    def __init__(self, parts: Sequence[Part], periods: Sequence[int]) -> None:
+        self.cycle = cycle = math.lcm(*periods)
+        # the phases at which something is due (0 always is), and what is, in part order
+        self._phases = sorted({k for p in periods for k in range(0, cycle, p)})
+        self._due = {k: tuple(part for part, p in zip(parts, periods, strict=True) if k % p == 0)
+                     for k in self._phases}
+        # from such a phase, the steps to the next one
+        following = [*self._phases[1:], cycle]
+        self._gap = {k: n - k for k, n in zip(self._phases, following, strict=True)}
+
+    def due(self, step: int) -> tuple[Part, ...]:
+        """The parts due at ``step``, in their order."""
+        return self._due.get(step % self.cycle, ())
+
+    def next_due(self, step: int) -> int:
+        """The first step after ``step`` at which a part is due."""
+        phase = step % self.cycle
+        gap = self._gap.get(phase)
+        if gap is None:  # nothing due at step (a run's first step can be such)
+            later = bisect.bisect_right(self._phases, phase)
+            gap = (self._phases[later] if later < len(self._phases) else self.cycle) - phase
+        return step + gap
+
+
 def run_world(
     scene: Scene,
     executor: DeterministicExecutor,
@@ -464,26 +512,24 @@ def run_world(
     crash_detector = crash_detector or CrashDetector()
     recorder = recorder or TrajectoryRecorder()
     schedule = [*parts, crash_detector, recorder]
-    periods = [scene.period_steps(p.name, p.rate_hz) for p in schedule]
+    plan = _UpdatePlan(schedule, [scene.period_steps(p.name, p.rate_hz) for p in schedule])
     start_step = round(scene.data.time * scene.physics_hz)
-    # parts run on absolute multiples of their period, so successive runs continue the
-    # same schedule; a run covers [start, end) and the next one starts where it ended
-    next_due = [-(-start_step // period) * period for period in periods]
     end_step = start_step + round(duration_s * scene.physics_hz)
     step = start_step
     status = WorldStatus.COMPLETED
     wall_start = time.perf_counter()
     cpu_start = time.process_time()
     model, data = scene.model, scene.data
+    # parts run on absolute multiples of their period, so successive runs continue the
+    # same schedule; a run covers [start, end) and the next one starts where it ended
+    due = plan.due(step)
     while True:
-        t_ns = max(scene.time_ns(step), executor.now().nanoseconds)
+        t_ns = max(scene.time_ns(step), executor.now_ns())
         executor.spin_until(t_ns)  # node callbacks due up to now; the clock reads t_ns
         if step >= end_step:
             break
-        for i, part in enumerate(schedule):
-            if next_due[i] == step:
-                part.update(t_ns, scene)
-                next_due[i] += periods[i]
+        for part in due:
+            part.update(t_ns, scene)
         executor.spin_until(t_ns)  # what the parts just published, at its sample time
         if crash_detector.crash is not None:
             status = WorldStatus.CRASHED
@@ -493,9 +539,10 @@ def run_world(
             mujoco.mj_step(model, data)  # this step's parts ran: a next run starts after it
             step += 1
             break
-        target = min(min(next_due), end_step)
+        target = min(plan.next_due(step), end_step)
         mujoco.mj_step(model, data, nstep=target - step)
         step = target
+        due = plan.due(step)
     return WorldResult(
         status=status,
         sim_time_s=(step - start_step) / scene.physics_hz,

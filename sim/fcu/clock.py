@@ -27,6 +27,7 @@ Pure module: no runtime, no MuJoCo.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 from runtime.parameters import param, validate_parameters
@@ -46,6 +47,13 @@ _PPB_PER_UNIT = 10**9  # parts per billion in a factor of 1
 _NS_PER_US = 1000
 
 
+@functools.cache
+def _rate_ppb(skew_ppm: float) -> int:
+    """FCU nanoseconds per 10**9 simulated nanoseconds at ``skew_ppm``, the skew to the
+    nearest ppb (kept: every FCU timestamp needs it)."""
+    return _PPB_PER_UNIT + round(skew_ppm * 1000)
+
+
 @dataclass(frozen=True, slots=True)
 class FcuClock:
     """The FCU's clock as a function of simulated time (see the module docstring)."""
@@ -61,16 +69,16 @@ class FcuClock:
     @property
     def skew_ppb(self) -> int:
         """The skew actually applied, in integer parts per billion."""
-        return round(self.skew_ppm * 1000)
+        return _rate_ppb(self.skew_ppm) - _PPB_PER_UNIT
 
     @property
     def _rate_ppb(self) -> int:
         """FCU nanoseconds per 10**9 simulated nanoseconds (> 0 for any allowed skew)."""
-        return _PPB_PER_UNIT + self.skew_ppb
+        return _rate_ppb(self.skew_ppm)
 
     def fcu_time_us(self, sim_time_ns: int) -> int:
         """The FCU clock [us] at simulated time ``sim_time_ns`` [ns]; non-decreasing."""
-        scaled = sim_time_ns * self._rate_ppb  # FCU time in units of 1e-18 s
+        scaled = sim_time_ns * _rate_ppb(self.skew_ppm)  # FCU time in units of 1e-18 s
         return self.boot_offset_us + scaled // (_PPB_PER_UNIT * _NS_PER_US)
 
     def sim_time_ns(self, fcu_time_us: int) -> int:

@@ -306,11 +306,15 @@ _NEVER_NS = -(2**63)  # before any send or delivery
 class _DirectionState:
     """Random stream, FIFO state and counters of one direction."""
 
-    __slots__ = ("last_delivery_ns", "last_send_ns", "lost", "params", "rng", "sent", "spikes")
+    __slots__ = ("gamma", "last_delivery_ns", "last_send_ns", "lost", "params", "random", "rng",
+                 "sent", "spikes", "wire_ns")
 
     def __init__(self, params: LinkDirectionParams, rng: np.random.Generator) -> None:
         self.params = params
         self.rng = rng
+        self.random = rng.random  # the draws every message makes, bound once
+        self.gamma = rng.gamma
+        self.wire_ns: dict[int, int] = {}  # params.wire_time_ns by message size, as met
         self.last_send_ns = _NEVER_NS
         self.last_delivery_ns = _NEVER_NS
         self.sent = 0
@@ -324,12 +328,13 @@ class Link:
     def __init__(self, params: LinkParams) -> None:
         self.params = params
         to_fcu_seq, to_companion_seq = np.random.SeedSequence(params.seed).spawn(2)
-        self._states = {
-            LinkDirection.TO_FCU: _DirectionState(params.to_fcu, np.random.default_rng(to_fcu_seq)),
-            LinkDirection.TO_COMPANION: _DirectionState(
-                params.to_companion, np.random.default_rng(to_companion_seq)
-            ),
-        }
+        self._to_fcu = _DirectionState(params.to_fcu, np.random.default_rng(to_fcu_seq))
+        self._to_companion = _DirectionState(params.to_companion,
+                                             np.random.default_rng(to_companion_seq))
+
+    def _state(self, direction: LinkDirection) -> _DirectionState:
+        # not a dict keyed by the enum: an Enum's hash is a Python call
+        return self._to_fcu if direction is LinkDirection.TO_FCU else self._to_companion
 
     @property
     def clock(self) -> FcuClock:
@@ -342,7 +347,7 @@ class Link:
         Returns its delivery time [sim ns], or None if it is lost. Send times must not
         decrease within a direction (LinkOrderError otherwise).
         """
-        state = self._states[direction]
+        state = self._to_fcu if direction is LinkDirection.TO_FCU else self._to_companion
         if send_time_ns < state.last_send_ns:
             raise LinkOrderError(
                 f"{direction.value}: send at {send_time_ns} ns is before the previous send "
@@ -351,8 +356,8 @@ class Link:
         if size_bytes < 0:
             raise ValueError(f"size_bytes={size_bytes}: must be >= 0")
         p = state.params
-        u_loss, u_spike, u_magnitude = state.rng.random(3).tolist()  # floats: cheaper
-        jitter_us = float(state.rng.gamma(p.jitter_shape, p.jitter_scale_us))
+        u_loss, u_spike, u_magnitude = state.random(3).tolist()  # floats: cheaper
+        jitter_us: float = state.gamma(p.jitter_shape, p.jitter_scale_us)  # a float already
         state.last_send_ns = send_time_ns
         state.sent += 1
         if u_loss < p.loss_probability:
@@ -362,7 +367,9 @@ class Link:
         if u_spike < p.spike_probability:
             state.spikes += 1
             delay_us += p.spike_min_us + u_magnitude * (p.spike_max_us - p.spike_min_us)
-        wire_ns = p.wire_time_ns(size_bytes)
+        wire_ns = state.wire_ns.get(size_bytes)
+        if wire_ns is None:
+            wire_ns = state.wire_ns[size_bytes] = p.wire_time_ns(size_bytes)
         delivery_ns = max(
             send_time_ns + round(delay_us * _NS_PER_US) + wire_ns,
             state.last_delivery_ns + wire_ns,
@@ -372,5 +379,5 @@ class Link:
 
     def counters(self, direction: LinkDirection) -> LinkCounters:
         """A snapshot of one direction's counters."""
-        state = self._states[direction]
+        state = self._state(direction)
         return LinkCounters(sent=state.sent, lost=state.lost, spikes=state.spikes)

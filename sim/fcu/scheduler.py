@@ -574,6 +574,8 @@ class Scheduler:
         self._fun_rate = {p.fun: _RateMeter() for p in schedule.periodics}
         self._poll_rate = _RateMeter()
         self._rate_meters = (self._tick_rate, *self._fun_rate.values(), self._poll_rate)
+        self._tick_times = self._tick_rate.times  # the meters fold and clear these lists,
+        self._poll_times = self._poll_rate.times  # never replace them
         self._event_calls = dict.fromkeys(self._flags, 0)
         # per group, (name, prescaler, offset, callable, call-time list) per function; the
         # functions due at a tick depend only on the tick modulo the prescalers' least
@@ -701,7 +703,8 @@ class Scheduler:
         timer = self._timer
         marks = self._marks
         mark = marks.append
-        groups, called = self._phase(k % self._cycle)
+        phase = k % self._cycle
+        groups, called = self._phases.get(phase) or self._phase(phase)
         stopped: list[str] = []
         mark(tick_start := timer())
         try:
@@ -723,8 +726,8 @@ class Scheduler:
         mark(t_end := timer())
         if stopped:
             called = tuple(fun for fun in called if fun not in stopped)
-        self._tick_rate.times.append(now)
-        self._poll_rate.times.append(now)
+        self._tick_times.append(now)
+        self._poll_times.append(now)
         duty_ns = t_end - tick_start
         overrun = duty_ns > self._period_ns
         self._overruns += overrun

@@ -41,6 +41,27 @@ def test_timer_cancel_and_reset(ex: DeterministicExecutor) -> None:
     assert calls[-1] == 1_350_000_000
 
 
+def test_spin_until_runs_what_is_due_in_order_and_skips_cancelled_calls(
+    ex: DeterministicExecutor,
+) -> None:
+    ran: list[tuple[str, int]] = []
+
+    def call(name: str) -> None:
+        ran.append((name, ex.now_ns()))
+
+    ex.call_at(300, lambda: call("c"), ("", "test", "c"))
+    ex.call_at(100, lambda: call("a"), ("", "test", "a"))
+    ex.call_at(100, lambda: call("b"), ("", "test", "b"))  # same time: in scheduling order
+    ex.call_at(200, lambda: call("x"), ("", "test", "x")).cancel()
+    ex.call_at(400, lambda: call("y"), ("", "test", "y")).cancel()
+    ex.spin_until(300)
+    assert ran == [("a", 100), ("b", 100), ("c", 300)]
+    assert ex.now_ns() == ex.now().nanoseconds == 300 and ex.callbacks_run == 3
+    assert ex.next_event_ns() is None  # the cancelled call after 300 ns is dropped
+    ex.spin_until(350)
+    assert ex.now_ns() == 350
+
+
 def test_non_positive_timer_period_is_an_error(ex: DeterministicExecutor) -> None:
     node = Node("n", context=ex.context)
     with pytest.raises(ClockError, match="positive"):

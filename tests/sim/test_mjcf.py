@@ -16,6 +16,7 @@ from sim.mjcf import DEFAULT_TIMESTEP_US, build_model, pad_geom_name
 from sim.quadrotor import GRAVITY, MotorModel, QuadrotorParams, mix
 from sim.scene import (
     SceneIndex,
+    SceneViews,
     place_quadrotor,
     quad_state,
     read_imu,
@@ -60,6 +61,25 @@ def test_motors_are_one_slice_of_ctrl(index: SceneIndex) -> None:
     assert index.motor_ctrl == slice(index.motors[0], index.motors[0] + 4)
     with pytest.raises(SimError, match=r"actuator ids \(0, 2, 1, 3\) are not 4 in a row"):
         dataclasses.replace(index, motors=(0, 2, 1, 3))
+
+
+def test_scene_views_read_and_write_the_data(
+    model: mujoco.MjModel, data: mujoco.MjData, index: SceneIndex
+) -> None:
+    """The views the world's parts use are the data itself, at the index's addresses."""
+    views = SceneViews.of(data, index)
+    state = quad_state(data, index)
+    np.testing.assert_array_equal(views.quad_qpos, [*state.position, *state.quaternion])
+    np.testing.assert_array_equal(views.quad_qvel, [*state.velocity, *state.angular_velocity])
+    views.motor_ctrl[:] = (1.0, 2.0, 3.0, 4.0)
+    np.testing.assert_array_equal(data.ctrl[list(index.motors)], [1.0, 2.0, 3.0, 4.0])
+    views.quad_force[:] = (0.5, 0.0, -0.5)
+    np.testing.assert_array_equal(data.xfrc_applied[index.quad_body], [0.5, 0.0, -0.5, 0, 0, 0])
+    mujoco.mj_forward(model, data)
+    imu = read_imu(data, index)
+    np.testing.assert_array_equal(views.imu, [*imu.accel, *imu.gyro])
+    with pytest.raises(SimError, match="does not follow the accelerometer's"):
+        dataclasses.replace(index, gyro_adr=index.accel_adr + 4)
 
 
 @pytest.mark.parametrize("seed", range(20))

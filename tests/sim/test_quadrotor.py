@@ -14,6 +14,7 @@ from sim.quadrotor import (
     GRAVITY,
     ImuNoiseModel,
     ImuNoiseParams,
+    ImuSample,
     MotorModel,
     QuadrotorParams,
     Spin,
@@ -91,6 +92,16 @@ def test_motor_commands_are_clipped_to_the_motor_range() -> None:
     assert motors.rotor_speed[0] == pytest.approx(PARAMS.max_rotor_speed)
 
 
+def test_motor_step_values_are_step_as_floats() -> None:
+    arrays, floats = MotorModel(PARAMS), MotorModel(PARAMS)
+    for command, dt in (([9.0, 1.0, -1.0, 4.0], 0.002), ([3.0] * 4, 0.002), (5.0, 0.004)):
+        want = arrays.step(command, dt)
+        got = floats.step_values(command, dt)
+        assert isinstance(got, tuple) and list(got) == want.tolist()
+    with pytest.raises(ValueError, match="must be >= 0"):
+        floats.step_values(1.0, -0.001)
+
+
 def test_motor_clip_keeps_nan_and_takes_a_scalar() -> None:
     motors = MotorModel(PARAMS, [-1.0, 20.0, math.nan, 3.0])
     np.testing.assert_array_equal(motors.thrust, [0.0, PARAMS.max_motor_thrust, math.nan, 3.0])
@@ -166,6 +177,35 @@ def test_imu_block_draws_give_the_one_sample_at_a_time_noise() -> None:
             np.testing.assert_array_equal(got.accel, want_a, err_msg=f"sample {k}")
             np.testing.assert_array_equal(got.gyro, want_g, err_msg=f"sample {k}")
             np.testing.assert_array_equal(model.gyro_bias, gyro_bias, err_msg=f"sample {k}")
+
+
+def test_imu_noisy_values_is_sample_on_floats() -> None:
+    """The float path the world's IMU takes gives what ``sample`` gives, bit for bit."""
+    truth_a, truth_g = [0.3, -0.1, 9.9], [-0.02, 0.05, 0.01]
+    arrays = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(9), block=2)
+    floats = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(9), block=2)
+    for dt in (0.002, 0.002, 0.004, 0.002, 0.002):
+        want = arrays.sample(truth_a, truth_g, dt)
+        got = floats.noisy_values((*truth_a, *truth_g), dt)
+        assert all(type(v) is float for v in got)
+        assert got == (*want.accel.tolist(), *want.gyro.tolist())
+        sample = ImuSample.of(got)
+        np.testing.assert_array_equal(sample.accel, want.accel)
+        np.testing.assert_array_equal(sample.gyro, want.gyro)
+    with pytest.raises(ValueError, match="must be > 0"):
+        floats.noisy_values((0.0,) * 6, 0.0)
+
+
+def test_a_refused_period_draws_nothing() -> None:
+    """A period <= 0 is refused before anything is drawn, at a block's end too."""
+    truth = (0.3, -0.1, 9.9, -0.02, 0.05, 0.01)
+    model = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(2), block=2)
+    reference = ImuNoiseModel(ImuNoiseParams(), np.random.default_rng(2), block=2)
+    for _ in range(2):  # the first block used up
+        assert model.noisy_values(truth, 0.002) == reference.noisy_values(truth, 0.002)
+    with pytest.raises(ValueError, match="must be > 0"):
+        model.noisy_values(truth, -0.002)
+    assert model.noisy_values(truth, 0.002) == reference.noisy_values(truth, 0.002)
 
 
 def test_imu_bias_wanders_and_noiseless_is_truth() -> None:

@@ -101,6 +101,39 @@ def test_landing_on_an_obstacle_is_a_crash_that_names_it(contest: ArenaSpec) -> 
     assert result.crash.position[:2] == pytest.approx(box.center, abs=1e-3)
 
 
+def test_parts_run_at_every_multiple_of_their_period_across_runs(contest: ArenaSpec) -> None:
+    """Each part runs at every multiple of its period, in the order given; runs that end
+    between updates (7 steps, then 20 at a time) continue the one run's schedule."""
+
+    def runs(durations_steps: list[int]) -> list[tuple[int, str]]:
+        scene = Scene.build(contest)
+        scene.place_at_takeoff(height=1.0)
+        ex = DeterministicExecutor(config_dir=None)
+        log: list[tuple[int, str]] = []
+
+        class Log:
+            def __init__(self, name: str, rate_hz: float) -> None:
+                self.name, self.rate_hz = name, rate_hz
+
+            def update(self, t_ns: int, s: Scene) -> None:
+                log.append((t_ns, self.name))
+
+        parts = [*_hover_parts(scene), Log("a", 500.0), Log("b", 30.0), Log("c", 50.0),
+                 Log("d", 1500.0)]
+        for steps in durations_steps:
+            result = run_world(scene, ex, duration_s=steps / scene.physics_hz, parts=parts)
+            assert result.physics_steps == steps
+        return log
+
+    one = runs([300])
+    assert one == runs([7, *[20] * 14, 13])
+    rates = {"a": 500, "b": 30, "c": 50, "d": 1500}
+    want = sorted([((k * 1500 // rate) * 10**9 // 1500, name)
+                   for name, rate in rates.items() for k in range(rate * 300 // 1500)],
+                  key=lambda row: (row[0], "abcd".index(row[1])))
+    assert one == want
+
+
 def test_a_rate_that_does_not_divide_physics_is_refused(contest: ArenaSpec) -> None:
     scene = Scene.build(contest, physics_hz=500)
     with pytest.raises(RateError, match=r"robots: 7\.0 Hz does not divide the physics rate 500"):
@@ -252,6 +285,21 @@ def test_imu_reads_gravity_at_rest_with_seeded_noise(contest: ArenaSpec) -> None
     again, _ = run(1)
     other, _ = run(2)
     assert np.array_equal(data, again) and not np.array_equal(data, other)
+
+
+def test_the_imu_sample_as_arrays_is_made_from_its_floats_when_read(contest: ArenaSpec) -> None:
+    scene = Scene.build(contest)
+    scene.place_at_takeoff()
+    imu = Imu.seeded(1, rate_hz=500.0)
+    assert imu.latest is None and imu.latest_values is None
+    imu.update(0, scene)
+    first = imu.latest
+    assert first is not None and imu.latest is first  # made once per sample
+    assert (*first.accel.tolist(), *first.gyro.tolist()) == imu.latest_values
+    imu.update(2_000_000, scene)
+    again = imu.latest
+    assert again is not None and again is not first
+    assert (*again.accel.tolist(), *again.gyro.tolist()) == imu.latest_values
 
 
 # -- the world's tuning comes from config/sim_world.yaml --------------------------------------
