@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -669,9 +670,14 @@ class AttitudeController:
     ) -> FloatArray:
         """Body-rate setpoint [rad/s, FRD] driving ``q`` (q_ned_frd) to ``q_setpoint``."""
         w, x, y, z = q.tolist()
-        qn = _fq_normalise((w, x, y, z))
-        w, x, y, z = q_setpoint.tolist()
-        qd = _fq_normalise((w, x, y, z))
+        sw, sx, sy, sz = q_setpoint.tolist()
+        return np.array(self.update_quat((w, x, y, z), (sw, sx, sy, sz), yawspeed_feedforward))
+
+    def update_quat(self, q: Quat, q_setpoint: Quat,
+                    yawspeed_feedforward: float = math.nan) -> Vec3:
+        """:meth:`update` on floats (the firmware's 250 Hz path)."""
+        qn = _fq_normalise(q)
+        qd = _fq_normalise(q_setpoint)
         qd_red = _fq_between(_fq_dcm_column_z(qn), _fq_dcm_column_z(qd))
         if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
             qd_red = qd
@@ -689,11 +695,14 @@ class AttitudeController:
         if qe[0] < 0.0:
             qe = (-qe[0], -qe[1], -qe[2], -qe[3])
         kp, lim = self._kp, self._rate_limit
-        rate_sp = [2.0 * qe[1] * kp[0], 2.0 * qe[2] * kp[1], 2.0 * qe[3] * kp[2]]
+        r0, r1, r2 = 2.0 * qe[1] * kp[0], 2.0 * qe[2] * kp[1], 2.0 * qe[3] * kp[2]
         if math.isfinite(yawspeed_feedforward):
-            down = _fq_dcm_row_z(qn)
-            rate_sp = [rate_sp[i] + down[i] * yawspeed_feedforward for i in range(3)]
-        return np.array([min(max(rate_sp[i], -lim[i]), lim[i]) for i in range(3)])
+            d0, d1, d2 = _fq_dcm_row_z(qn)
+            r0 += d0 * yawspeed_feedforward
+            r1 += d1 * yawspeed_feedforward
+            r2 += d2 * yawspeed_feedforward
+        return (min(max(r0, -lim[0]), lim[0]), min(max(r1, -lim[1]), lim[1]),
+                min(max(r2, -lim[2]), lim[2]))
 
 
 # --- rate control -------------------------------------------------------------------------
@@ -733,7 +742,8 @@ class RateController:
         self._st[13:16] = np.asarray(negative, dtype=bool).reshape(3)
 
     def update(
-        self, rate_frd: FloatArray, rate_setpoint_frd: FloatArray, dt_us: int, landed: bool = False
+        self, rate_frd: Sequence[float] | FloatArray,
+        rate_setpoint_frd: Sequence[float] | FloatArray, dt_us: int, landed: bool = False
     ) -> FloatArray:
         """Torque setpoint [N m, FRD] for one step of ``dt_us`` microseconds."""
         r0, r1, r2 = rate_frd

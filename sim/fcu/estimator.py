@@ -21,6 +21,7 @@ FRD, ``q_ned_frd`` Hamilton ``[w, x, y, z]``); time is the FCU clock in integer 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,14 +31,13 @@ from runtime.parameters import param, validate_parameters
 from sim.fcu.control import VehicleState, _fq_normalise, _fq_yaw
 from sim.fcu.kernels import (
     EST_BUF_COLS,
-    EST_OUTPUT_SIZE,
+    EST_OUTPUT_INDEX,
     EST_P,
     EST_PARAMS_SIZE,
     EST_Q,
     EST_STATE_SIZE,
     EST_X,
     est_fuse,
-    est_output,
     est_predict,
     est_push,
 )
@@ -180,14 +180,15 @@ class Estimator:
 
     # --- prediction -----------------------------------------------------------------------
 
-    def predict(self, time_us: int, accel_frd: npt.ArrayLike, gyro_frd: npt.ArrayLike) -> None:
+    def predict(self, time_us: int, accel_frd: Sequence[float] | FloatArray,
+                gyro_frd: Sequence[float] | FloatArray) -> None:
         """Propagate to ``time_us`` with an IMU sample (specific force m/s^2, rate rad/s, FRD)."""
         if time_us <= self._time_us:
             raise ValueError(f"time_us: {time_us} is not after the last sample ({self._time_us})")
         dt = (time_us - self._time_us) / _US_PER_S
         self._time_us = time_us
-        ax, ay, az = np.asarray(accel_frd, dtype=np.float64).tolist()
-        gx, gy, gz = np.asarray(gyro_frd, dtype=np.float64).tolist()
+        ax, ay, az = map(float, accel_frd)
+        gx, gy, gz = map(float, gyro_frd)
         if self._meta[1] == self._buf.shape[0]:
             self._grow()
         est_predict(self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az,
@@ -231,12 +232,17 @@ class Estimator:
 
     # --- output -----------------------------------------------------------------------------
 
+    def attitude(self) -> tuple[float, float, float, float]:
+        """The current ``q_ned_frd`` as floats (what :meth:`output` would give as
+        ``state.q``), without building the output."""
+        w, x, y, z = self._s[EST_Q:EST_Q + 4].tolist()
+        return (w, x, y, z)
+
     def output(self) -> EstimatorOutput:
         """The current estimate."""
         since = self._time_us - self._last_vision_us if self._last_vision_us is not None else None
         dead_reckoning = max(since, 0) if since is not None else self._time_us
-        out = np.empty(EST_OUTPUT_SIZE)
-        est_output(self._s, out)
+        out = self._s[EST_OUTPUT_INDEX]  # a copy
         out.setflags(write=False)  # the views below are read-only too
         return EstimatorOutput(
             time_us=self._time_us,

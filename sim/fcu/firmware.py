@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -37,7 +37,7 @@ from interfaces.px4 import (
 )
 from interfaces.px4.timesync import Px4Timesync, ns_to_us
 from runtime.parameters import load_parameters, param, validate_parameters
-from sim.fcu.agent import Arrival, FcuAgentNode
+from sim.fcu.agent import AGENT_IN, Arrival, FcuAgentNode
 from sim.fcu.battery import (
     BATTERY_NODE_NAME,
     BatteryEstimator,
@@ -89,6 +89,8 @@ from sim.world import Imu, Scene
 TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 FloatArray = npt.NDArray[np.float64]
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
 
 FIRMWARE_NODE_NAME = "fcu_firmware"
 """The firmware's section in its ROS 2 parameter file, ``config/fcu_firmware.yaml``."""
@@ -239,12 +241,12 @@ def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
     return np.asarray(values, dtype=np.float32).reshape(n)
 
 
-_FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
 _ORIENTATION_VARIANCE = np.full(3, 1e-4, dtype=np.float32)  # rad^2, VehicleOdometry's
 
 
-def _flu_to_frd(v: FloatArray) -> FloatArray:
-    return v * _FLU_TO_FRD  # y and z negated, exactly
+def _flu_to_frd(v: Sequence[float]) -> Vec3:
+    x, y, z = v
+    return (x, -y, -z)  # a pi rotation about x: y and z negated, exactly
 
 
 class Firmware:
@@ -286,15 +288,18 @@ class Firmware:
         self.timesync = Px4Timesync()
         self._dt_us = 1_000_000 // cfg.main_freq_hz
         self._period_us = {p.fun: p.prescaler * self._dt_us for p in self.schedule.periodics}
+        self._rate_period_us = self._period_us["rate_control"]
+        self._position_period_us = self._period_us["position_control"]
         self._now_ns = 0
         self._now_us = 0
         # the firmware's uORB: latest values of everything
-        self.accel_frd = np.array([0.0, 0.0, -GRAVITY])
-        self.gyro_frd = np.zeros(3)
+        self.accel_frd: Vec3 = (0.0, 0.0, -GRAVITY)
+        self.gyro_frd: Vec3 = (0.0, 0.0, 0.0)
         self.imu_time_us = 0
         self._estimate: EstimatorOutput | None = None
         self._estimate_stale = False  # predicted since the estimate was last built
         self.status: CommanderStatus | None = None
+        self._armed = False  # status.arming_state is ARMED (read at 500 Hz)
         self.land: LandDetectedData | None = None
         self.battery: BatteryStatusData | None = None
         self.offboard_heartbeat_us: int | None = None
@@ -302,7 +307,7 @@ class Firmware:
         self.pending_commands: list[VehicleCommandData] = []
         self.setpoint = TrajectorySetpointData()
         self.position_out: PositionControlOutput | None = None
-        self.rate_setpoint = np.zeros(3)
+        self.rate_setpoint: Vec3 = (0.0, 0.0, 0.0)
         self.torque_setpoint = np.zeros(3)
         self.motor_commands = np.zeros(NUM_ROTORS)
         self._hold_position: FloatArray | None = None
@@ -334,6 +339,9 @@ class Firmware:
                 "vehicle_status", "battery_status", "timesync_status",
                 "vehicle_land_detected", "failsafe_flags", "sensor_combined")},
         }
+        # the handler of each /fmu/in topic (and the session's timesync requests)
+        self._handlers: dict[str, Callable[[Any], None]] = {
+            topic: getattr(self, f"_on_{topic}") for topic in AGENT_IN}
         self.scheduler = Scheduler(self.schedule, functions, clock=self)
         self.scheduler.init()
         for topic in sorted(cfg.event_driven_inputs):
@@ -365,13 +373,23 @@ class Firmware:
             self._estimate_stale = False
         return self._estimate
 
+    def _attitude(self) -> Quat:
+        """``estimate.state.q`` as floats, without building the estimate: until the
+        estimate is built, the filter has not changed since the last ``ekf_update`` (a
+        vision fusion builds it first)."""
+        if self._estimate_stale:
+            return self.estimator.attitude()
+        assert self._estimate is not None
+        w, x, y, z = self._estimate.state.q.tolist()
+        return (w, x, y, z)
+
     def _has_estimate(self) -> bool:
         """``estimate is not None`` without building it."""
         return self._estimate_stale or self._estimate is not None
 
     @property
     def armed(self) -> bool:
-        return self.status is not None and self.status.arming_state is ArmingState.ARMED
+        return self._armed
 
     @property
     def nav_state(self) -> NavigationState:
@@ -382,8 +400,8 @@ class Firmware:
         sample = self.imu.latest
         if sample is None:
             return
-        self.accel_frd = _flu_to_frd(sample.accel)
-        self.gyro_frd = _flu_to_frd(sample.gyro)
+        self.accel_frd = _flu_to_frd(sample.accel.tolist())
+        self.gyro_frd = _flu_to_frd(sample.gyro.tolist())
         self.imu_time_us = self._now_us
 
     def battery_update(self) -> None:
@@ -406,7 +424,7 @@ class Firmware:
             return
         vx, vy, vz = est.state.velocity_ned.tolist()
         roll_rate, pitch_rate, _ = est.state.angular_velocity_frd.tolist()
-        ax, ay, az = self.accel_frd.tolist()
+        ax, ay, az = self.accel_frd
         # floats, not numpy reductions, on 3 and 4 values: the same sums, bit for bit
         # (written out: Python 3.12's sum() compensates, numpy's does not)
         c0, c1, c2, c3 = self.motor_commands.tolist()
@@ -440,13 +458,14 @@ class Firmware:
         ))
         self.pending_commands.clear()
         self.status = out.status
+        self._armed = out.status.arming_state is ArmingState.ARMED
         for ack in out.acks:
             self.acks.append(ack)
             self.agent.send("vehicle_command_ack", self._ack_msg(ack), self._now_ns)
-        if self.armed and not self._armed_before:
+        if self._armed and not self._armed_before:
             self.position_controller.reset()
             self.rate_controller.reset()
-        self._armed_before = self.armed
+        self._armed_before = self._armed
 
     def battery_warning(self) -> Any:
 
@@ -463,7 +482,7 @@ class Firmware:
 
     def setpoint_update(self) -> None:
         """PX4's flight mode manager: the trajectory setpoint of the current mode."""
-        if self.estimate is None or not self.armed:
+        if not self._has_estimate() or not self._armed:
             self._mode_of_hold = None
             return
         mode = self.nav_state
@@ -480,7 +499,9 @@ class Firmware:
                                                    yaw=self._hold_yaw)
         elif mode in (NavigationState.AUTO_LAND, NavigationState.AUTO_RTL):
             here = self._hold_here(mode)
-            height = -float(self.estimate.state.position_ned[2])
+            est = self.estimate
+            assert est is not None
+            height = -float(est.state.position_ned[2])
             p = self.params
             speed = p.land_crawl_speed if height < p.land_crawl_height else p.land_speed
             self.setpoint = TrajectorySetpointData(
@@ -496,9 +517,9 @@ class Firmware:
         return self.estimate.state
 
     def position_control(self) -> None:
-        if self.estimate is None or not self.armed:
+        if not self._has_estimate() or not self._armed:
             return
-        dt_us = self._period_us["position_control"]
+        dt_us = self._position_period_us
         try:
             self.position_out = self.position_controller.update(self._state(), self.setpoint,
                                                                 dt_us)
@@ -509,23 +530,24 @@ class Firmware:
                 dt_us)
 
     def attitude_control(self) -> None:
-        if self.position_out is None or not self.armed:
+        out = self.position_out
+        if out is None or not self._armed:
             return
-        self.rate_setpoint = self.attitude_controller.update(
-            self._state().q, self.position_out.attitude_setpoint,
-            self.position_out.yawspeed_feedforward)
+        w, x, y, z = out.attitude_setpoint.tolist()
+        self.rate_setpoint = self.attitude_controller.update_quat(
+            self._attitude(), (w, x, y, z), out.yawspeed_feedforward)
 
     def rate_control(self) -> None:
-        if not self._has_estimate() or not self.armed:
+        if not self._armed or not self._has_estimate():
             return
-        landed = bool(self.land.landed) if self.land else True
+        landed = self.land.landed if self.land else True
         self.torque_setpoint = self.rate_controller.update(
-            self.gyro_frd, self.rate_setpoint, self._period_us["rate_control"], landed=landed)
+            self.gyro_frd, self.rate_setpoint, self._rate_period_us, landed=landed)
 
     def allocate(self) -> None:
-        if not self.armed or self.position_out is None:
+        if not self._armed or self.position_out is None:
             idle = (self.params.idle_thrust_fraction * self.quad.max_motor_thrust
-                    if self.armed else 0.0)
+                    if self._armed else 0.0)
             self.motor_commands = np.full(NUM_ROTORS, idle)
             return
         mixer = self.mixer
@@ -552,8 +574,7 @@ class Firmware:
         self._handle(arrival)
 
     def _handle(self, arrival: Arrival) -> None:
-        handler = getattr(self, f"_on_{arrival.topic}")
-        handler(arrival.msg)
+        self._handlers[arrival.topic](arrival.msg)
 
     def timesync_request(self) -> None:
         self.agent.request_timesync(self._now_us, self._now_ns)
@@ -611,7 +632,7 @@ class Firmware:
         source = _TELEMETRY_SOURCE[topic]
 
         def publish() -> None:
-            if source is not None and getattr(self, source) is None:
+            if source is not None and not self._has(source):
                 return  # nothing to tell yet
             if self.agent.unread(topic):  # nobody subscribes: the bytes, not the message
                 self.agent.send_unread(topic, self._now_ns)
@@ -621,6 +642,12 @@ class Firmware:
                 self.agent.send(topic, msg, self._now_ns)
 
         return publish
+
+    def _has(self, source: str) -> bool:
+        """The firmware state ``source`` exists (the estimate is not built to tell)."""
+        if source == "estimate":
+            return self._has_estimate()
+        return getattr(self, source) is not None
 
     def _msg_vehicle_odometry(self) -> Any:
         est = self.estimate

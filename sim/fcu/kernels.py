@@ -25,13 +25,13 @@ from sim.quadrotor import GRAVITY as GRAVITY_M_S2  # a compile-time constant in 
 
 __all__ = [
     "EST_BUF_COLS",
+    "EST_OUTPUT_INDEX",
     "EST_OUTPUT_SIZE",
     "EST_PARAMS_SIZE",
     "EST_STATE_SIZE",
     "RATE_GAINS_SIZE",
     "RATE_STATE_SIZE",
     "est_fuse",
-    "est_output",
     "est_predict",
     "est_push",
     "mix_kernel",
@@ -170,8 +170,9 @@ def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
 # p22) (18)
 EST_STATE_SIZE = 37
 EST_Q, EST_GYRO_BIAS, EST_RATE, EST_X, EST_P = 0, 4, 7, 10, 19
-# the output block (est_output): position NED (3), velocity NED (3), q (4), rate FRD (3),
-# position variance (3), velocity variance (3), acceleration bias (3), gyro bias (3)
+# the output block (the state at EST_OUTPUT_INDEX): position NED (3), velocity NED (3),
+# q (4), rate FRD (3), position variance (3), velocity variance (3), acceleration bias (3),
+# gyro bias (3)
 EST_OUTPUT_SIZE = 25
 # buffer row: time [us], x (9), p (18), NED acceleration input (3), dt [s], yaw [rad]
 EST_BUF_COLS = 33
@@ -425,17 +426,16 @@ def _correct_yaw(s: np.ndarray, prm: np.ndarray, innovation: float) -> None:
     s[6] = min(max(s[6] - k * d2, -lim), lim)
 
 
-@njit(cache=True)
-def est_output(s: np.ndarray, out: np.ndarray) -> None:
-    """The state in the order :class:`~sim.fcu.estimator.EstimatorOutput` reads it
-    (see ``EST_OUTPUT_SIZE``)."""
-    for i in range(3):
-        out[i] = s[EST_X + 3 * i]
-        out[3 + i] = s[EST_X + 3 * i + 1]
-        out[10 + i] = s[EST_RATE + i]
-        out[13 + i] = s[EST_P + 6 * i]
-        out[16 + i] = s[EST_P + 6 * i + 3]
-        out[19 + i] = s[EST_X + 3 * i + 2]
-        out[22 + i] = s[EST_GYRO_BIAS + i]
-    for i in range(4):
-        out[6 + i] = s[EST_Q + i]
+EST_OUTPUT_INDEX = np.array(
+    [EST_X + 3 * i for i in range(3)]  # position NED
+    + [EST_X + 3 * i + 1 for i in range(3)]  # velocity NED
+    + [EST_Q + i for i in range(4)]  # q
+    + [EST_RATE + i for i in range(3)]  # bias-corrected rate FRD
+    + [EST_P + 6 * i for i in range(3)]  # position variance (p00 per axis)
+    + [EST_P + 6 * i + 3 for i in range(3)]  # velocity variance (p11 per axis)
+    + [EST_X + 3 * i + 2 for i in range(3)]  # acceleration bias NED
+    + [EST_GYRO_BIAS + i for i in range(3)]  # gyro bias FRD
+)
+"""Where the output block's values sit in the state (``state[EST_OUTPUT_INDEX]`` is the
+block :class:`~sim.fcu.estimator.EstimatorOutput` reads, a copy)."""
+assert EST_OUTPUT_INDEX.shape == (EST_OUTPUT_SIZE,)
