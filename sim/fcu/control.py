@@ -532,6 +532,9 @@ class PositionController:
         self._kd_vel = (gains.velocity_d_xy, gains.velocity_d_xy, gains.velocity_d_z)
         self._cos_max_tilt = math.cos(gains.max_tilt)
         self._sin_max_tilt = math.sin(gains.max_tilt)
+        # the last setpoint that passed _check_setpoint (immutable: one check per setpoint,
+        # not per step; an offboard setpoint is followed for several steps)
+        self._checked_setpoint: TrajectorySetpointData | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -550,7 +553,9 @@ class PositionController:
         self, state: VehicleState, setpoint: TrajectorySetpointData, dt_us: int
     ) -> PositionControlOutput:
         """Run one position-loop step of ``dt_us`` microseconds."""
-        _check_setpoint(setpoint)
+        if setpoint is not self._checked_setpoint:
+            _check_setpoint(setpoint)
+            self._checked_setpoint = setpoint
         isfinite = math.isfinite
         dt = max(dt_us, 1) / _US_PER_S
         g = self._g
@@ -748,10 +753,18 @@ class RateController:
         """Torque setpoint [N m, FRD] for one step of ``dt_us`` microseconds."""
         r0, r1, r2 = rate_frd
         s0, s1, s2 = rate_setpoint_frd
-        out = np.empty(3)
-        rate_kernel(self._st, self._gains, float(r0), float(r1), float(r2), float(s0),
-                    float(s1), float(s2), int(dt_us), bool(landed), out)
-        return out
+        return np.array(self.update_floats((float(r0), float(r1), float(r2)),
+                                           (float(s0), float(s1), float(s2)),
+                                           int(dt_us), bool(landed)))
+
+    def update_floats(self, rate_frd: Vec3, rate_setpoint_frd: Vec3, dt_us: int,
+                      landed: bool) -> Vec3:
+        """:meth:`update` on Python floats, int and bool (the firmware's 500 Hz path;
+        other types, numpy's float32 say, would compile the kernel for them)."""
+        r0, r1, r2 = rate_frd
+        s0, s1, s2 = rate_setpoint_frd
+        torque: Vec3 = rate_kernel(self._st, self._gains, r0, r1, r2, s0, s1, s2, dt_us, landed)
+        return torque
 
     def set_saturation_flags(self, flags: FloatArray) -> None:
         """:meth:`set_saturation` from a :class:`Mixer`'s flags (positive 3, negative 3, as
@@ -787,8 +800,10 @@ class Mixer:
         self._cols = np.array(_mixer_columns(params))
         self._hi = float(params.max_motor_thrust)
         self.out = np.zeros(11)
+        self._thrusts = self.out[0:4]  # views of the reused buffer
+        self._flags = self.out[5:11]
 
-    def mix(self, collective_thrust: float, torque_frd: FloatArray) -> None:
+    def mix(self, collective_thrust: float, torque_frd: Sequence[float] | FloatArray) -> None:
         """PX4's sequential desaturation (see :func:`mix_with_desaturation`)."""
         tx, ty, tz = torque_frd
         mix_kernel(self._cols, float(collective_thrust), float(tx), float(ty), float(tz), 0.0,
@@ -797,12 +812,12 @@ class Mixer:
     @property
     def motor_thrusts(self) -> FloatArray:
         """Rotor thrusts [N] of the last :meth:`mix` (a copy)."""
-        return self.out[0:4].copy()
+        return self._thrusts.copy()
 
     @property
     def saturation_flags(self) -> FloatArray:
         """Saturated positive (3) then negative (3) of the last :meth:`mix`, as 1.0/0.0."""
-        return self.out[5:11]
+        return self._flags
 
 
 @functools.cache

@@ -308,7 +308,7 @@ class Firmware:
         self.setpoint = TrajectorySetpointData()
         self.position_out: PositionControlOutput | None = None
         self.rate_setpoint: Vec3 = (0.0, 0.0, 0.0)
-        self.torque_setpoint = np.zeros(3)
+        self.torque_setpoint: Vec3 = (0.0, 0.0, 0.0)
         self.motor_commands = np.zeros(NUM_ROTORS)
         self._hold_position: FloatArray | None = None
         self._hold_yaw = 0.0
@@ -541,8 +541,8 @@ class Firmware:
         if not self._armed or not self._has_estimate():
             return
         landed = self.land.landed if self.land else True
-        self.torque_setpoint = self.rate_controller.update(
-            self.gyro_frd, self.rate_setpoint, self._rate_period_us, landed=landed)
+        self.torque_setpoint = self.rate_controller.update_floats(
+            self.gyro_frd, self.rate_setpoint, self._rate_period_us, landed)
 
     def allocate(self) -> None:
         if not self._armed or self.position_out is None:

@@ -125,9 +125,9 @@ _INTEGRATOR_RATE_SCALE = math.radians(400.0)  # rad/s, PX4's integrator attenuat
 
 @njit(cache=True)
 def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
-                s0: float, s1: float, s2: float, dt_us: int, landed: bool,
-                out: np.ndarray) -> None:
-    """:meth:`~sim.fcu.control.RateController.update`: ``out`` receives the torque."""
+                s0: float, s1: float, s2: float, dt_us: int,
+                landed: bool) -> tuple[float, float, float]:
+    """:meth:`~sim.fcu.control.RateController.update`: the torque."""
     dt = max(dt_us, 1) / 1_000_000
     rate = (r0, r1, r2)
     rate_sp = (s0, s1, s2)
@@ -159,8 +159,7 @@ def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
         if finite:
             for i in range(3):
                 st[i] = min(max(candidate[i], -g[9 + i]), g[9 + i])
-    for i in range(3):
-        out[i] = g[12 + i] * acc[i]
+    return (g[12] * acc[0], g[13] * acc[1], g[14] * acc[2])
 
 
 # --- estimator ----------------------------------------------------------------------------
