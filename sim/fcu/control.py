@@ -541,7 +541,7 @@ class PositionController:
         """Clear the integrator, the velocity-derivative filter and the held yaw."""
         self._vel_int = [0.0, 0.0, 0.0]
         self._vel_dot = [0.0, 0.0, 0.0]
-        self._last_vel: list[float] | None = None
+        self._last_vel: Vec3 | None = None
         self._held_yaw: float | None = None
 
     @property
@@ -553,14 +553,23 @@ class PositionController:
         self, state: VehicleState, setpoint: TrajectorySetpointData, dt_us: int
     ) -> PositionControlOutput:
         """Run one position-loop step of ``dt_us`` microseconds."""
+        n, e, d = state.position_ned.tolist()
+        vn, ve, vd = state.velocity_ned.tolist()
+        w, x, y, z = state.q.tolist()
+        return self.update_floats((n, e, d), (vn, ve, vd), (w, x, y, z), setpoint, dt_us)
+
+    def update_floats(self, position_ned: Vec3, velocity_ned: Vec3, q: Quat,
+                      setpoint: TrajectorySetpointData, dt_us: int) -> PositionControlOutput:
+        """:meth:`update` from the state's position, velocity and ``q`` as floats (the
+        firmware's path: it does not build a :class:`VehicleState` for it)."""
         if setpoint is not self._checked_setpoint:
             _check_setpoint(setpoint)
             self._checked_setpoint = setpoint
         isfinite = math.isfinite
         dt = max(dt_us, 1) / _US_PER_S
         g = self._g
-        vel = state.velocity_ned.tolist()
-        pos = state.position_ned.tolist()
+        vel = velocity_ned
+        pos = position_ned
         vel_dot = self._vel_dot
         if self._last_vel is not None:
             alpha = _lowpass_alpha(g.velocity_d_cutoff_hz, dt)
@@ -639,10 +648,10 @@ class PositionController:
             yaw = setpoint.yaw
             self._held_yaw = None
         elif isfinite(setpoint.yawspeed):
-            yaw = self._held_yaw = quat_yaw(state.q)
+            yaw = self._held_yaw = _fq_yaw(q)
         else:
             if self._held_yaw is None:
-                self._held_yaw = quat_yaw(state.q)
+                self._held_yaw = _fq_yaw(q)
             yaw = self._held_yaw
         return PositionControlOutput(
             velocity_setpoint_ned=np.array(vel_sp),

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from runtime.parameters import param, validate_parameters
-from sim.fcu.control import VehicleState, _fq_normalise, _fq_yaw
+from sim.fcu.control import Quat, Vec3, VehicleState, _fq_normalise, _fq_yaw
 from sim.fcu.kernels import (
     EST_BUF_COLS,
     EST_OUTPUT_INDEX,
@@ -192,10 +192,12 @@ class Estimator:
         if self._meta[1] == self._buf.shape[0]:
             self._grow()
         est_predict(self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az,
-                    gx, gy, gz, self._aided(), float(time_us - self.params.buffer_length_us))
+                    gx, gy, gz, self.position_valid(),
+                    float(time_us - self.params.buffer_length_us))
 
-    def _aided(self) -> bool:
-        """Vision fused within ``vision_timeout_us``."""
+    def position_valid(self) -> bool:
+        """Vision fused within ``vision_timeout_us`` (the filter is aided; what
+        :meth:`output` gives as ``position_valid``)."""
         last = self._last_vision_us
         return last is not None and self._time_us - last <= self.params.vision_timeout_us
 
@@ -232,11 +234,19 @@ class Estimator:
 
     # --- output -----------------------------------------------------------------------------
 
-    def attitude(self) -> tuple[float, float, float, float]:
+    def attitude(self) -> Quat:
         """The current ``q_ned_frd`` as floats (what :meth:`output` would give as
         ``state.q``), without building the output."""
         w, x, y, z = self._s[EST_Q:EST_Q + 4].tolist()
         return (w, x, y, z)
+
+    def kinematics(self) -> tuple[Vec3, Vec3, Quat]:
+        """The current position and velocity [NED] and ``q_ned_frd`` as floats (what
+        :meth:`output` would give in ``state``), without building the output."""
+        s = self._s.tolist()
+        n, vn, _, e, ve, _, d, vd, _ = s[EST_X:EST_X + 9]
+        w, x, y, z = s[EST_Q:EST_Q + 4]
+        return (n, e, d), (vn, ve, vd), (w, x, y, z)
 
     def output(self) -> EstimatorOutput:
         """The current estimate."""
@@ -251,7 +261,7 @@ class Estimator:
             velocity_variance_ned=out[16:19],
             accel_bias_ned=out[19:22],
             gyro_bias_frd=out[22:25],
-            position_valid=since is not None and since <= self.params.vision_timeout_us,
+            position_valid=self.position_valid(),
             dead_reckoning_time_us=dead_reckoning,
             vision_fused=self._fused,
             vision_rejected=self._rejected,

@@ -64,7 +64,6 @@ from sim.fcu.control import (
     PositionControlOutput,
     RateController,
     TrajectorySetpointData,
-    VehicleState,
 )
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.estimator import (
@@ -373,15 +372,35 @@ class Firmware:
             self._estimate_stale = False
         return self._estimate
 
+    # The controllers read a few numbers of the estimate at 100-250 Hz: they take them from
+    # the filter while the estimate is stale (the filter has not changed since the last
+    # ekf_update: a vision fusion builds the estimate first), not from a built estimate.
+
     def _attitude(self) -> Quat:
-        """``estimate.state.q`` as floats, without building the estimate: until the
-        estimate is built, the filter has not changed since the last ``ekf_update`` (a
-        vision fusion builds it first)."""
+        """``estimate.state.q`` as floats."""
         if self._estimate_stale:
             return self.estimator.attitude()
         assert self._estimate is not None
         w, x, y, z = self._estimate.state.q.tolist()
         return (w, x, y, z)
+
+    def _kinematics(self) -> tuple[Vec3, Vec3, Quat]:
+        """``estimate.state``'s position, velocity and q as floats."""
+        if self._estimate_stale:
+            return self.estimator.kinematics()
+        assert self._estimate is not None
+        s = self._estimate.state
+        n, e, d = s.position_ned.tolist()
+        vn, ve, vd = s.velocity_ned.tolist()
+        w, x, y, z = s.q.tolist()
+        return (n, e, d), (vn, ve, vd), (w, x, y, z)
+
+    def _position_fix(self) -> tuple[bool, float]:
+        """``estimate.position_valid`` and the estimate's down position [m]."""
+        if self._estimate_stale:
+            return self.estimator.position_valid(), self.estimator.kinematics()[0][2]
+        assert self._estimate is not None
+        return self._estimate.position_valid, float(self._estimate.state.position_ned[2])
 
     def _has_estimate(self) -> bool:
         """``estimate is not None`` without building it."""
@@ -444,16 +463,19 @@ class Firmware:
 
     # -- commander and setpoints ----------------------------------------------------------
     def commander_update(self) -> None:
-        est = self.estimate
-        valid = est is not None and est.position_valid
+        has_estimate = self._has_estimate()
+        valid, altitude = False, math.nan
+        if has_estimate:
+            valid, down = self._position_fix()
+            altitude = -down  # altitude is -z (NED)
         out = self.commander.step(CommanderInputs(
             now_us=self._now_us,
             offboard_heartbeat_us=self.offboard_heartbeat_us,
             landed=self.land.landed if self.land else True,
             battery_warning=self.battery_warning(),
-            attitude_valid=est is not None,
+            attitude_valid=has_estimate,
             position_valid=valid,
-            altitude_amsl_m=-float(est.state.position_ned[2]) if est else math.nan,
+            altitude_amsl_m=altitude,
             commands=tuple(self.pending_commands),
         ))
         self.pending_commands.clear()
@@ -512,22 +534,19 @@ class Firmware:
             self.setpoint = TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw)
 
     # -- control ------------------------------------------------------------------------
-    def _state(self) -> VehicleState:
-        assert self.estimate is not None
-        return self.estimate.state
-
     def position_control(self) -> None:
         if not self._has_estimate() or not self._armed:
             return
         dt_us = self._position_period_us
+        position, velocity, q = self._kinematics()
         try:
-            self.position_out = self.position_controller.update(self._state(), self.setpoint,
-                                                                dt_us)
+            self.position_out = self.position_controller.update_floats(
+                position, velocity, q, self.setpoint, dt_us)
         except ValueError:  # an invalid offboard setpoint: hold instead, as PX4 does
             here = self._hold_here(NavigationState.AUTO_LOITER)
-            self.position_out = self.position_controller.update(
-                self._state(), TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw),
-                dt_us)
+            self.position_out = self.position_controller.update_floats(
+                position, velocity, q,
+                TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw), dt_us)
 
     def attitude_control(self) -> None:
         out = self.position_out
