@@ -31,7 +31,14 @@ import numpy.typing as npt
 
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
-from sim.fcu.kernels import RATE_GAINS_SIZE, RATE_STATE_SIZE, mix_kernel, rate_kernel
+from sim.fcu.kernels import (
+    ATT_GAINS_SIZE,
+    RATE_GAINS_SIZE,
+    RATE_STATE_SIZE,
+    attitude_kernel,
+    mix_kernel,
+    rate_kernel,
+)
 from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams, mix
 
 __all__ = [
@@ -177,49 +184,10 @@ def _fq_normalise(q: Quat) -> Quat:
     return (w / n, x / n, y / n, z / n)
 
 
-def _fq_multiply(p: Quat, q: Quat) -> Quat:
-    pw, px, py, pz = p
-    qw, qx, qy, qz = q
-    return (
-        pw * qw - px * qx - py * qy - pz * qz,
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    )
-
-
-def _fq_dcm_column_z(q: Quat) -> Vec3:
-    """Third column of ``quat_to_dcm(q)`` (body z in the world), ``q`` unit."""
-    w, x, y, z = q
-    return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
-
-
-def _fq_dcm_row_z(q: Quat) -> Vec3:
-    """Third row of ``quat_to_dcm(q)`` (world down in the body), ``q`` unit."""
-    w, x, y, z = q
-    return (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
-
-
 def _f_cross(a: Vec3, b: Vec3) -> Vec3:
     ax, ay, az = a
     bx, by, bz = b
     return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
-
-
-def _fq_between(src: Vec3, dst: Vec3) -> Quat:
-    """:func:`_quat_between` on floats."""
-    cx, cy, cz = _f_cross(src, dst)
-    dot = src[0] * dst[0] + src[1] * dst[1] + src[2] * dst[2]
-    if cx * cx + cy * cy + cz * cz < 1e-10 and dot < 0.0:
-        a = [abs(v) for v in src]
-        i = a.index(min(a))
-        axis = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
-        q: Quat = (0.0, *_f_cross(src, axis))
-    else:
-        ss = src[0] * src[0] + src[1] * src[1] + src[2] * src[2]
-        dd = dst[0] * dst[0] + dst[1] * dst[1] + dst[2] * dst[2]
-        q = (dot + math.sqrt(ss * dd), cx, cy, cz)
-    return _fq_normalise(q)
 
 
 def _fq_yaw(q: Quat) -> float:
@@ -675,9 +643,10 @@ class AttitudeController:
         self._yaw_weight = min(max(gains.attitude_p_yaw / rp, 0.0), 1.0) if rp > 0.0 else 1.0
         if self._yaw_weight > 1e-4:  # the weighting scales the yaw error down: compensate
             kp[2] /= self._yaw_weight
-        self._kp = tuple(kp)
-        self._rate_limit = (gains.max_rate_roll_pitch, gains.max_rate_roll_pitch,
-                            gains.max_rate_yaw)
+        self._gains = np.array(
+            [*kp, gains.max_rate_roll_pitch, gains.max_rate_roll_pitch, gains.max_rate_yaw,
+             self._yaw_weight], dtype=np.float64)
+        assert self._gains.shape == (ATT_GAINS_SIZE,)
 
     def update(
         self, q: FloatArray, q_setpoint: FloatArray, yawspeed_feedforward: float = math.nan
@@ -689,34 +658,13 @@ class AttitudeController:
 
     def update_quat(self, q: Quat, q_setpoint: Quat,
                     yawspeed_feedforward: float = math.nan) -> Vec3:
-        """:meth:`update` on floats (the firmware's 250 Hz path)."""
-        qn = _fq_normalise(q)
-        qd = _fq_normalise(q_setpoint)
-        qd_red = _fq_between(_fq_dcm_column_z(qn), _fq_dcm_column_z(qd))
-        if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
-            qd_red = qd
-        else:
-            qd_red = _fq_multiply(qd_red, qn)
-        q_mix = _fq_multiply((qd_red[0], -qd_red[1], -qd_red[2], -qd_red[3]), qd)
-        if q_mix[0] < 0.0:
-            q_mix = (-q_mix[0], -q_mix[1], -q_mix[2], -q_mix[3])
-        w = min(max(q_mix[0], -1.0), 1.0)
-        z = min(max(q_mix[3], -1.0), 1.0)
-        yw = self._yaw_weight
-        qd = _fq_multiply(
-            qd_red, (math.cos(yw * math.acos(w)), 0.0, 0.0, math.sin(yw * math.asin(z))))
-        qe = _fq_multiply((qn[0], -qn[1], -qn[2], -qn[3]), qd)
-        if qe[0] < 0.0:
-            qe = (-qe[0], -qe[1], -qe[2], -qe[3])
-        kp, lim = self._kp, self._rate_limit
-        r0, r1, r2 = 2.0 * qe[1] * kp[0], 2.0 * qe[2] * kp[1], 2.0 * qe[3] * kp[2]
-        if math.isfinite(yawspeed_feedforward):
-            d0, d1, d2 = _fq_dcm_row_z(qn)
-            r0 += d0 * yawspeed_feedforward
-            r1 += d1 * yawspeed_feedforward
-            r2 += d2 * yawspeed_feedforward
-        return (min(max(r0, -lim[0]), lim[0]), min(max(r1, -lim[1]), lim[1]),
-                min(max(r2, -lim[2]), lim[2]))
+        """:meth:`update` on Python floats (the firmware's 250 Hz path; the arithmetic is
+        :func:`sim.fcu.kernels.attitude_kernel`)."""
+        qw, qx, qy, qz = q
+        sw, sx, sy, sz = q_setpoint
+        rate_sp: Vec3 = attitude_kernel(self._gains, qw, qx, qy, qz, sw, sx, sy, sz,
+                                        float(yawspeed_feedforward))
+        return rate_sp
 
 
 # --- rate control -------------------------------------------------------------------------

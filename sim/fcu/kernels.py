@@ -24,6 +24,7 @@ from numba import njit
 from sim.quadrotor import GRAVITY as GRAVITY_M_S2  # a compile-time constant in the kernels
 
 __all__ = [
+    "ATT_GAINS_SIZE",
     "EST_BUF_COLS",
     "EST_OUTPUT_INDEX",
     "EST_OUTPUT_SIZE",
@@ -31,6 +32,7 @@ __all__ = [
     "EST_STATE_SIZE",
     "RATE_GAINS_SIZE",
     "RATE_STATE_SIZE",
+    "attitude_kernel",
     "est_fuse",
     "est_predict",
     "est_push",
@@ -111,6 +113,81 @@ def mix_kernel(cols: np.ndarray, collective: float, tx: float, ty: float, tz: fl
     for i in range(3):
         out[5 + i] = 1.0 if reduced[i] and torque[i] > 0.0 else 0.0
         out[8 + i] = 1.0 if reduced[i] and torque[i] < 0.0 else 0.0
+
+
+# --- attitude controller ------------------------------------------------------------------
+
+# gains: kp (3, yaw compensated for its weight), rate limits (3), yaw weight (1)
+ATT_GAINS_SIZE = 7
+
+
+@njit(cache=True)
+def _dcm_column_z(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
+
+
+@njit(cache=True)
+def _cross(ax: float, ay: float, az: float, bx: float, by: float,
+           bz: float) -> tuple[float, float, float]:
+    return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+
+
+@njit(cache=True)
+def _q_between(sx: float, sy: float, sz: float, dx: float, dy: float,
+               dz: float) -> tuple[float, float, float, float]:
+    """Shortest rotation taking unit vector ``s`` to ``d`` (``matrix::Quaternion(src,
+    dst)``; see :func:`sim.fcu.control._quat_between`)."""
+    cx, cy, cz = _cross(sx, sy, sz, dx, dy, dz)
+    dot = sx * dx + sy * dy + sz * dz
+    if cx * cx + cy * cy + cz * cz < 1e-10 and dot < 0.0:
+        a0, a1, a2 = abs(sx), abs(sy), abs(sz)
+        smallest = min(a0, a1, a2)
+        if a0 == smallest:  # the first axis of the smallest component, as list.index
+            ex, ey, ez = _cross(sx, sy, sz, 1.0, 0.0, 0.0)
+        elif a1 == smallest:
+            ex, ey, ez = _cross(sx, sy, sz, 0.0, 1.0, 0.0)
+        else:
+            ex, ey, ez = _cross(sx, sy, sz, 0.0, 0.0, 1.0)
+        return _q_normalise(0.0, ex, ey, ez)
+    ss = sx * sx + sy * sy + sz * sz
+    dd = dx * dx + dy * dy + dz * dz
+    return _q_normalise(dot + math.sqrt(ss * dd), cx, cy, cz)
+
+
+@njit(cache=True)
+def attitude_kernel(g: np.ndarray, qw: float, qx: float, qy: float, qz: float, sw: float,
+                    sx: float, sy: float, sz: float,
+                    yawspeed_feedforward: float) -> tuple[float, float, float]:
+    """:meth:`~sim.fcu.control.AttitudeController.update`: the body-rate setpoint."""
+    nw, nx, ny, nz = _q_normalise(qw, qx, qy, qz)
+    dw, dx, dy, dz = _q_normalise(sw, sx, sy, sz)
+    c0, c1, c2 = _dcm_column_z(nw, nx, ny, nz)
+    e0, e1, e2 = _dcm_column_z(dw, dx, dy, dz)
+    rw, rx, ry, rz = _q_between(c0, c1, c2, e0, e1, e2)
+    if abs(rx) > 1.0 - 1e-5 or abs(ry) > 1.0 - 1e-5:
+        rw, rx, ry, rz = dw, dx, dy, dz
+    else:
+        rw, rx, ry, rz = _q_multiply(rw, rx, ry, rz, nw, nx, ny, nz)
+    mw, mx, my, mz = _q_multiply(rw, -rx, -ry, -rz, dw, dx, dy, dz)
+    if mw < 0.0:
+        mw, mx, my, mz = -mw, -mx, -my, -mz
+    w = min(max(mw, -1.0), 1.0)
+    z = min(max(mz, -1.0), 1.0)
+    yw = g[6]
+    tw, tx, ty, tz = _q_multiply(rw, rx, ry, rz, math.cos(yw * math.acos(w)), 0.0, 0.0,
+                                 math.sin(yw * math.asin(z)))
+    ew, ex, ey, ez = _q_multiply(nw, -nx, -ny, -nz, tw, tx, ty, tz)
+    if ew < 0.0:
+        ew, ex, ey, ez = -ew, -ex, -ey, -ez
+    r0, r1, r2 = 2.0 * ex * g[0], 2.0 * ey * g[1], 2.0 * ez * g[2]
+    if math.isfinite(yawspeed_feedforward):
+        d0 = 2.0 * (nx * nz - nw * ny)  # the third row of the DCM: world down in the body
+        d1 = 2.0 * (ny * nz + nw * nx)
+        d2 = 1.0 - 2.0 * (nx * nx + ny * ny)
+        r0 += d0 * yawspeed_feedforward
+        r1 += d1 * yawspeed_feedforward
+        r2 += d2 * yawspeed_feedforward
+    return (min(max(r0, -g[3]), g[3]), min(max(r1, -g[4]), g[4]), min(max(r2, -g[5]), g[5]))
 
 
 # --- rate controller ----------------------------------------------------------------------
