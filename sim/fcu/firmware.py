@@ -64,6 +64,7 @@ from sim.fcu.control import (
     PositionControlOutput,
     RateController,
     TrajectorySetpointData,
+    quat_yaw,
 )
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.estimator import (
@@ -236,8 +237,9 @@ def firmware_schedule(main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ,
     return resolve(firmware_modules(rates_hz), main_freq_hz=main_freq_hz, offsets=offsets)
 
 
-def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
-    return np.asarray(values, dtype=np.float32).reshape(n)
+def _f32(values: FloatArray | Sequence[float]) -> npt.NDArray[np.float32]:
+    """A vector as px4_msgs carries it (float32, a copy)."""
+    return np.array(values, dtype=np.float32)
 
 
 _ORIENTATION_VARIANCE = np.full(3, 1e-4, dtype=np.float32)  # rad^2, VehicleOdometry's
@@ -498,7 +500,7 @@ class Firmware:
         if self._mode_of_hold is not mode or self._hold_position is None:
             assert self.estimate is not None
             self._hold_position = self.estimate.state.position_ned.copy()
-            self._hold_yaw = _yaw(self.estimate.state.q)
+            self._hold_yaw = quat_yaw(self.estimate.state.q)
             self._mode_of_hold = mode
         return self._hold_position
 
@@ -675,33 +677,34 @@ class Firmware:
         s = est.state
         return interfaces.new(
             "px4_msgs/msg/VehicleOdometry", timestamp=self._now_us, timestamp_sample=est.time_us,
-            pose_frame=int(PoseFrame.NED), position=_arr(s.position_ned), q=_arr(s.q, 4),
-            velocity_frame=int(VelocityFrame.NED), velocity=_arr(s.velocity_ned),
-            angular_velocity=_arr(s.angular_velocity_frd),
-            position_variance=_arr(est.position_variance_ned),
+            pose_frame=int(PoseFrame.NED), position=_f32(s.position_ned), q=_f32(s.q),
+            velocity_frame=int(VelocityFrame.NED), velocity=_f32(s.velocity_ned),
+            angular_velocity=_f32(s.angular_velocity_frd),
+            position_variance=_f32(est.position_variance_ned),
             orientation_variance=_ORIENTATION_VARIANCE.copy(),
-            velocity_variance=_arr(est.velocity_variance_ned), quality=ODOMETRY_QUALITY_BEST)
+            velocity_variance=_f32(est.velocity_variance_ned), quality=ODOMETRY_QUALITY_BEST)
 
     def _msg_vehicle_local_position(self) -> Any:
         est = self.estimate
         if est is None:
             return None
         s, valid = est.state, est.position_valid
-        p, v = s.position_ned, s.velocity_ned
-        acc = self.position_out.acceleration_setpoint_ned if self.position_out else np.zeros(3)
+        x, y, z = s.position_ned.tolist()
+        vx, vy, vz = s.velocity_ned.tolist()
+        pvx, pvy, pvz = est.position_variance_ned.tolist()
+        vvx, vvy, vvz = est.velocity_variance_ned.tolist()
+        ax, ay, az = (self.position_out.acceleration_setpoint_ned.tolist() if self.position_out
+                      else (0.0, 0.0, 0.0))
         return interfaces.new(
             "px4_msgs/msg/VehicleLocalPosition", timestamp=self._now_us,
             timestamp_sample=est.time_us, xy_valid=valid, z_valid=valid, v_xy_valid=valid,
-            v_z_valid=valid, x=float(p[0]), y=float(p[1]), z=float(p[2]), vx=float(v[0]),
-            vy=float(v[1]), vz=float(v[2]), z_deriv=float(v[2]),
-            ax=_nan_to_num(acc[0]), ay=_nan_to_num(acc[1]), az=_nan_to_num(acc[2]),
-            heading=_yaw(s.q), heading_good_for_control=True,
-            eph=float(math.sqrt(max(est.position_variance_ned[:2]))),
-            epv=float(math.sqrt(est.position_variance_ned[2])),
-            evh=float(math.sqrt(max(est.velocity_variance_ned[:2]))),
-            evv=float(math.sqrt(est.velocity_variance_ned[2])),
+            v_z_valid=valid, x=x, y=y, z=z, vx=vx, vy=vy, vz=vz, z_deriv=vz,
+            ax=_nan_to_num(ax), ay=_nan_to_num(ay), az=_nan_to_num(az),
+            heading=quat_yaw(s.q), heading_good_for_control=True,
+            eph=math.sqrt(max(pvx, pvy)), epv=math.sqrt(pvz),
+            evh=math.sqrt(max(vvx, vvy)), evv=math.sqrt(vvz),
             dead_reckoning=not valid, vxy_max=math.inf, vz_max=math.inf, hagl_min=math.inf,
-            hagl_max_z=math.inf, hagl_max_xy=math.inf, dist_bottom=-float(p[2]),
+            hagl_max_z=math.inf, hagl_max_xy=math.inf, dist_bottom=-z,
             dist_bottom_valid=valid)
 
     def _msg_vehicle_attitude(self) -> Any:
@@ -709,7 +712,7 @@ class Firmware:
             return None
         return interfaces.new("px4_msgs/msg/VehicleAttitude", timestamp=self._now_us,
                               timestamp_sample=self.estimate.time_us,
-                              q=_arr(self.estimate.state.q, 4))
+                              q=_f32(self.estimate.state.q))
 
     def _msg_vehicle_status(self) -> Any:
         st = self.status
@@ -782,8 +785,8 @@ class Firmware:
     def _msg_sensor_combined(self) -> Any:
         return interfaces.new(
             "px4_msgs/msg/SensorCombined", timestamp=self.imu_time_us,
-            gyro_rad=_arr(self.gyro_frd), gyro_integral_dt=self._dt_us,
-            accelerometer_m_s2=_arr(self.accel_frd), accelerometer_integral_dt=self._dt_us)
+            gyro_rad=_f32(self.gyro_frd), gyro_integral_dt=self._dt_us,
+            accelerometer_m_s2=_f32(self.accel_frd), accelerometer_integral_dt=self._dt_us)
 
     def _ack_msg(self, ack: VehicleCommandAckData) -> Any:
         return interfaces.new(
@@ -809,8 +812,3 @@ def _nan_to_num(value: Any) -> float:
     if math.isfinite(v):
         return v
     return 0.0 if math.isnan(v) else math.copysign(sys.float_info.max, v)
-
-
-def _yaw(q: FloatArray) -> float:
-    w, x, y, z = (float(v) for v in q)
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

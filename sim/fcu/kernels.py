@@ -291,20 +291,22 @@ def _q_yaw(w: float, x: float, y: float, z: float) -> float:
 
 
 @njit(cache=True)
-def _dcm(s: np.ndarray) -> np.ndarray:
-    """Row-major rotation matrix of the state's q (normalised first)."""
+def _dcm(s: np.ndarray) -> tuple[float, float, float, float, float, float, float, float,
+                                 float]:
+    """Row-major rotation matrix of the state's q (normalised first), as a tuple (no heap
+    allocation)."""
     w, x, y, z = _q_normalise(s[0], s[1], s[2], s[3])
-    r = np.empty(9)
-    r[0] = 1.0 - 2.0 * (y * y + z * z)
-    r[1] = 2.0 * (x * y - w * z)
-    r[2] = 2.0 * (x * z + w * y)
-    r[3] = 2.0 * (x * y + w * z)
-    r[4] = 1.0 - 2.0 * (x * x + z * z)
-    r[5] = 2.0 * (y * z - w * x)
-    r[6] = 2.0 * (x * z - w * y)
-    r[7] = 2.0 * (y * z + w * x)
-    r[8] = 1.0 - 2.0 * (x * x + y * y)
-    return r
+    return (
+        1.0 - 2.0 * (y * y + z * z),
+        2.0 * (x * y - w * z),
+        2.0 * (x * z + w * y),
+        2.0 * (x * y + w * z),
+        1.0 - 2.0 * (x * x + z * z),
+        2.0 * (y * z - w * x),
+        2.0 * (x * z - w * y),
+        2.0 * (y * z + w * x),
+        1.0 - 2.0 * (x * x + y * y),
+    )
 
 
 @njit(cache=True)
