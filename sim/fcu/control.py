@@ -25,6 +25,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -458,9 +459,9 @@ def attitude_from_thrust_vector(thrust_ned: FloatArray, yaw: float) -> FloatArra
     return quat_from_dcm(np.column_stack((body_x, body_y, body_z)))
 
 
-@dataclass(frozen=True)
-class PositionControlOutput:
-    """One position-loop result: setpoints after limits, thrust vector and attitude."""
+class PositionControlOutput(NamedTuple):
+    """One position-loop result: setpoints after limits, thrust vector and attitude (a
+    named tuple: built at 100 Hz, in one call)."""
 
     velocity_setpoint_ned: FloatArray  # m/s (NaN: velocity not controlled on that axis)
     acceleration_setpoint_ned: FloatArray  # m/s^2, what the velocity PID asked for

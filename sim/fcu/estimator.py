@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -96,9 +97,9 @@ class VisionSample:
     velocity_variance: float = math.nan  # (m/s)^2
 
 
-@dataclass(frozen=True)
-class EstimatorOutput:
-    """The estimate at ``time_us``, its variances and health flags."""
+class EstimatorOutput(NamedTuple):
+    """The estimate at ``time_us``, its variances and health flags (a named tuple: built up
+    to every main-loop tick, in one call)."""
 
     time_us: int
     state: VehicleState

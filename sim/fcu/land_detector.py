@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
@@ -108,8 +109,10 @@ class LandDetectorParams:
         return self.thrust_min + span * self.minimal_thrust_fraction
 
 
-@dataclass(frozen=True, slots=True)
-class LandDetectorInputs:
+# The per-update records are named tuples: immutable, and built in one call at 50 Hz.
+
+
+class LandDetectorInputs(NamedTuple):
     """One update's inputs: the FCU's own estimates and setpoints."""
 
     now_us: int
@@ -136,8 +139,7 @@ class LandDetectorInputs:
     """Commanded vertical velocity [m/s, NED down], NaN if none."""
 
 
-@dataclass(frozen=True, slots=True)
-class LandDetectedData:
+class LandDetectedData(NamedTuple):
     """The fields of ``px4_msgs/VehicleLandDetected``."""
 
     timestamp_us: int
