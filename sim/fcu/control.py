@@ -688,6 +688,7 @@ class RateController:
             + [float(ix), float(iy), float(iz), float(gains.rate_d_cutoff_hz)])
         assert self._gains.shape == (RATE_GAINS_SIZE,)
         self._st = np.zeros(RATE_STATE_SIZE)
+        self._saturation = self._st[10:16]  # a view: the mixer's flags are copied in
         self.reset()
 
     def reset(self) -> None:
@@ -727,7 +728,7 @@ class RateController:
     def set_saturation_flags(self, flags: FloatArray) -> None:
         """:meth:`set_saturation` from a :class:`Mixer`'s flags (positive 3, negative 3, as
         1.0/0.0), without conversions: the firmware's 500 Hz path."""
-        self._st[10:16] = flags
+        self._saturation[...] = flags
 
 
 # --- mixer with desaturation ----------------------------------------------------------------

@@ -169,6 +169,7 @@ class Estimator:
         self._buf = np.zeros((_INITIAL_BUFFER_ROWS, EST_BUF_COLS))
         self._meta = np.zeros(2, dtype=np.int64)  # ring head, count
         est_push(self._buf, self._meta, s, float(time_us), 0.0, 0.0, 0.0, 0.0, -math.inf)
+        self._buffer_full = False  # (the ring starts with room for more than one entry)
 
     def _grow(self) -> None:
         head, count = int(self._meta[0]), int(self._meta[1])
@@ -178,6 +179,7 @@ class Estimator:
         grown[:count] = buf[rows]
         self._buf = grown
         self._meta[0] = 0
+        self._buffer_full = False
 
     # --- prediction -----------------------------------------------------------------------
 
@@ -190,11 +192,11 @@ class Estimator:
         self._time_us = time_us
         ax, ay, az = map(float, accel_frd)
         gx, gy, gz = map(float, gyro_frd)
-        if self._meta[1] == self._buf.shape[0]:
+        if self._buffer_full:
             self._grow()
-        est_predict(self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az,
-                    gx, gy, gz, self.position_valid(),
-                    float(time_us - self.params.buffer_length_us))
+        self._buffer_full = est_predict(
+            self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az, gx, gy,
+            gz, self.position_valid(), float(time_us - self.params.buffer_length_us))
 
     def position_valid(self) -> bool:
         """Vision fused within ``vision_timeout_us`` (the filter is aided; what

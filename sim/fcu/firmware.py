@@ -311,6 +311,13 @@ class Firmware:
         self.rate_setpoint: Vec3 = (0.0, 0.0, 0.0)
         self.torque_setpoint: Vec3 = (0.0, 0.0, 0.0)
         self.motor_commands = np.zeros(NUM_ROTORS)
+        # the commands while not flying: armed, the motors idle; disarmed, stopped (shared
+        # from tick to tick, so read-only)
+        self._idle_commands = np.full(
+            NUM_ROTORS, self.params.idle_thrust_fraction * self.quad.max_motor_thrust)
+        self._stopped_commands = np.zeros(NUM_ROTORS)
+        self._idle_commands.setflags(write=False)
+        self._stopped_commands.setflags(write=False)
         self._hold_position: FloatArray | None = None
         self._hold_yaw = 0.0
         self._mode_of_hold: NavigationState | None = None
@@ -567,9 +574,7 @@ class Firmware:
 
     def allocate(self) -> None:
         if not self._armed or self.position_out is None:
-            idle = (self.params.idle_thrust_fraction * self.quad.max_motor_thrust
-                    if self._armed else 0.0)
-            self.motor_commands = np.full(NUM_ROTORS, idle)
+            self.motor_commands = self._idle_commands if self._armed else self._stopped_commands
             return
         mixer = self.mixer
         mixer.mix(self.position_out.collective_thrust, self.torque_setpoint)

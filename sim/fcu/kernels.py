@@ -402,8 +402,9 @@ def est_push(buf: np.ndarray, meta: np.ndarray, s: np.ndarray, time_us: float, u
 @njit(cache=True)
 def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarray,
                 time_us: float, dt: float, ax: float, ay: float, az: float, gx: float,
-                gy: float, gz: float, aided: bool, horizon_us: float) -> None:
-    """:meth:`sim.fcu.estimator.Estimator.predict` after its checks."""
+                gy: float, gz: float, aided: bool, horizon_us: float) -> bool:
+    """:meth:`sim.fcu.estimator.Estimator.predict` after its checks; True when the
+    buffer is full afterwards (the caller grows it before the next push)."""
     _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, aided)
     r = _dcm(s)
     u0 = r[0] * ax + r[1] * ay + r[2] * az
@@ -411,6 +412,7 @@ def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarra
     u2 = r[6] * ax + r[7] * ay + r[8] * az + GRAVITY_M_S2
     _propagate(s[EST_X:EST_X + 9], s[EST_P:EST_P + 18], u0, u1, u2, dt, prm[7], prm[8])
     est_push(buf, meta, s, time_us, u0, u1, u2, dt, horizon_us)
+    return meta[1] == buf.shape[0]
 
 
 @njit(cache=True)
