@@ -212,17 +212,17 @@ class Estimator:
         r_pos = sample.position_variance
         if not math.isfinite(r_pos):
             r_pos = prm.vision_position_std**2
-        z0, z1, z2 = (float(v) for v in sample.position_ned)
+        z0, z1, z2 = map(float, sample.position_ned)
         has_velocity = sample.velocity_ned is not None
         v0 = v1 = v2 = r_vel = 0.0
         if sample.velocity_ned is not None:
-            v0, v1, v2 = (float(v) for v in sample.velocity_ned)
+            v0, v1, v2 = map(float, sample.velocity_ned)
             r_vel = sample.velocity_variance
             if not math.isfinite(r_vel):
                 r_vel = prm.vision_velocity_std**2
         sample_yaw = 0.0
         if sample.q is not None:
-            qw, qx, qy, qz = (float(v) for v in sample.q)
+            qw, qx, qy, qz = map(float, sample.q)
             sample_yaw = _fq_yaw((qw, qx, qy, qz))
         fused = est_fuse(self._s, self._buf, self._meta, self._prm,
                          float(sample.sample_time_us), self.fuse_at_arrival, z0, z1, z2,

@@ -609,12 +609,9 @@ class Firmware:
         self.offboard_heartbeat_us = self._now_us
 
     def _on_trajectory_setpoint(self, msg: Any) -> None:
-        self.offboard_setpoint = TrajectorySetpointData(
-            position=np.asarray(msg.position, dtype=np.float64),
-            velocity=np.asarray(msg.velocity, dtype=np.float64),
-            acceleration=np.asarray(msg.acceleration, dtype=np.float64),
-            jerk=np.asarray(msg.jerk, dtype=np.float64),
-            yaw=float(msg.yaw), yawspeed=float(msg.yawspeed))
+        self.offboard_setpoint = TrajectorySetpointData(  # (float64 copies of the vectors)
+            position=msg.position, velocity=msg.velocity, acceleration=msg.acceleration,
+            jerk=msg.jerk, yaw=float(msg.yaw), yawspeed=float(msg.yawspeed))
 
     def _on_vehicle_command(self, msg: Any) -> None:
         self.pending_commands.append(VehicleCommandData(
