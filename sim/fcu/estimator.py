@@ -36,6 +36,7 @@ from sim.fcu.kernels import (
     EST_P,
     EST_PARAMS_SIZE,
     EST_Q,
+    EST_RATE,
     EST_STATE_SIZE,
     EST_X,
     est_fuse,
@@ -243,13 +244,15 @@ class Estimator:
         w, x, y, z = self._s[EST_Q:EST_Q + 4].tolist()
         return (w, x, y, z)
 
-    def kinematics(self) -> tuple[Vec3, Vec3, Quat]:
-        """The current position and velocity [NED] and ``q_ned_frd`` as floats (what
-        :meth:`output` would give in ``state``), without building the output."""
+    def kinematics(self) -> tuple[Vec3, Vec3, Quat, Vec3]:
+        """The current position and velocity [NED], ``q_ned_frd`` and angular velocity
+        [FRD] as floats (what :meth:`output` would give in ``state``), without building the
+        output."""
         s = self._s.tolist()
         n, vn, _, e, ve, _, d, vd, _ = s[EST_X:EST_X + 9]
         w, x, y, z = s[EST_Q:EST_Q + 4]
-        return (n, e, d), (vn, ve, vd), (w, x, y, z)
+        p, q, r = s[EST_RATE:EST_RATE + 3]
+        return (n, e, d), (vn, ve, vd), (w, x, y, z), (p, q, r)
 
     def output(self) -> EstimatorOutput:
         """The current estimate."""

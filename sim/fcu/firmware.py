@@ -381,9 +381,10 @@ class Firmware:
             self._estimate_stale = False
         return self._estimate
 
-    # The controllers read a few numbers of the estimate at 100-250 Hz: they take them from
-    # the filter while the estimate is stale (the filter has not changed since the last
-    # ekf_update: a vision fusion builds the estimate first), not from a built estimate.
+    # The controllers, the land detector and the commander read a few numbers of the
+    # estimate at 50-250 Hz: they take them from the filter while the estimate is stale (the
+    # filter has not changed since the last ekf_update: a vision fusion builds the estimate
+    # first), not from a built estimate (telemetry builds it).
 
     def _attitude(self) -> Quat:
         """``estimate.state.q`` as floats."""
@@ -393,8 +394,8 @@ class Firmware:
         w, x, y, z = self._estimate.state.q.tolist()
         return (w, x, y, z)
 
-    def _kinematics(self) -> tuple[Vec3, Vec3, Quat]:
-        """``estimate.state``'s position, velocity and q as floats."""
+    def _kinematics(self) -> tuple[Vec3, Vec3, Quat, Vec3]:
+        """``estimate.state`` as floats: position, velocity, q, angular velocity."""
         if self._estimate_stale:
             return self.estimator.kinematics()
         assert self._estimate is not None
@@ -402,14 +403,15 @@ class Firmware:
         n, e, d = s.position_ned.tolist()
         vn, ve, vd = s.velocity_ned.tolist()
         w, x, y, z = s.q.tolist()
-        return (n, e, d), (vn, ve, vd), (w, x, y, z)
+        p, q, r = s.angular_velocity_frd.tolist()
+        return (n, e, d), (vn, ve, vd), (w, x, y, z), (p, q, r)
 
-    def _position_fix(self) -> tuple[bool, float]:
-        """``estimate.position_valid`` and the estimate's down position [m]."""
+    def _position_valid(self) -> bool:
+        """``estimate.position_valid``."""
         if self._estimate_stale:
-            return self.estimator.position_valid(), self.estimator.kinematics()[0][2]
+            return self.estimator.position_valid()
         assert self._estimate is not None
-        return self._estimate.position_valid, float(self._estimate.state.position_ned[2])
+        return self._estimate.position_valid
 
     def _has_estimate(self) -> bool:
         """``estimate is not None`` without building it."""
@@ -447,11 +449,10 @@ class Firmware:
         self._estimate_stale = True
 
     def land_detector_update(self) -> None:
-        est = self.estimate
-        if est is None:
+        if not self._has_estimate():
             return
-        vx, vy, vz = est.state.velocity_ned.tolist()
-        roll_rate, pitch_rate, _ = est.state.angular_velocity_frd.tolist()
+        _, (vx, vy, vz), _, (roll_rate, pitch_rate, _) = self._kinematics()
+        valid = self._position_valid()
         ax, ay, az = self.accel_frd
         # floats, not numpy reductions, on 3 and 4 values: the same sums, bit for bit
         # (written out: Python 3.12's sum() compensates, numpy's does not)
@@ -462,7 +463,7 @@ class Firmware:
             armed=self.armed,
             thrust=collective / (NUM_ROTORS * self.quad.max_motor_thrust),
             vx=vx, vy=vy, vz=vz,
-            v_xy_valid=est.position_valid, v_z_valid=est.position_valid,
+            v_xy_valid=valid, v_z_valid=valid,
             roll_rate=roll_rate, pitch_rate=pitch_rate,
             specific_force_norm=math.sqrt(ax * ax + ay * ay + az * az),
             climb_rate_control=True,
@@ -475,8 +476,8 @@ class Firmware:
         has_estimate = self._has_estimate()
         valid, altitude = False, math.nan
         if has_estimate:
-            valid, down = self._position_fix()
-            altitude = -down  # altitude is -z (NED)
+            valid = self._position_valid()
+            altitude = -self._kinematics()[0][2]  # altitude is -z (NED)
         out = self.commander.step(CommanderInputs(
             now_us=self._now_us,
             offboard_heartbeat_us=self.offboard_heartbeat_us,
@@ -547,7 +548,7 @@ class Firmware:
         if not self._has_estimate() or not self._armed:
             return
         dt_us = self._position_period_us
-        position, velocity, q = self._kinematics()
+        position, velocity, q, _ = self._kinematics()
         try:
             self.position_out = self.position_controller.update_floats(
                 position, velocity, q, self.setpoint, dt_us)
