@@ -62,8 +62,10 @@ from sim.fcu.control import (
     Mixer,
     PositionController,
     PositionControlOutput,
+    Quat,
     RateController,
     TrajectorySetpointData,
+    Vec3,
     quat_yaw,
 )
 from sim.fcu.errors import ModuleSpecError
@@ -89,8 +91,6 @@ from sim.world import Imu, Scene
 TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 FloatArray = npt.NDArray[np.float64]
-Vec3 = tuple[float, float, float]
-Quat = tuple[float, float, float, float]
 
 FIRMWARE_NODE_NAME = "fcu_firmware"
 """The firmware's section in its ROS 2 parameter file, ``config/fcu_firmware.yaml``."""
@@ -499,9 +499,8 @@ class Firmware:
             self.rate_controller.reset()
         self._armed_before = self._armed
 
-    def battery_warning(self) -> Any:
-
-        return BatteryWarning(self.battery.warning) if self.battery else BatteryWarning.NONE
+    def battery_warning(self) -> BatteryWarning:
+        return self.battery.warning if self.battery else BatteryWarning.NONE
 
     def _hold_here(self, mode: NavigationState) -> FloatArray:
         """The position captured on entering ``mode`` (hold, land, takeoff)."""
@@ -584,9 +583,10 @@ class Firmware:
 
     # -- datalink -----------------------------------------------------------------------
     def dds_receive(self) -> None:
-        for arrival in self.agent.inbox.take(self._now_ns):
+        inbox = self.agent.inbox
+        for arrival in inbox.take(self._now_ns):
             self._handle(arrival)
-        for reply in self.agent.inbox.take_timesync(self._now_ns):
+        for reply in inbox.take_timesync(self._now_ns):
             # (t1, t2, t3): our send time, the agent's clock, our receive time [us]
             self.timesync.update(reply.request_fcu_us, ns_to_us(reply.agent_time_ns),
                                  self._now_us)
