@@ -23,14 +23,23 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
-from sim.fcu.kernels import RATE_GAINS_SIZE, RATE_STATE_SIZE, mix_kernel, rate_kernel
+from sim.fcu.kernels import (
+    ATT_GAINS_SIZE,
+    RATE_GAINS_SIZE,
+    RATE_STATE_SIZE,
+    attitude_kernel,
+    mix_kernel,
+    rate_kernel,
+)
 from sim.quadrotor import GRAVITY, NUM_ROTORS, QuadrotorParams, mix
 
 __all__ = [
@@ -176,49 +185,10 @@ def _fq_normalise(q: Quat) -> Quat:
     return (w / n, x / n, y / n, z / n)
 
 
-def _fq_multiply(p: Quat, q: Quat) -> Quat:
-    pw, px, py, pz = p
-    qw, qx, qy, qz = q
-    return (
-        pw * qw - px * qx - py * qy - pz * qz,
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    )
-
-
-def _fq_dcm_column_z(q: Quat) -> Vec3:
-    """Third column of ``quat_to_dcm(q)`` (body z in the world), ``q`` unit."""
-    w, x, y, z = q
-    return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
-
-
-def _fq_dcm_row_z(q: Quat) -> Vec3:
-    """Third row of ``quat_to_dcm(q)`` (world down in the body), ``q`` unit."""
-    w, x, y, z = q
-    return (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
-
-
 def _f_cross(a: Vec3, b: Vec3) -> Vec3:
     ax, ay, az = a
     bx, by, bz = b
     return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
-
-
-def _fq_between(src: Vec3, dst: Vec3) -> Quat:
-    """:func:`_quat_between` on floats."""
-    cx, cy, cz = _f_cross(src, dst)
-    dot = src[0] * dst[0] + src[1] * dst[1] + src[2] * dst[2]
-    if cx * cx + cy * cy + cz * cz < 1e-10 and dot < 0.0:
-        a = [abs(v) for v in src]
-        i = a.index(min(a))
-        axis = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
-        q: Quat = (0.0, *_f_cross(src, axis))
-    else:
-        ss = src[0] * src[0] + src[1] * src[1] + src[2] * src[2]
-        dd = dst[0] * dst[0] + dst[1] * dst[1] + dst[2] * dst[2]
-        q = (dot + math.sqrt(ss * dd), cx, cy, cz)
-    return _fq_normalise(q)
 
 
 def _fq_yaw(q: Quat) -> float:
@@ -489,9 +459,9 @@ def attitude_from_thrust_vector(thrust_ned: FloatArray, yaw: float) -> FloatArra
     return quat_from_dcm(np.column_stack((body_x, body_y, body_z)))
 
 
-@dataclass(frozen=True)
-class PositionControlOutput:
-    """One position-loop result: setpoints after limits, thrust vector and attitude."""
+class PositionControlOutput(NamedTuple):
+    """One position-loop result: setpoints after limits, thrust vector and attitude (a
+    named tuple: built at 100 Hz, in one call)."""
 
     velocity_setpoint_ned: FloatArray  # m/s (NaN: velocity not controlled on that axis)
     acceleration_setpoint_ned: FloatArray  # m/s^2, what the velocity PID asked for
@@ -531,13 +501,16 @@ class PositionController:
         self._kd_vel = (gains.velocity_d_xy, gains.velocity_d_xy, gains.velocity_d_z)
         self._cos_max_tilt = math.cos(gains.max_tilt)
         self._sin_max_tilt = math.sin(gains.max_tilt)
+        # the last setpoint that passed _check_setpoint (immutable: one check per setpoint,
+        # not per step; an offboard setpoint is followed for several steps)
+        self._checked_setpoint: TrajectorySetpointData | None = None
         self.reset()
 
     def reset(self) -> None:
         """Clear the integrator, the velocity-derivative filter and the held yaw."""
         self._vel_int = [0.0, 0.0, 0.0]
         self._vel_dot = [0.0, 0.0, 0.0]
-        self._last_vel: list[float] | None = None
+        self._last_vel: Vec3 | None = None
         self._held_yaw: float | None = None
 
     @property
@@ -549,12 +522,23 @@ class PositionController:
         self, state: VehicleState, setpoint: TrajectorySetpointData, dt_us: int
     ) -> PositionControlOutput:
         """Run one position-loop step of ``dt_us`` microseconds."""
-        _check_setpoint(setpoint)
+        n, e, d = state.position_ned.tolist()
+        vn, ve, vd = state.velocity_ned.tolist()
+        w, x, y, z = state.q.tolist()
+        return self.update_floats((n, e, d), (vn, ve, vd), (w, x, y, z), setpoint, dt_us)
+
+    def update_floats(self, position_ned: Vec3, velocity_ned: Vec3, q: Quat,
+                      setpoint: TrajectorySetpointData, dt_us: int) -> PositionControlOutput:
+        """:meth:`update` from the state's position, velocity and ``q`` as floats (the
+        firmware's path: it does not build a :class:`VehicleState` for it)."""
+        if setpoint is not self._checked_setpoint:
+            _check_setpoint(setpoint)
+            self._checked_setpoint = setpoint
         isfinite = math.isfinite
         dt = max(dt_us, 1) / _US_PER_S
         g = self._g
-        vel = state.velocity_ned.tolist()
-        pos = state.position_ned.tolist()
+        vel = velocity_ned
+        pos = position_ned
         vel_dot = self._vel_dot
         if self._last_vel is not None:
             alpha = _lowpass_alpha(g.velocity_d_cutoff_hz, dt)
@@ -633,10 +617,10 @@ class PositionController:
             yaw = setpoint.yaw
             self._held_yaw = None
         elif isfinite(setpoint.yawspeed):
-            yaw = self._held_yaw = quat_yaw(state.q)
+            yaw = self._held_yaw = _fq_yaw(q)
         else:
             if self._held_yaw is None:
-                self._held_yaw = quat_yaw(state.q)
+                self._held_yaw = _fq_yaw(q)
             yaw = self._held_yaw
         return PositionControlOutput(
             velocity_setpoint_ned=np.array(vel_sp),
@@ -660,40 +644,28 @@ class AttitudeController:
         self._yaw_weight = min(max(gains.attitude_p_yaw / rp, 0.0), 1.0) if rp > 0.0 else 1.0
         if self._yaw_weight > 1e-4:  # the weighting scales the yaw error down: compensate
             kp[2] /= self._yaw_weight
-        self._kp = tuple(kp)
-        self._rate_limit = (gains.max_rate_roll_pitch, gains.max_rate_roll_pitch,
-                            gains.max_rate_yaw)
+        self._gains = np.array(
+            [*kp, gains.max_rate_roll_pitch, gains.max_rate_roll_pitch, gains.max_rate_yaw,
+             self._yaw_weight], dtype=np.float64)
+        assert self._gains.shape == (ATT_GAINS_SIZE,)
 
     def update(
         self, q: FloatArray, q_setpoint: FloatArray, yawspeed_feedforward: float = math.nan
     ) -> FloatArray:
         """Body-rate setpoint [rad/s, FRD] driving ``q`` (q_ned_frd) to ``q_setpoint``."""
         w, x, y, z = q.tolist()
-        qn = _fq_normalise((w, x, y, z))
-        w, x, y, z = q_setpoint.tolist()
-        qd = _fq_normalise((w, x, y, z))
-        qd_red = _fq_between(_fq_dcm_column_z(qn), _fq_dcm_column_z(qd))
-        if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
-            qd_red = qd
-        else:
-            qd_red = _fq_multiply(qd_red, qn)
-        q_mix = _fq_multiply((qd_red[0], -qd_red[1], -qd_red[2], -qd_red[3]), qd)
-        if q_mix[0] < 0.0:
-            q_mix = (-q_mix[0], -q_mix[1], -q_mix[2], -q_mix[3])
-        w = min(max(q_mix[0], -1.0), 1.0)
-        z = min(max(q_mix[3], -1.0), 1.0)
-        yw = self._yaw_weight
-        qd = _fq_multiply(
-            qd_red, (math.cos(yw * math.acos(w)), 0.0, 0.0, math.sin(yw * math.asin(z))))
-        qe = _fq_multiply((qn[0], -qn[1], -qn[2], -qn[3]), qd)
-        if qe[0] < 0.0:
-            qe = (-qe[0], -qe[1], -qe[2], -qe[3])
-        kp, lim = self._kp, self._rate_limit
-        rate_sp = [2.0 * qe[1] * kp[0], 2.0 * qe[2] * kp[1], 2.0 * qe[3] * kp[2]]
-        if math.isfinite(yawspeed_feedforward):
-            down = _fq_dcm_row_z(qn)
-            rate_sp = [rate_sp[i] + down[i] * yawspeed_feedforward for i in range(3)]
-        return np.array([min(max(rate_sp[i], -lim[i]), lim[i]) for i in range(3)])
+        sw, sx, sy, sz = q_setpoint.tolist()
+        return np.array(self.update_quat((w, x, y, z), (sw, sx, sy, sz), yawspeed_feedforward))
+
+    def update_quat(self, q: Quat, q_setpoint: Quat,
+                    yawspeed_feedforward: float = math.nan) -> Vec3:
+        """:meth:`update` on Python floats (the firmware's 250 Hz path; the arithmetic is
+        :func:`sim.fcu.kernels.attitude_kernel`)."""
+        qw, qx, qy, qz = q
+        sw, sx, sy, sz = q_setpoint
+        rate_sp: Vec3 = attitude_kernel(self._gains, qw, qx, qy, qz, sw, sx, sy, sz,
+                                        float(yawspeed_feedforward))
+        return rate_sp
 
 
 # --- rate control -------------------------------------------------------------------------
@@ -716,6 +688,7 @@ class RateController:
             + [float(ix), float(iy), float(iz), float(gains.rate_d_cutoff_hz)])
         assert self._gains.shape == (RATE_GAINS_SIZE,)
         self._st = np.zeros(RATE_STATE_SIZE)
+        self._saturation = self._st[10:16]  # a view: the mixer's flags are copied in
         self.reset()
 
     def reset(self) -> None:
@@ -733,20 +706,29 @@ class RateController:
         self._st[13:16] = np.asarray(negative, dtype=bool).reshape(3)
 
     def update(
-        self, rate_frd: FloatArray, rate_setpoint_frd: FloatArray, dt_us: int, landed: bool = False
+        self, rate_frd: Sequence[float] | FloatArray,
+        rate_setpoint_frd: Sequence[float] | FloatArray, dt_us: int, landed: bool = False
     ) -> FloatArray:
         """Torque setpoint [N m, FRD] for one step of ``dt_us`` microseconds."""
         r0, r1, r2 = rate_frd
         s0, s1, s2 = rate_setpoint_frd
-        out = np.empty(3)
-        rate_kernel(self._st, self._gains, float(r0), float(r1), float(r2), float(s0),
-                    float(s1), float(s2), int(dt_us), bool(landed), out)
-        return out
+        return np.array(self.update_floats((float(r0), float(r1), float(r2)),
+                                           (float(s0), float(s1), float(s2)),
+                                           int(dt_us), bool(landed)))
+
+    def update_floats(self, rate_frd: Vec3, rate_setpoint_frd: Vec3, dt_us: int,
+                      landed: bool) -> Vec3:
+        """:meth:`update` on Python floats, int and bool (the firmware's 500 Hz path;
+        other types, numpy's float32 say, would compile the kernel for them)."""
+        r0, r1, r2 = rate_frd
+        s0, s1, s2 = rate_setpoint_frd
+        torque: Vec3 = rate_kernel(self._st, self._gains, r0, r1, r2, s0, s1, s2, dt_us, landed)
+        return torque
 
     def set_saturation_flags(self, flags: FloatArray) -> None:
         """:meth:`set_saturation` from a :class:`Mixer`'s flags (positive 3, negative 3, as
         1.0/0.0), without conversions: the firmware's 500 Hz path."""
-        self._st[10:16] = flags
+        self._saturation[...] = flags
 
 
 # --- mixer with desaturation ----------------------------------------------------------------
@@ -777,8 +759,10 @@ class Mixer:
         self._cols = np.array(_mixer_columns(params))
         self._hi = float(params.max_motor_thrust)
         self.out = np.zeros(11)
+        self._thrusts = self.out[0:4]  # views of the reused buffer
+        self._flags = self.out[5:11]
 
-    def mix(self, collective_thrust: float, torque_frd: FloatArray) -> None:
+    def mix(self, collective_thrust: float, torque_frd: Sequence[float] | FloatArray) -> None:
         """PX4's sequential desaturation (see :func:`mix_with_desaturation`)."""
         tx, ty, tz = torque_frd
         mix_kernel(self._cols, float(collective_thrust), float(tx), float(ty), float(tz), 0.0,
@@ -787,12 +771,12 @@ class Mixer:
     @property
     def motor_thrusts(self) -> FloatArray:
         """Rotor thrusts [N] of the last :meth:`mix` (a copy)."""
-        return self.out[0:4].copy()
+        return self._thrusts.copy()
 
     @property
     def saturation_flags(self) -> FloatArray:
         """Saturated positive (3) then negative (3) of the last :meth:`mix`, as 1.0/0.0."""
-        return self.out[5:11]
+        return self._flags
 
 
 @functools.cache

@@ -21,23 +21,25 @@ FRD, ``q_ned_frd`` Hamilton ``[w, x, y, z]``); time is the FCU clock in integer 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from runtime.parameters import param, validate_parameters
-from sim.fcu.control import VehicleState, _fq_normalise, _fq_yaw
+from sim.fcu.control import Quat, Vec3, VehicleState, _fq_normalise, _fq_yaw
 from sim.fcu.kernels import (
     EST_BUF_COLS,
-    EST_OUTPUT_SIZE,
+    EST_OUTPUT_INDEX,
     EST_P,
     EST_PARAMS_SIZE,
     EST_Q,
+    EST_RATE,
     EST_STATE_SIZE,
     EST_X,
     est_fuse,
-    est_output,
     est_predict,
     est_push,
 )
@@ -96,9 +98,9 @@ class VisionSample:
     velocity_variance: float = math.nan  # (m/s)^2
 
 
-@dataclass(frozen=True)
-class EstimatorOutput:
-    """The estimate at ``time_us``, its variances and health flags."""
+class EstimatorOutput(NamedTuple):
+    """The estimate at ``time_us``, its variances and health flags (a named tuple: built up
+    to every main-loop tick, in one call)."""
 
     time_us: int
     state: VehicleState
@@ -168,6 +170,7 @@ class Estimator:
         self._buf = np.zeros((_INITIAL_BUFFER_ROWS, EST_BUF_COLS))
         self._meta = np.zeros(2, dtype=np.int64)  # ring head, count
         est_push(self._buf, self._meta, s, float(time_us), 0.0, 0.0, 0.0, 0.0, -math.inf)
+        self._buffer_full = False  # (the ring starts with room for more than one entry)
 
     def _grow(self) -> None:
         head, count = int(self._meta[0]), int(self._meta[1])
@@ -177,24 +180,28 @@ class Estimator:
         grown[:count] = buf[rows]
         self._buf = grown
         self._meta[0] = 0
+        self._buffer_full = False
 
     # --- prediction -----------------------------------------------------------------------
 
-    def predict(self, time_us: int, accel_frd: npt.ArrayLike, gyro_frd: npt.ArrayLike) -> None:
+    def predict(self, time_us: int, accel_frd: Sequence[float] | FloatArray,
+                gyro_frd: Sequence[float] | FloatArray) -> None:
         """Propagate to ``time_us`` with an IMU sample (specific force m/s^2, rate rad/s, FRD)."""
         if time_us <= self._time_us:
             raise ValueError(f"time_us: {time_us} is not after the last sample ({self._time_us})")
         dt = (time_us - self._time_us) / _US_PER_S
         self._time_us = time_us
-        ax, ay, az = np.asarray(accel_frd, dtype=np.float64).tolist()
-        gx, gy, gz = np.asarray(gyro_frd, dtype=np.float64).tolist()
-        if self._meta[1] == self._buf.shape[0]:
+        ax, ay, az = map(float, accel_frd)
+        gx, gy, gz = map(float, gyro_frd)
+        if self._buffer_full:
             self._grow()
-        est_predict(self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az,
-                    gx, gy, gz, self._aided(), float(time_us - self.params.buffer_length_us))
+        self._buffer_full = est_predict(
+            self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az, gx, gy,
+            gz, self.position_valid(), float(time_us - self.params.buffer_length_us))
 
-    def _aided(self) -> bool:
-        """Vision fused within ``vision_timeout_us``."""
+    def position_valid(self) -> bool:
+        """Vision fused within ``vision_timeout_us`` (the filter is aided; what
+        :meth:`output` gives as ``position_valid``)."""
         last = self._last_vision_us
         return last is not None and self._time_us - last <= self.params.vision_timeout_us
 
@@ -206,17 +213,17 @@ class Estimator:
         r_pos = sample.position_variance
         if not math.isfinite(r_pos):
             r_pos = prm.vision_position_std**2
-        z0, z1, z2 = (float(v) for v in sample.position_ned)
+        z0, z1, z2 = map(float, sample.position_ned)
         has_velocity = sample.velocity_ned is not None
         v0 = v1 = v2 = r_vel = 0.0
         if sample.velocity_ned is not None:
-            v0, v1, v2 = (float(v) for v in sample.velocity_ned)
+            v0, v1, v2 = map(float, sample.velocity_ned)
             r_vel = sample.velocity_variance
             if not math.isfinite(r_vel):
                 r_vel = prm.vision_velocity_std**2
         sample_yaw = 0.0
         if sample.q is not None:
-            qw, qx, qy, qz = (float(v) for v in sample.q)
+            qw, qx, qy, qz = map(float, sample.q)
             sample_yaw = _fq_yaw((qw, qx, qy, qz))
         fused = est_fuse(self._s, self._buf, self._meta, self._prm,
                          float(sample.sample_time_us), self.fuse_at_arrival, z0, z1, z2,
@@ -231,12 +238,27 @@ class Estimator:
 
     # --- output -----------------------------------------------------------------------------
 
+    def attitude(self) -> Quat:
+        """The current ``q_ned_frd`` as floats (what :meth:`output` would give as
+        ``state.q``), without building the output."""
+        w, x, y, z = self._s[EST_Q:EST_Q + 4].tolist()
+        return (w, x, y, z)
+
+    def kinematics(self) -> tuple[Vec3, Vec3, Quat, Vec3]:
+        """The current position and velocity [NED], ``q_ned_frd`` and angular velocity
+        [FRD] as floats (what :meth:`output` would give in ``state``), without building the
+        output."""
+        s = self._s.tolist()
+        n, vn, _, e, ve, _, d, vd, _ = s[EST_X:EST_X + 9]
+        w, x, y, z = s[EST_Q:EST_Q + 4]
+        p, q, r = s[EST_RATE:EST_RATE + 3]
+        return (n, e, d), (vn, ve, vd), (w, x, y, z), (p, q, r)
+
     def output(self) -> EstimatorOutput:
         """The current estimate."""
         since = self._time_us - self._last_vision_us if self._last_vision_us is not None else None
         dead_reckoning = max(since, 0) if since is not None else self._time_us
-        out = np.empty(EST_OUTPUT_SIZE)
-        est_output(self._s, out)
+        out = self._s[EST_OUTPUT_INDEX]  # a copy
         out.setflags(write=False)  # the views below are read-only too
         return EstimatorOutput(
             time_us=self._time_us,
@@ -245,7 +267,7 @@ class Estimator:
             velocity_variance_ned=out[16:19],
             accel_bias_ned=out[19:22],
             gyro_bias_frd=out[22:25],
-            position_valid=since is not None and since <= self.params.vision_timeout_us,
+            position_valid=self.position_valid(),
             dead_reckoning_time_us=dead_reckoning,
             vision_fused=self._fused,
             vision_rejected=self._rejected,

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -37,7 +37,7 @@ from interfaces.px4 import (
 )
 from interfaces.px4.timesync import Px4Timesync, ns_to_us
 from runtime.parameters import load_parameters, param, validate_parameters
-from sim.fcu.agent import Arrival, FcuAgentNode
+from sim.fcu.agent import AGENT_IN, Arrival, FcuAgentNode
 from sim.fcu.battery import (
     BATTERY_NODE_NAME,
     BatteryEstimator,
@@ -62,9 +62,11 @@ from sim.fcu.control import (
     Mixer,
     PositionController,
     PositionControlOutput,
+    Quat,
     RateController,
     TrajectorySetpointData,
-    VehicleState,
+    Vec3,
+    quat_yaw,
 )
 from sim.fcu.errors import ModuleSpecError
 from sim.fcu.estimator import (
@@ -235,16 +237,17 @@ def firmware_schedule(main_freq_hz: int = DEFAULT_MAIN_FREQ_HZ,
     return resolve(firmware_modules(rates_hz), main_freq_hz=main_freq_hz, offsets=offsets)
 
 
-def _arr(values: Any, n: int = 3) -> npt.NDArray[np.float32]:
-    return np.asarray(values, dtype=np.float32).reshape(n)
+def _f32(values: FloatArray | Sequence[float]) -> npt.NDArray[np.float32]:
+    """A vector as px4_msgs carries it (float32, a copy)."""
+    return np.array(values, dtype=np.float32)
 
 
-_FLU_TO_FRD = np.array([1.0, -1.0, -1.0])
 _ORIENTATION_VARIANCE = np.full(3, 1e-4, dtype=np.float32)  # rad^2, VehicleOdometry's
 
 
-def _flu_to_frd(v: FloatArray) -> FloatArray:
-    return v * _FLU_TO_FRD  # y and z negated, exactly
+def _flu_to_frd(v: Sequence[float]) -> Vec3:
+    x, y, z = v
+    return (x, -y, -z)  # a pi rotation about x: y and z negated, exactly
 
 
 class Firmware:
@@ -286,15 +289,18 @@ class Firmware:
         self.timesync = Px4Timesync()
         self._dt_us = 1_000_000 // cfg.main_freq_hz
         self._period_us = {p.fun: p.prescaler * self._dt_us for p in self.schedule.periodics}
+        self._rate_period_us = self._period_us["rate_control"]
+        self._position_period_us = self._period_us["position_control"]
         self._now_ns = 0
         self._now_us = 0
         # the firmware's uORB: latest values of everything
-        self.accel_frd = np.array([0.0, 0.0, -GRAVITY])
-        self.gyro_frd = np.zeros(3)
+        self.accel_frd: Vec3 = (0.0, 0.0, -GRAVITY)
+        self.gyro_frd: Vec3 = (0.0, 0.0, 0.0)
         self.imu_time_us = 0
         self._estimate: EstimatorOutput | None = None
         self._estimate_stale = False  # predicted since the estimate was last built
         self.status: CommanderStatus | None = None
+        self._armed = False  # status.arming_state is ARMED (read at 500 Hz)
         self.land: LandDetectedData | None = None
         self.battery: BatteryStatusData | None = None
         self.offboard_heartbeat_us: int | None = None
@@ -302,9 +308,16 @@ class Firmware:
         self.pending_commands: list[VehicleCommandData] = []
         self.setpoint = TrajectorySetpointData()
         self.position_out: PositionControlOutput | None = None
-        self.rate_setpoint = np.zeros(3)
-        self.torque_setpoint = np.zeros(3)
+        self.rate_setpoint: Vec3 = (0.0, 0.0, 0.0)
+        self.torque_setpoint: Vec3 = (0.0, 0.0, 0.0)
         self.motor_commands = np.zeros(NUM_ROTORS)
+        # the commands while not flying: armed, the motors idle; disarmed, stopped (shared
+        # from tick to tick, so read-only)
+        self._idle_commands = np.full(
+            NUM_ROTORS, self.params.idle_thrust_fraction * self.quad.max_motor_thrust)
+        self._stopped_commands = np.zeros(NUM_ROTORS)
+        self._idle_commands.setflags(write=False)
+        self._stopped_commands.setflags(write=False)
         self._hold_position: FloatArray | None = None
         self._hold_yaw = 0.0
         self._mode_of_hold: NavigationState | None = None
@@ -334,6 +347,9 @@ class Firmware:
                 "vehicle_status", "battery_status", "timesync_status",
                 "vehicle_land_detected", "failsafe_flags", "sensor_combined")},
         }
+        # the handler of each /fmu/in topic (and the session's timesync requests)
+        self._handlers: dict[str, Callable[[Any], None]] = {
+            topic: getattr(self, f"_on_{topic}") for topic in AGENT_IN}
         self.scheduler = Scheduler(self.schedule, functions, clock=self)
         self.scheduler.init()
         for topic in sorted(cfg.event_driven_inputs):
@@ -365,13 +381,45 @@ class Firmware:
             self._estimate_stale = False
         return self._estimate
 
+    # The controllers, the land detector and the commander read a few numbers of the
+    # estimate at 50-250 Hz: they take them from the filter while the estimate is stale (the
+    # filter has not changed since the last ekf_update: a vision fusion builds the estimate
+    # first), not from a built estimate (telemetry builds it).
+
+    def _attitude(self) -> Quat:
+        """``estimate.state.q`` as floats."""
+        if self._estimate_stale:
+            return self.estimator.attitude()
+        assert self._estimate is not None
+        w, x, y, z = self._estimate.state.q.tolist()
+        return (w, x, y, z)
+
+    def _kinematics(self) -> tuple[Vec3, Vec3, Quat, Vec3]:
+        """``estimate.state`` as floats: position, velocity, q, angular velocity."""
+        if self._estimate_stale:
+            return self.estimator.kinematics()
+        assert self._estimate is not None
+        s = self._estimate.state
+        n, e, d = s.position_ned.tolist()
+        vn, ve, vd = s.velocity_ned.tolist()
+        w, x, y, z = s.q.tolist()
+        p, q, r = s.angular_velocity_frd.tolist()
+        return (n, e, d), (vn, ve, vd), (w, x, y, z), (p, q, r)
+
+    def _position_valid(self) -> bool:
+        """``estimate.position_valid``."""
+        if self._estimate_stale:
+            return self.estimator.position_valid()
+        assert self._estimate is not None
+        return self._estimate.position_valid
+
     def _has_estimate(self) -> bool:
         """``estimate is not None`` without building it."""
         return self._estimate_stale or self._estimate is not None
 
     @property
     def armed(self) -> bool:
-        return self.status is not None and self.status.arming_state is ArmingState.ARMED
+        return self._armed
 
     @property
     def nav_state(self) -> NavigationState:
@@ -382,8 +430,8 @@ class Firmware:
         sample = self.imu.latest
         if sample is None:
             return
-        self.accel_frd = _flu_to_frd(sample.accel)
-        self.gyro_frd = _flu_to_frd(sample.gyro)
+        self.accel_frd = _flu_to_frd(sample.accel.tolist())
+        self.gyro_frd = _flu_to_frd(sample.gyro.tolist())
         self.imu_time_us = self._now_us
 
     def battery_update(self) -> None:
@@ -401,12 +449,11 @@ class Firmware:
         self._estimate_stale = True
 
     def land_detector_update(self) -> None:
-        est = self.estimate
-        if est is None:
+        if not self._has_estimate():
             return
-        vx, vy, vz = est.state.velocity_ned.tolist()
-        roll_rate, pitch_rate, _ = est.state.angular_velocity_frd.tolist()
-        ax, ay, az = self.accel_frd.tolist()
+        _, (vx, vy, vz), _, (roll_rate, pitch_rate, _) = self._kinematics()
+        valid = self._position_valid()
+        ax, ay, az = self.accel_frd
         # floats, not numpy reductions, on 3 and 4 values: the same sums, bit for bit
         # (written out: Python 3.12's sum() compensates, numpy's does not)
         c0, c1, c2, c3 = self.motor_commands.tolist()
@@ -416,7 +463,7 @@ class Firmware:
             armed=self.armed,
             thrust=collective / (NUM_ROTORS * self.quad.max_motor_thrust),
             vx=vx, vy=vy, vz=vz,
-            v_xy_valid=est.position_valid, v_z_valid=est.position_valid,
+            v_xy_valid=valid, v_z_valid=valid,
             roll_rate=roll_rate, pitch_rate=pitch_rate,
             specific_force_norm=math.sqrt(ax * ax + ay * ay + az * az),
             climb_rate_control=True,
@@ -426,44 +473,47 @@ class Firmware:
 
     # -- commander and setpoints ----------------------------------------------------------
     def commander_update(self) -> None:
-        est = self.estimate
-        valid = est is not None and est.position_valid
+        has_estimate = self._has_estimate()
+        valid, altitude = False, math.nan
+        if has_estimate:
+            valid = self._position_valid()
+            altitude = -self._kinematics()[0][2]  # altitude is -z (NED)
         out = self.commander.step(CommanderInputs(
             now_us=self._now_us,
             offboard_heartbeat_us=self.offboard_heartbeat_us,
             landed=self.land.landed if self.land else True,
             battery_warning=self.battery_warning(),
-            attitude_valid=est is not None,
+            attitude_valid=has_estimate,
             position_valid=valid,
-            altitude_amsl_m=-float(est.state.position_ned[2]) if est else math.nan,
+            altitude_amsl_m=altitude,
             commands=tuple(self.pending_commands),
         ))
         self.pending_commands.clear()
         self.status = out.status
+        self._armed = out.status.arming_state is ArmingState.ARMED
         for ack in out.acks:
             self.acks.append(ack)
             self.agent.send("vehicle_command_ack", self._ack_msg(ack), self._now_ns)
-        if self.armed and not self._armed_before:
+        if self._armed and not self._armed_before:
             self.position_controller.reset()
             self.rate_controller.reset()
-        self._armed_before = self.armed
+        self._armed_before = self._armed
 
-    def battery_warning(self) -> Any:
-
-        return BatteryWarning(self.battery.warning) if self.battery else BatteryWarning.NONE
+    def battery_warning(self) -> BatteryWarning:
+        return self.battery.warning if self.battery else BatteryWarning.NONE
 
     def _hold_here(self, mode: NavigationState) -> FloatArray:
         """The position captured on entering ``mode`` (hold, land, takeoff)."""
         if self._mode_of_hold is not mode or self._hold_position is None:
             assert self.estimate is not None
             self._hold_position = self.estimate.state.position_ned.copy()
-            self._hold_yaw = _yaw(self.estimate.state.q)
+            self._hold_yaw = quat_yaw(self.estimate.state.q)
             self._mode_of_hold = mode
         return self._hold_position
 
     def setpoint_update(self) -> None:
         """PX4's flight mode manager: the trajectory setpoint of the current mode."""
-        if self.estimate is None or not self.armed:
+        if not self._has_estimate() or not self._armed:
             self._mode_of_hold = None
             return
         mode = self.nav_state
@@ -480,7 +530,9 @@ class Firmware:
                                                    yaw=self._hold_yaw)
         elif mode in (NavigationState.AUTO_LAND, NavigationState.AUTO_RTL):
             here = self._hold_here(mode)
-            height = -float(self.estimate.state.position_ned[2])
+            est = self.estimate
+            assert est is not None
+            height = -float(est.state.position_ned[2])
             p = self.params
             speed = p.land_crawl_speed if height < p.land_crawl_height else p.land_speed
             self.setpoint = TrajectorySetpointData(
@@ -491,42 +543,38 @@ class Firmware:
             self.setpoint = TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw)
 
     # -- control ------------------------------------------------------------------------
-    def _state(self) -> VehicleState:
-        assert self.estimate is not None
-        return self.estimate.state
-
     def position_control(self) -> None:
-        if self.estimate is None or not self.armed:
+        if not self._has_estimate() or not self._armed:
             return
-        dt_us = self._period_us["position_control"]
+        dt_us = self._position_period_us
+        position, velocity, q, _ = self._kinematics()
         try:
-            self.position_out = self.position_controller.update(self._state(), self.setpoint,
-                                                                dt_us)
+            self.position_out = self.position_controller.update_floats(
+                position, velocity, q, self.setpoint, dt_us)
         except ValueError:  # an invalid offboard setpoint: hold instead, as PX4 does
             here = self._hold_here(NavigationState.AUTO_LOITER)
-            self.position_out = self.position_controller.update(
-                self._state(), TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw),
-                dt_us)
+            self.position_out = self.position_controller.update_floats(
+                position, velocity, q,
+                TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw), dt_us)
 
     def attitude_control(self) -> None:
-        if self.position_out is None or not self.armed:
+        out = self.position_out
+        if out is None or not self._armed:
             return
-        self.rate_setpoint = self.attitude_controller.update(
-            self._state().q, self.position_out.attitude_setpoint,
-            self.position_out.yawspeed_feedforward)
+        w, x, y, z = out.attitude_setpoint.tolist()
+        self.rate_setpoint = self.attitude_controller.update_quat(
+            self._attitude(), (w, x, y, z), out.yawspeed_feedforward)
 
     def rate_control(self) -> None:
-        if not self._has_estimate() or not self.armed:
+        if not self._armed or not self._has_estimate():
             return
-        landed = bool(self.land.landed) if self.land else True
-        self.torque_setpoint = self.rate_controller.update(
-            self.gyro_frd, self.rate_setpoint, self._period_us["rate_control"], landed=landed)
+        landed = self.land.landed if self.land else True
+        self.torque_setpoint = self.rate_controller.update_floats(
+            self.gyro_frd, self.rate_setpoint, self._rate_period_us, landed)
 
     def allocate(self) -> None:
-        if not self.armed or self.position_out is None:
-            idle = (self.params.idle_thrust_fraction * self.quad.max_motor_thrust
-                    if self.armed else 0.0)
-            self.motor_commands = np.full(NUM_ROTORS, idle)
+        if not self._armed or self.position_out is None:
+            self.motor_commands = self._idle_commands if self._armed else self._stopped_commands
             return
         mixer = self.mixer
         mixer.mix(self.position_out.collective_thrust, self.torque_setpoint)
@@ -535,9 +583,10 @@ class Firmware:
 
     # -- datalink -----------------------------------------------------------------------
     def dds_receive(self) -> None:
-        for arrival in self.agent.inbox.take(self._now_ns):
+        inbox = self.agent.inbox
+        for arrival in inbox.take(self._now_ns):
             self._handle(arrival)
-        for reply in self.agent.inbox.take_timesync(self._now_ns):
+        for reply in inbox.take_timesync(self._now_ns):
             # (t1, t2, t3): our send time, the agent's clock, our receive time [us]
             self.timesync.update(reply.request_fcu_us, ns_to_us(reply.agent_time_ns),
                                  self._now_us)
@@ -552,8 +601,7 @@ class Firmware:
         self._handle(arrival)
 
     def _handle(self, arrival: Arrival) -> None:
-        handler = getattr(self, f"_on_{arrival.topic}")
-        handler(arrival.msg)
+        self._handlers[arrival.topic](arrival.msg)
 
     def timesync_request(self) -> None:
         self.agent.request_timesync(self._now_us, self._now_ns)
@@ -562,12 +610,9 @@ class Firmware:
         self.offboard_heartbeat_us = self._now_us
 
     def _on_trajectory_setpoint(self, msg: Any) -> None:
-        self.offboard_setpoint = TrajectorySetpointData(
-            position=np.asarray(msg.position, dtype=np.float64),
-            velocity=np.asarray(msg.velocity, dtype=np.float64),
-            acceleration=np.asarray(msg.acceleration, dtype=np.float64),
-            jerk=np.asarray(msg.jerk, dtype=np.float64),
-            yaw=float(msg.yaw), yawspeed=float(msg.yawspeed))
+        self.offboard_setpoint = TrajectorySetpointData(  # (float64 copies of the vectors)
+            position=msg.position, velocity=msg.velocity, acceleration=msg.acceleration,
+            jerk=msg.jerk, yaw=float(msg.yaw), yawspeed=float(msg.yawspeed))
 
     def _on_vehicle_command(self, msg: Any) -> None:
         self.pending_commands.append(VehicleCommandData(
@@ -611,7 +656,7 @@ class Firmware:
         source = _TELEMETRY_SOURCE[topic]
 
         def publish() -> None:
-            if source is not None and getattr(self, source) is None:
+            if source is not None and not self._has(source):
                 return  # nothing to tell yet
             if self.agent.unread(topic):  # nobody subscribes: the bytes, not the message
                 self.agent.send_unread(topic, self._now_ns)
@@ -622,6 +667,12 @@ class Firmware:
 
         return publish
 
+    def _has(self, source: str) -> bool:
+        """The firmware state ``source`` exists (the estimate is not built to tell)."""
+        if source == "estimate":
+            return self._has_estimate()
+        return getattr(self, source) is not None
+
     def _msg_vehicle_odometry(self) -> Any:
         est = self.estimate
         if est is None:
@@ -629,33 +680,34 @@ class Firmware:
         s = est.state
         return interfaces.new(
             "px4_msgs/msg/VehicleOdometry", timestamp=self._now_us, timestamp_sample=est.time_us,
-            pose_frame=int(PoseFrame.NED), position=_arr(s.position_ned), q=_arr(s.q, 4),
-            velocity_frame=int(VelocityFrame.NED), velocity=_arr(s.velocity_ned),
-            angular_velocity=_arr(s.angular_velocity_frd),
-            position_variance=_arr(est.position_variance_ned),
+            pose_frame=int(PoseFrame.NED), position=_f32(s.position_ned), q=_f32(s.q),
+            velocity_frame=int(VelocityFrame.NED), velocity=_f32(s.velocity_ned),
+            angular_velocity=_f32(s.angular_velocity_frd),
+            position_variance=_f32(est.position_variance_ned),
             orientation_variance=_ORIENTATION_VARIANCE.copy(),
-            velocity_variance=_arr(est.velocity_variance_ned), quality=ODOMETRY_QUALITY_BEST)
+            velocity_variance=_f32(est.velocity_variance_ned), quality=ODOMETRY_QUALITY_BEST)
 
     def _msg_vehicle_local_position(self) -> Any:
         est = self.estimate
         if est is None:
             return None
         s, valid = est.state, est.position_valid
-        p, v = s.position_ned, s.velocity_ned
-        acc = self.position_out.acceleration_setpoint_ned if self.position_out else np.zeros(3)
+        x, y, z = s.position_ned.tolist()
+        vx, vy, vz = s.velocity_ned.tolist()
+        pvx, pvy, pvz = est.position_variance_ned.tolist()
+        vvx, vvy, vvz = est.velocity_variance_ned.tolist()
+        ax, ay, az = (self.position_out.acceleration_setpoint_ned.tolist() if self.position_out
+                      else (0.0, 0.0, 0.0))
         return interfaces.new(
             "px4_msgs/msg/VehicleLocalPosition", timestamp=self._now_us,
             timestamp_sample=est.time_us, xy_valid=valid, z_valid=valid, v_xy_valid=valid,
-            v_z_valid=valid, x=float(p[0]), y=float(p[1]), z=float(p[2]), vx=float(v[0]),
-            vy=float(v[1]), vz=float(v[2]), z_deriv=float(v[2]),
-            ax=_nan_to_num(acc[0]), ay=_nan_to_num(acc[1]), az=_nan_to_num(acc[2]),
-            heading=_yaw(s.q), heading_good_for_control=True,
-            eph=float(math.sqrt(max(est.position_variance_ned[:2]))),
-            epv=float(math.sqrt(est.position_variance_ned[2])),
-            evh=float(math.sqrt(max(est.velocity_variance_ned[:2]))),
-            evv=float(math.sqrt(est.velocity_variance_ned[2])),
+            v_z_valid=valid, x=x, y=y, z=z, vx=vx, vy=vy, vz=vz, z_deriv=vz,
+            ax=_nan_to_num(ax), ay=_nan_to_num(ay), az=_nan_to_num(az),
+            heading=quat_yaw(s.q), heading_good_for_control=True,
+            eph=math.sqrt(max(pvx, pvy)), epv=math.sqrt(pvz),
+            evh=math.sqrt(max(vvx, vvy)), evv=math.sqrt(vvz),
             dead_reckoning=not valid, vxy_max=math.inf, vz_max=math.inf, hagl_min=math.inf,
-            hagl_max_z=math.inf, hagl_max_xy=math.inf, dist_bottom=-float(p[2]),
+            hagl_max_z=math.inf, hagl_max_xy=math.inf, dist_bottom=-z,
             dist_bottom_valid=valid)
 
     def _msg_vehicle_attitude(self) -> Any:
@@ -663,7 +715,7 @@ class Firmware:
             return None
         return interfaces.new("px4_msgs/msg/VehicleAttitude", timestamp=self._now_us,
                               timestamp_sample=self.estimate.time_us,
-                              q=_arr(self.estimate.state.q, 4))
+                              q=_f32(self.estimate.state.q))
 
     def _msg_vehicle_status(self) -> Any:
         st = self.status
@@ -736,8 +788,8 @@ class Firmware:
     def _msg_sensor_combined(self) -> Any:
         return interfaces.new(
             "px4_msgs/msg/SensorCombined", timestamp=self.imu_time_us,
-            gyro_rad=_arr(self.gyro_frd), gyro_integral_dt=self._dt_us,
-            accelerometer_m_s2=_arr(self.accel_frd), accelerometer_integral_dt=self._dt_us)
+            gyro_rad=_f32(self.gyro_frd), gyro_integral_dt=self._dt_us,
+            accelerometer_m_s2=_f32(self.accel_frd), accelerometer_integral_dt=self._dt_us)
 
     def _ack_msg(self, ack: VehicleCommandAckData) -> Any:
         return interfaces.new(
@@ -763,8 +815,3 @@ def _nan_to_num(value: Any) -> float:
     if math.isfinite(v):
         return v
     return 0.0 if math.isnan(v) else math.copysign(sys.float_info.max, v)
-
-
-def _yaw(q: FloatArray) -> float:
-    w, x, y, z = (float(v) for v in q)
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

@@ -24,14 +24,16 @@ from numba import njit
 from sim.quadrotor import GRAVITY as GRAVITY_M_S2  # a compile-time constant in the kernels
 
 __all__ = [
+    "ATT_GAINS_SIZE",
     "EST_BUF_COLS",
+    "EST_OUTPUT_INDEX",
     "EST_OUTPUT_SIZE",
     "EST_PARAMS_SIZE",
     "EST_STATE_SIZE",
     "RATE_GAINS_SIZE",
     "RATE_STATE_SIZE",
+    "attitude_kernel",
     "est_fuse",
-    "est_output",
     "est_predict",
     "est_push",
     "mix_kernel",
@@ -113,6 +115,81 @@ def mix_kernel(cols: np.ndarray, collective: float, tx: float, ty: float, tz: fl
         out[8 + i] = 1.0 if reduced[i] and torque[i] < 0.0 else 0.0
 
 
+# --- attitude controller ------------------------------------------------------------------
+
+# gains: kp (3, yaw compensated for its weight), rate limits (3), yaw weight (1)
+ATT_GAINS_SIZE = 7
+
+
+@njit(cache=True)
+def _dcm_column_z(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
+
+
+@njit(cache=True)
+def _cross(ax: float, ay: float, az: float, bx: float, by: float,
+           bz: float) -> tuple[float, float, float]:
+    return (ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx)
+
+
+@njit(cache=True)
+def _q_between(sx: float, sy: float, sz: float, dx: float, dy: float,
+               dz: float) -> tuple[float, float, float, float]:
+    """Shortest rotation taking unit vector ``s`` to ``d`` (``matrix::Quaternion(src,
+    dst)``; see :func:`sim.fcu.control._quat_between`)."""
+    cx, cy, cz = _cross(sx, sy, sz, dx, dy, dz)
+    dot = sx * dx + sy * dy + sz * dz
+    if cx * cx + cy * cy + cz * cz < 1e-10 and dot < 0.0:
+        a0, a1, a2 = abs(sx), abs(sy), abs(sz)
+        smallest = min(a0, a1, a2)
+        if a0 == smallest:  # the first axis of the smallest component, as list.index
+            ex, ey, ez = _cross(sx, sy, sz, 1.0, 0.0, 0.0)
+        elif a1 == smallest:
+            ex, ey, ez = _cross(sx, sy, sz, 0.0, 1.0, 0.0)
+        else:
+            ex, ey, ez = _cross(sx, sy, sz, 0.0, 0.0, 1.0)
+        return _q_normalise(0.0, ex, ey, ez)
+    ss = sx * sx + sy * sy + sz * sz
+    dd = dx * dx + dy * dy + dz * dz
+    return _q_normalise(dot + math.sqrt(ss * dd), cx, cy, cz)
+
+
+@njit(cache=True)
+def attitude_kernel(g: np.ndarray, qw: float, qx: float, qy: float, qz: float, sw: float,
+                    sx: float, sy: float, sz: float,
+                    yawspeed_feedforward: float) -> tuple[float, float, float]:
+    """:meth:`~sim.fcu.control.AttitudeController.update`: the body-rate setpoint."""
+    nw, nx, ny, nz = _q_normalise(qw, qx, qy, qz)
+    dw, dx, dy, dz = _q_normalise(sw, sx, sy, sz)
+    c0, c1, c2 = _dcm_column_z(nw, nx, ny, nz)
+    e0, e1, e2 = _dcm_column_z(dw, dx, dy, dz)
+    rw, rx, ry, rz = _q_between(c0, c1, c2, e0, e1, e2)
+    if abs(rx) > 1.0 - 1e-5 or abs(ry) > 1.0 - 1e-5:
+        rw, rx, ry, rz = dw, dx, dy, dz
+    else:
+        rw, rx, ry, rz = _q_multiply(rw, rx, ry, rz, nw, nx, ny, nz)
+    mw, mx, my, mz = _q_multiply(rw, -rx, -ry, -rz, dw, dx, dy, dz)
+    if mw < 0.0:
+        mw, mx, my, mz = -mw, -mx, -my, -mz
+    w = min(max(mw, -1.0), 1.0)
+    z = min(max(mz, -1.0), 1.0)
+    yw = g[6]
+    tw, tx, ty, tz = _q_multiply(rw, rx, ry, rz, math.cos(yw * math.acos(w)), 0.0, 0.0,
+                                 math.sin(yw * math.asin(z)))
+    ew, ex, ey, ez = _q_multiply(nw, -nx, -ny, -nz, tw, tx, ty, tz)
+    if ew < 0.0:
+        ew, ex, ey, ez = -ew, -ex, -ey, -ez
+    r0, r1, r2 = 2.0 * ex * g[0], 2.0 * ey * g[1], 2.0 * ez * g[2]
+    if math.isfinite(yawspeed_feedforward):
+        d0 = 2.0 * (nx * nz - nw * ny)  # the third row of the DCM: world down in the body
+        d1 = 2.0 * (ny * nz + nw * nx)
+        d2 = 1.0 - 2.0 * (nx * nx + ny * ny)
+        r0 += d0 * yawspeed_feedforward
+        r1 += d1 * yawspeed_feedforward
+        r2 += d2 * yawspeed_feedforward
+    return (min(max(r0, -g[3]), g[3]), min(max(r1, -g[4]), g[4]), min(max(r2, -g[5]), g[5]))
+
+
 # --- rate controller ----------------------------------------------------------------------
 
 # state: integral (3), angular acceleration (3), last rate (3), has last rate (1),
@@ -125,9 +202,9 @@ _INTEGRATOR_RATE_SCALE = math.radians(400.0)  # rad/s, PX4's integrator attenuat
 
 @njit(cache=True)
 def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
-                s0: float, s1: float, s2: float, dt_us: int, landed: bool,
-                out: np.ndarray) -> None:
-    """:meth:`~sim.fcu.control.RateController.update`: ``out`` receives the torque."""
+                s0: float, s1: float, s2: float, dt_us: int,
+                landed: bool) -> tuple[float, float, float]:
+    """:meth:`~sim.fcu.control.RateController.update`: the torque."""
     dt = max(dt_us, 1) / 1_000_000
     rate = (r0, r1, r2)
     rate_sp = (s0, s1, s2)
@@ -159,8 +236,7 @@ def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
         if finite:
             for i in range(3):
                 st[i] = min(max(candidate[i], -g[9 + i]), g[9 + i])
-    for i in range(3):
-        out[i] = g[12 + i] * acc[i]
+    return (g[12] * acc[0], g[13] * acc[1], g[14] * acc[2])
 
 
 # --- estimator ----------------------------------------------------------------------------
@@ -170,8 +246,9 @@ def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
 # p22) (18)
 EST_STATE_SIZE = 37
 EST_Q, EST_GYRO_BIAS, EST_RATE, EST_X, EST_P = 0, 4, 7, 10, 19
-# the output block (est_output): position NED (3), velocity NED (3), q (4), rate FRD (3),
-# position variance (3), velocity variance (3), acceleration bias (3), gyro bias (3)
+# the output block (the state at EST_OUTPUT_INDEX): position NED (3), velocity NED (3),
+# q (4), rate FRD (3), position variance (3), velocity variance (3), acceleration bias (3),
+# gyro bias (3)
 EST_OUTPUT_SIZE = 25
 # buffer row: time [us], x (9), p (18), NED acceleration input (3), dt [s], yaw [rad]
 EST_BUF_COLS = 33
@@ -214,20 +291,22 @@ def _q_yaw(w: float, x: float, y: float, z: float) -> float:
 
 
 @njit(cache=True)
-def _dcm(s: np.ndarray) -> np.ndarray:
-    """Row-major rotation matrix of the state's q (normalised first)."""
+def _dcm(s: np.ndarray) -> tuple[float, float, float, float, float, float, float, float,
+                                 float]:
+    """Row-major rotation matrix of the state's q (normalised first), as a tuple (no heap
+    allocation)."""
     w, x, y, z = _q_normalise(s[0], s[1], s[2], s[3])
-    r = np.empty(9)
-    r[0] = 1.0 - 2.0 * (y * y + z * z)
-    r[1] = 2.0 * (x * y - w * z)
-    r[2] = 2.0 * (x * z + w * y)
-    r[3] = 2.0 * (x * y + w * z)
-    r[4] = 1.0 - 2.0 * (x * x + z * z)
-    r[5] = 2.0 * (y * z - w * x)
-    r[6] = 2.0 * (x * z - w * y)
-    r[7] = 2.0 * (y * z + w * x)
-    r[8] = 1.0 - 2.0 * (x * x + y * y)
-    return r
+    return (
+        1.0 - 2.0 * (y * y + z * z),
+        2.0 * (x * y - w * z),
+        2.0 * (x * z + w * y),
+        2.0 * (x * y + w * z),
+        1.0 - 2.0 * (x * x + z * z),
+        2.0 * (y * z - w * x),
+        2.0 * (x * z - w * y),
+        2.0 * (y * z + w * x),
+        1.0 - 2.0 * (x * x + y * y),
+    )
 
 
 @njit(cache=True)
@@ -323,8 +402,9 @@ def est_push(buf: np.ndarray, meta: np.ndarray, s: np.ndarray, time_us: float, u
 @njit(cache=True)
 def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarray,
                 time_us: float, dt: float, ax: float, ay: float, az: float, gx: float,
-                gy: float, gz: float, aided: bool, horizon_us: float) -> None:
-    """:meth:`sim.fcu.estimator.Estimator.predict` after its checks."""
+                gy: float, gz: float, aided: bool, horizon_us: float) -> bool:
+    """:meth:`sim.fcu.estimator.Estimator.predict` after its checks; True when the
+    buffer is full afterwards (the caller grows it before the next push)."""
     _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, aided)
     r = _dcm(s)
     u0 = r[0] * ax + r[1] * ay + r[2] * az
@@ -332,6 +412,7 @@ def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarra
     u2 = r[6] * ax + r[7] * ay + r[8] * az + GRAVITY_M_S2
     _propagate(s[EST_X:EST_X + 9], s[EST_P:EST_P + 18], u0, u1, u2, dt, prm[7], prm[8])
     est_push(buf, meta, s, time_us, u0, u1, u2, dt, horizon_us)
+    return meta[1] == buf.shape[0]
 
 
 @njit(cache=True)
@@ -425,17 +506,16 @@ def _correct_yaw(s: np.ndarray, prm: np.ndarray, innovation: float) -> None:
     s[6] = min(max(s[6] - k * d2, -lim), lim)
 
 
-@njit(cache=True)
-def est_output(s: np.ndarray, out: np.ndarray) -> None:
-    """The state in the order :class:`~sim.fcu.estimator.EstimatorOutput` reads it
-    (see ``EST_OUTPUT_SIZE``)."""
-    for i in range(3):
-        out[i] = s[EST_X + 3 * i]
-        out[3 + i] = s[EST_X + 3 * i + 1]
-        out[10 + i] = s[EST_RATE + i]
-        out[13 + i] = s[EST_P + 6 * i]
-        out[16 + i] = s[EST_P + 6 * i + 3]
-        out[19 + i] = s[EST_X + 3 * i + 2]
-        out[22 + i] = s[EST_GYRO_BIAS + i]
-    for i in range(4):
-        out[6 + i] = s[EST_Q + i]
+EST_OUTPUT_INDEX = np.array(
+    [EST_X + 3 * i for i in range(3)]  # position NED
+    + [EST_X + 3 * i + 1 for i in range(3)]  # velocity NED
+    + [EST_Q + i for i in range(4)]  # q
+    + [EST_RATE + i for i in range(3)]  # bias-corrected rate FRD
+    + [EST_P + 6 * i for i in range(3)]  # position variance (p00 per axis)
+    + [EST_P + 6 * i + 3 for i in range(3)]  # velocity variance (p11 per axis)
+    + [EST_X + 3 * i + 2 for i in range(3)]  # acceleration bias NED
+    + [EST_GYRO_BIAS + i for i in range(3)]  # gyro bias FRD
+)
+"""Where the output block's values sit in the state (``state[EST_OUTPUT_INDEX]`` is the
+block :class:`~sim.fcu.estimator.EstimatorOutput` reads, a copy)."""
+assert EST_OUTPUT_INDEX.shape == (EST_OUTPUT_SIZE,)

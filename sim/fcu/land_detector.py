@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
@@ -108,8 +109,10 @@ class LandDetectorParams:
         return self.thrust_min + span * self.minimal_thrust_fraction
 
 
-@dataclass(frozen=True, slots=True)
-class LandDetectorInputs:
+# The per-update records are named tuples: immutable, and built in one call at 50 Hz.
+
+
+class LandDetectorInputs(NamedTuple):
     """One update's inputs: the FCU's own estimates and setpoints."""
 
     now_us: int
@@ -136,8 +139,7 @@ class LandDetectorInputs:
     """Commanded vertical velocity [m/s, NED down], NaN if none."""
 
 
-@dataclass(frozen=True, slots=True)
-class LandDetectedData:
+class LandDetectedData(NamedTuple):
     """The fields of ``px4_msgs/VehicleLandDetected``."""
 
     timestamp_us: int
@@ -202,6 +204,10 @@ class LandDetector:
             False, to_true_us=round(self.params.freefall_trigger_time_s * _US_PER_S)
         )
         self._in_descend = False
+        # the parameters' derived thresholds, once (update runs at 50 Hz)
+        self._low_thrust = self.params.low_thrust
+        self._minimal_thrust = self.params.minimal_thrust
+        self._rot_max_rad_s = math.radians(self.params.rot_max_deg_s)
 
     def update(self, inputs: LandDetectorInputs) -> LandDetectedData:
         """Fold in one update's inputs; the detector's flags after it."""
@@ -216,7 +222,7 @@ class LandDetector:
         z_threshold = p.z_vel_max * (p.z_vel_widening if maybe_landed_before else 1.0)
         vertical_movement = not inputs.v_z_valid or abs(inputs.vz) > z_threshold
         horizontal_movement = inputs.v_xy_valid and math.hypot(inputs.vx, inputs.vy) > p.xy_vel_max
-        has_low_throttle = inputs.thrust <= p.low_thrust
+        has_low_throttle = inputs.thrust <= self._low_thrust
         if inputs.climb_rate_control:
             self._in_descend = (
                 math.isfinite(inputs.vz_setpoint) and inputs.vz_setpoint > p.descent_vz_threshold
@@ -233,12 +239,12 @@ class LandDetector:
         ground_contact = self._ground_contact.update(ground_contact_now, now)
 
         # stage 2: maybe landed
-        rot_threshold = math.radians(p.rot_max_deg_s) * (
+        rot_threshold = self._rot_max_rad_s * (
             p.rotation_widening if maybe_landed_before else 1.0
         )
         rotational_movement = math.hypot(inputs.roll_rate, inputs.pitch_rate) > rot_threshold
         maybe_now = (
-            inputs.thrust <= p.minimal_thrust
+            inputs.thrust <= self._minimal_thrust
             and not freefall
             and not rotational_movement
             and ground_contact

@@ -5,7 +5,10 @@
 Writes ``tests/sim/fcu/data/fcu_math.npz``, which ``test_fcu_math_recorded.py`` replays
 through the current implementation (results must stay within 1e-6). The file was
 recorded from the numpy implementation (before the float rewrite), so it pins the
-behaviour the rewrite had to keep; re-recording it would only pin the current code.
+behaviour the rewrite had to keep; re-recording it would only pin the current code. (The
+hooks wrap the controllers' public ``update`` methods, which the firmware called then; it
+now calls their float paths, ``update_floats`` and ``update_quat``, so the recording is
+reproduced at the commit it was made from, not at this one.)
 
 Stateful parts (position controller, rate controller, estimator) are recorded call by
 call from boot until ``STATEFUL_S`` after arming, so a fresh instance replays them
