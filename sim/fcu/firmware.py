@@ -427,11 +427,11 @@ class Firmware:
 
     # -- sensors ------------------------------------------------------------------------
     def imu_update(self) -> None:
-        sample = self.imu.latest
-        if sample is None:
+        values = self.imu.latest_values  # the six floats (no ImuSample arrays built)
+        if values is None:
             return
-        self.accel_frd = _flu_to_frd(sample.accel.tolist())
-        self.gyro_frd = _flu_to_frd(sample.gyro.tolist())
+        self.accel_frd = _flu_to_frd(values[:3])
+        self.gyro_frd = _flu_to_frd(values[3:])
         self.imu_time_us = self._now_us
 
     def battery_update(self) -> None:
@@ -441,7 +441,7 @@ class Firmware:
 
     # -- estimation ---------------------------------------------------------------------
     def ekf_update(self) -> None:
-        if self.imu.latest is None:
+        if self.imu.latest_values is None:
             return
         if not self._has_estimate():  # boot: start the filter one tick before the first sample
             self.estimator.reset(self._now_us - self._dt_us)
