@@ -15,6 +15,7 @@ from an injected :class:`Clock` (deterministic in the simulator); host time
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -315,7 +316,8 @@ class _ReleaseClock:
         self._scheduler = scheduler
 
     def now_us(self) -> int:
-        return self._scheduler.release_time_us(self._scheduler.tick_count)
+        scheduler = self._scheduler
+        return scheduler._tick * 1_000_000 // scheduler.schedule.main_freq_hz
 
 
 @dataclass(frozen=True)
@@ -366,6 +368,12 @@ class TickResult(NamedTuple):
     """Periodic then event functions, in call order."""
     duty_ns: int
     overrun: bool
+
+
+# TickResult from a tuple of its fields without the generated __new__'s Python frame (one
+# is made every tick)
+_new_tick_result: Callable[[tuple[int, int, tuple[str, ...], int, bool]], TickResult] = (
+    functools.partial(tuple.__new__, TickResult))
 
 
 @dataclass(frozen=True)
@@ -555,6 +563,7 @@ class Scheduler:
             if any(p.group is g for p in schedule.periodics)
         )
         self._running = {p.fun: p.autorun for p in schedule.periodics}
+        self._stopped = {fun for fun, running in self._running.items() if not running}
         self._flags = {e.fun: False for e in schedule.events}
         self._events = tuple(e.fun for e in schedule.events)  # in poll order
         self._initialised = False
@@ -614,11 +623,13 @@ class Scheduler:
         """Start a periodic function (Paparazzi's MODULES_START)."""
         self._require(fun, self._running, "periodic")
         self._running[fun] = True
+        self._stopped.discard(fun)
 
     def stop(self, fun: str) -> None:
         """Stop a periodic function; its slot stays reserved (MODULES_STOP)."""
         self._require(fun, self._running, "periodic")
         self._running[fun] = False
+        self._stopped.add(fun)
 
     def is_running(self, fun: str) -> bool:
         self._require(fun, self._running, "periodic")
@@ -675,13 +686,15 @@ class Scheduler:
         else:
             self._event_duty.add_window(events, tick)
         self._marks.clear()
+        for rate_meter in self._rate_meters:  # the call times they hold, folded when many
+            rate_meter.fold_if_full()
 
     def _window_durations(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64],
                                           npt.NDArray[np.int64]]:
         """The open window's tick, group (one column each) and event-poll durations [ns]."""
         width = self._marks_per_tick
         complete = len(self._marks) - len(self._marks) % width  # not a tick under way
-        marks = np.array(self._marks[:complete], dtype=np.int64).reshape(-1, width)
+        marks = np.fromiter(self._marks, dtype=np.int64, count=complete).reshape(-1, width)
         steps = np.diff(marks, axis=1)
         return marks[:, -1] - marks[:, 0], steps[:, :-1], steps[:, -1]
 
@@ -691,7 +704,9 @@ class Scheduler:
         Duty is measured per task group (each group with periodic functions is timed on
         every tick, as Paparazzi times its group functions) and for the whole tick; a
         tick longer than the main-loop period counts as an overrun. One host-clock read
-        per group boundary: a group's duty runs from the previous boundary to its end.
+        per group boundary: a group's duty runs from the previous boundary to its end; a
+        group with nothing due on the tick, or an event poll with no event functions,
+        does nothing and takes 0 (its boundary is the previous one, not read again).
         The tick only appends the marks (and the call times); every ``window_calls`` ticks
         the meters take the window's durations from them at once.
         """
@@ -699,31 +714,33 @@ class Scheduler:
             raise SchedulerError("init() must be called before tick()")
         k = self._tick
         now = self._clock.now_us()
-        running = self._running
         timer = self._timer
         marks = self._marks
         mark = marks.append
         phase = k % self._cycle
         groups, called = self._phases.get(phase) or self._phase(phase)
-        stopped: list[str] = []
-        mark(tick_start := timer())
+        stopped = self._stopped
+        mark(t := timer())
+        tick_start = t
         try:
             for due in groups:
-                for fun, call, times in due:
-                    if running[fun]:
+                if due:
+                    for fun, call, times in due:
+                        if stopped and fun in stopped:
+                            continue
                         call()
                         times.append(now)
-                    else:
-                        stopped.append(fun)
-                mark(timer())
+                    t = timer()
+                mark(t)
             if self._events:
                 events: list[str] = []
                 self._run_events(events)
                 called += tuple(events)
+                t = timer()
         except BaseException:  # the tick did not happen: drop its marks, keep the rows
             del marks[len(marks) - len(marks) % self._marks_per_tick:]
             raise
-        mark(t_end := timer())
+        mark(t_end := t)
         if stopped:
             called = tuple(fun for fun in called if fun not in stopped)
         self._tick_times.append(now)
@@ -734,10 +751,7 @@ class Scheduler:
         self._tick = k + 1
         if self._tick % self._window == 0:
             self._close_window(k + 1)
-        if self._tick % _RateMeter.FOLD == 0:
-            for rate_meter in self._rate_meters:
-                rate_meter.fold_if_full()
-        return TickResult(k, now, called, duty_ns, overrun)
+        return _new_tick_result((k, now, called, duty_ns, overrun))
 
     def run_until(self, now_us: int) -> int:
         """Run every tick released at or before simulated time ``now_us``; return how many.

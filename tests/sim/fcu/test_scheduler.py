@@ -702,6 +702,41 @@ def test_duty_is_averaged_per_window_of_calls_in_microseconds() -> None:
     assert report.function_freq["att"].freq_hz == pytest.approx(250.0)
 
 
+def test_a_group_with_nothing_due_and_an_empty_event_poll_take_no_host_time() -> None:
+    # every host-clock read moves the clock on by 1 ns, as a real read costs time: a group
+    # is read only when it ran something, so an idle one shows 0, not the read's cost
+    catalogue = [
+        ModuleSpec("imu", G.SENSORS, periodics=(PeriodicSpec("imu", freq_hz=500),)),
+        ModuleSpec("att", G.CONTROL, periodics=(PeriodicSpec("att", freq_hz=250),)),
+    ]
+    schedule = resolve(catalogue)
+    rec = Recorder(schedule, cost_ns={"imu": 20_000, "att": 30_000})
+    reads = 0
+
+    def timer() -> int:
+        nonlocal reads
+        reads += 1
+        rec.host_ns += 1
+        return rec.host_ns
+
+    scheduler = Scheduler(schedule, rec.bindings, host_timer=timer, window_calls=10)
+    scheduler.init()
+    for _ in range(10):
+        scheduler.tick()
+    report = scheduler.report()
+    control = report.group_duty[G.CONTROL].windows[0]
+    assert control.min_us == 0.0  # the ticks without att
+    assert control.max_us == pytest.approx(30.001)
+    assert report.event_duty.max_us == 0.0  # no event functions: nothing polled
+    assert reads == 10 + 10 + 5  # tick start, imu's group every tick, att's every other
+    stopped = scheduler.tick_count
+    scheduler.stop("att")
+    assert [scheduler.tick().called for _ in range(2)] == [("imu",), ("imu",)]
+    scheduler.start("att")
+    assert {scheduler.tick().called for _ in range(2)} == {("imu",), ("imu", "att")}
+    assert scheduler.tick_count == stopped + 4
+
+
 def test_ticks_longer_than_the_period_are_overruns() -> None:
     catalogue = [
         ModuleSpec("imu", G.SENSORS, periodics=(PeriodicSpec("imu", freq_hz=500),)),
