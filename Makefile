@@ -1,13 +1,17 @@
 # quadmission: the two commands a user needs on a fresh machine.
 
-# The interpreter .venv is made from: the distribution's CPython when it is 3.11 or newer,
-# else the first python3 on PATH. Debian builds /usr/bin/python3 with profile-guided
+# The interpreter .venv is made from: on Linux the distribution's CPython when it is 3.11 or
+# newer, else the first python3 on PATH. Debian builds /usr/bin/python3 with profile-guided
 # optimisation and LTO, statically linked; a pyenv build (often first on PATH) has neither
-# and runs our pure-Python hot paths 10-20 % slower (benchmarks/bench_sitl.py records which
-# interpreter ran). Another one: make PYTHON=/path/to/python3 (after rm -rf .venv).
+# and flies our simulation ~15 % slower (benchmarks/bench_interpreter.py; bench_sitl.py
+# records which interpreter ran). Another: make PYTHON=/path/to/python3 (after rm -rf .venv).
 ifeq ($(origin PYTHON),undefined)
+ifeq ($(shell uname -s),Linux)
 PYTHON := $(shell /usr/bin/python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' \
             2>/dev/null && echo /usr/bin/python3 || echo python3)
+else
+PYTHON := python3
+endif
 endif
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -22,12 +26,11 @@ OUT    ?= runs/default
 # are root; otherwise named.
 SYSTEM_LIBS := libusb-1.0.so.0 libEGL.so.1
 SYSTEM_BINS := /usr/bin/chromium
-SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver python3-venv
+SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver
 
 system-deps:
 	@missing=""; for lib in $(SYSTEM_LIBS); do ldconfig -p | grep -q "$$lib" || missing="$$missing $$lib"; done; \
 	for bin in $(SYSTEM_BINS); do test -x "$$bin" || missing="$$missing $$bin"; done; \
-	$(PYTHON) -c 'import ensurepip' 2>/dev/null || missing="$$missing ensurepip(venv)"; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    echo "installing system libraries:$$missing" >&2; \
@@ -40,6 +43,11 @@ system-deps:
 $(STAMP): pyproject.toml | system-deps
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "quadmission needs Python >= 3.11")'
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV) || { \
+	  if [ "$(PYTHON)" = /usr/bin/python3 ] && [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing python3-venv (Debian's venv module)" >&2; rm -rf $(VENV); \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null \
+	      && $(PYTHON) -m venv $(VENV); \
+	  else false; fi; } || { \
 	  echo "error: could not create $(VENV); on Debian/Ubuntu run: apt-get install python3-venv" >&2; exit 1; }
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'

@@ -25,7 +25,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -61,6 +61,8 @@ from runtime.clock import NS_PER_S
 #: uXRCE-DDS publishers and subscribers.
 BRIDGE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: A lazy subscription's: as BRIDGE_QOS, without the writer's last sample on joining.
+LAZY_QOS = replace(BRIDGE_QOS, durability=DurabilityPolicy.VOLATILE)
 #: Acks are events, not state: a queue deep enough that two in one instant both arrive.
 ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -278,8 +280,9 @@ class FcuBridgeNode(Node):
         wanted = self.imu_pub.get_subscription_count() > 0
         if wanted and self._imu_in is None:
             topic = FMU_OUT["sensor_combined"]
+            # volatile: a sample the agent kept from an earlier reader would be stale
             self._imu_in = self.create_subscription(topic.type, topic.name, self._on_imu,
-                                                    BRIDGE_QOS)
+                                                    LAZY_QOS)
         elif not wanted and self._imu_in is not None:
             self.destroy_subscription(self._imu_in)
             self._imu_in = None

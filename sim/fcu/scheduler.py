@@ -309,6 +309,11 @@ class ManualClock:
         self._now_us = int(t_us)
 
 
+def release_time_us(tick: int, main_freq_hz: int) -> int:
+    """Simulated time (us) at which main-loop tick ``tick`` is due at ``main_freq_hz``."""
+    return tick * 1_000_000 // main_freq_hz
+
+
 class _ReleaseClock:
     """Default clock: every tick runs exactly at its release time ``k / main_freq``."""
 
@@ -317,7 +322,7 @@ class _ReleaseClock:
 
     def now_us(self) -> int:
         scheduler = self._scheduler
-        return scheduler._tick * 1_000_000 // scheduler.schedule.main_freq_hz
+        return release_time_us(scheduler.tick_count, scheduler.schedule.main_freq_hz)
 
 
 @dataclass(frozen=True)
@@ -615,7 +620,7 @@ class Scheduler:
 
     def release_time_us(self, tick: int) -> int:
         """Simulated time (us) at which main-loop tick ``tick`` is due."""
-        return tick * 1_000_000 // self.schedule.main_freq_hz
+        return release_time_us(tick, self.schedule.main_freq_hz)
 
     # -- periodic and event functions -------------------------------------------------
 
@@ -720,6 +725,7 @@ class Scheduler:
         phase = k % self._cycle
         groups, called = self._phases.get(phase) or self._phase(phase)
         stopped = self._stopped
+        skipped: list[str] = []  # due but stopped when their turn came
         mark(t := timer())
         tick_start = t
         try:
@@ -727,6 +733,7 @@ class Scheduler:
                 if due:
                     for fun, call, times in due:
                         if stopped and fun in stopped:
+                            skipped.append(fun)
                             continue
                         call()
                         times.append(now)
@@ -741,8 +748,8 @@ class Scheduler:
             del marks[len(marks) - len(marks) % self._marks_per_tick:]
             raise
         mark(t_end := t)
-        if stopped:
-            called = tuple(fun for fun in called if fun not in stopped)
+        if skipped:
+            called = tuple(fun for fun in called if fun not in skipped)
         self._tick_times.append(now)
         self._poll_times.append(now)
         duty_ns = t_end - tick_start

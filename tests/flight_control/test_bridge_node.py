@@ -178,6 +178,17 @@ def test_the_fcu_builds_sensor_combined_only_while_fcu_imu_has_readers() -> None
     sitl.run(0.5)
     assert sitl.agent.unread("sensor_combined")
 
+    # a reader joining after the gap gets fresh samples, not the last one kept from before
+    sitl.run(2.0)
+    again: list[Any] = []
+    reader.create_subscription("sensor_msgs/msg/Imu", "/fcu/imu", again.append,
+                               qos_profile_sensor_data)
+    sitl.run(0.5)
+    assert again
+    now_ns = sitl.executor.now().nanoseconds
+    first_ns = Time.from_msg(again[0].header.stamp).nanoseconds
+    assert now_ns - first_ns < 500_000_000  # stamped after it joined, not 2.5 s before
+
 
 def test_cutting_the_vio_stream_invalidates_the_fcu_position() -> None:
     sitl, companion, pilot = _setup(seed=14)

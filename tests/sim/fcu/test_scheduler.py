@@ -737,6 +737,34 @@ def test_a_group_with_nothing_due_and_an_empty_event_poll_take_no_host_time() ->
     assert scheduler.tick_count == stopped + 4
 
 
+def test_functions_started_or_stopped_during_a_tick_are_reported_as_they_ran() -> None:
+    # "once" stops itself (a one-shot); "arm" starts "late", due later in the same tick,
+    # and "early", whose turn has passed
+    catalogue = [
+        ModuleSpec("early", G.SENSORS, periodics=(PeriodicSpec("early", freq_hz=500),)),
+        ModuleSpec("once", G.CORE, periodics=(PeriodicSpec("once", freq_hz=500),)),
+        ModuleSpec("arm", G.ESTIMATION, periodics=(PeriodicSpec("arm", freq_hz=500),)),
+        ModuleSpec("late", G.CONTROL, periodics=(PeriodicSpec("late", freq_hz=500),)),
+    ]
+    schedule = resolve(catalogue)
+    ran: list[str] = []
+    bindings = {
+        "early": lambda: ran.append("early"),
+        "once": lambda: (ran.append("once"), scheduler.stop("once")),
+        "arm": lambda: (ran.append("arm"), scheduler.start("late"), scheduler.start("early")),
+        "late": lambda: ran.append("late"),
+    }
+    scheduler = Scheduler(schedule, bindings)
+    scheduler.init()
+    scheduler.stop("early")
+    scheduler.stop("late")
+    first = scheduler.tick()
+    assert ran == ["once", "arm", "late"]
+    assert first.called == ("once", "arm", "late")  # "early" was stopped at its turn
+    ran.clear()
+    assert scheduler.tick().called == ("early", "arm", "late") == tuple(ran)
+
+
 def test_ticks_longer_than_the_period_are_overruns() -> None:
     catalogue = [
         ModuleSpec("imu", G.SENSORS, periodics=(PeriodicSpec("imu", freq_hz=500),)),
