@@ -676,13 +676,18 @@ def test_bindings_must_match_the_declared_functions() -> None:
         Scheduler(schedule, {"typo": lambda: None})
 
 
-def test_duty_is_averaged_per_window_of_calls_in_microseconds() -> None:
-    catalogue = [
+def _imu_and_attitude() -> tuple[ResolvedSchedule, Recorder]:
+    """A 500 Hz IMU (20 us a call) in the sensors group and a 250 Hz attitude loop (30 us)
+    in the control group."""
+    schedule = resolve([
         ModuleSpec("imu", G.SENSORS, periodics=(PeriodicSpec("imu", freq_hz=500),)),
         ModuleSpec("att", G.CONTROL, periodics=(PeriodicSpec("att", freq_hz=250),)),
-    ]
-    schedule = resolve(catalogue)
-    rec = Recorder(schedule, cost_ns={"imu": 20_000, "att": 30_000})
+    ])
+    return schedule, Recorder(schedule, cost_ns={"imu": 20_000, "att": 30_000})
+
+
+def test_duty_is_averaged_per_window_of_calls_in_microseconds() -> None:
+    schedule, rec = _imu_and_attitude()
     scheduler = Scheduler(schedule, rec.bindings, host_timer=rec.timer, window_calls=1000)
     scheduler.init()
     for _ in range(2500):
@@ -705,12 +710,7 @@ def test_duty_is_averaged_per_window_of_calls_in_microseconds() -> None:
 def test_a_group_with_nothing_due_and_an_empty_event_poll_take_no_host_time() -> None:
     # every host-clock read moves the clock on by 1 ns, as a real read costs time: a group
     # is read only when it ran something, so an idle one shows 0, not the read's cost
-    catalogue = [
-        ModuleSpec("imu", G.SENSORS, periodics=(PeriodicSpec("imu", freq_hz=500),)),
-        ModuleSpec("att", G.CONTROL, periodics=(PeriodicSpec("att", freq_hz=250),)),
-    ]
-    schedule = resolve(catalogue)
-    rec = Recorder(schedule, cost_ns={"imu": 20_000, "att": 30_000})
+    schedule, rec = _imu_and_attitude()
     reads = 0
 
     def timer() -> int:
