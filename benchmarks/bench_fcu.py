@@ -22,7 +22,7 @@ from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from quadmission.offboard_harness import hover_flight
+from quadmission.assembly.offboard_harness import hover_flight
 from runtime import DeterministicExecutor
 from sim.arena import default_arena
 from sim.fcu.sitl import schedule_report

@@ -2,7 +2,7 @@
 
     python benchmarks/bench_latency.py --out benchmarks/results/latency.json
 
-Runs ``quadmission latency`` (:func:`quadmission.latency.run_latency_experiment`) for
+Runs ``quadmission latency`` (:func:`quadmission.experiments.latency.run_latency_experiment`) for
 ``--duration`` simulated seconds (default 60) and writes its JSON report plus:
 
 - ``vs_table3``: per path (forward = companion -> FCU, reverse = FCU -> companion), Table 3's
@@ -10,7 +10,8 @@ Runs ``quadmission latency`` (:func:`quadmission.latency.run_latency_experiment`
   true clock, with the ratios ours / paper (1.0 is a perfect match). The forward path is
   measured where the FCU's estimator parses the sample (on arrival, as seed 000's
   event-driven bridge), the reverse where the companion node receives it; the link is
-  fitted so that these end-to-end figures are Table 3's (:func:`quadmission.latency.fit_link`).
+  fitted so that these end-to-end figures are Table 3's
+  (:func:`quadmission.experiments.latency.fit_link`).
 - ``estimators``: offset error p50/p99 of ``px4`` against ``kalman`` on the same exchanges,
   with the ratio px4 / kalman (> 1: kalman tracks the true offset closer).
 - ``host``: wall time of the run and the real-time factor (simulated / wall seconds).
@@ -25,7 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from quadmission.latency import (
+from quadmission.experiments.latency import (
     EVENT_DRIVEN_INPUTS,
     TABLE3,
     LatencyConfig,

@@ -42,8 +42,8 @@ def _seeds(text: str) -> list[int]:
 
 
 def run_one(out: Path, seed: int) -> dict[str, Any]:
-    from quadmission.mission import fly_mission
     from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.mission.scenario import fly_mission
 
     try:
         report = fly_mission(ScenarioOptions(out=out, seed=seed, random_arena=True))

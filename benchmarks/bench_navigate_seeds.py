@@ -34,8 +34,8 @@ def _seeds(text: str) -> list[int]:
 
 
 def run_one(out: Path, seed: int, random_arena: bool, resume: bool = False) -> dict[str, Any]:
-    from quadmission.navigate_flight import navigate
     from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.navigate import navigate
 
     if resume and (out / "report.json").is_file():
         report = json.loads((out / "report.json").read_text())

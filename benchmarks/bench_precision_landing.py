@@ -4,7 +4,8 @@ the same seeded landings.
 
 Landings run over random arenas (``sim/arena_generator.py``) and pads in a seeded order,
 ``--landings`` of them (default 30), each flown with both strategies from the same start
-through the whole companion stack (``quadmission/precision_landing.py``); the error is
+through the whole companion stack
+(``quadmission/scenarios/precision_landing/scenario.py``); the error is
 the true touchdown point against the pad centre. Writes RMSE, max, inside-pad count and
 the ratio ours/seed to ``--out`` (default benchmarks/results/precision_landing.json),
 rewritten after every landing so a long run can be read while it goes.
@@ -25,7 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from quadmission.precision_landing import fly_episode, landing_json, start_position, summary
+from quadmission.scenarios.precision_landing.scenario import (
+    fly_episode,
+    landing_json,
+    start_position,
+    summary,
+)
 from sim.arena import Lighting
 from sim.arena_generator import generate_arena
 

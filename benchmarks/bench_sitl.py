@@ -63,8 +63,8 @@ import numpy as np
 
 import interfaces
 from quadmission.scenarios import ScenarioOptions
-from quadmission.square_fit import fit_square
-from quadmission.square_flight import fly_square
+from quadmission.scenarios.square.fit import fit_square
+from quadmission.scenarios.square.flight import fly_square
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from runtime.transport import InProcessTransport
 from sim.arena import default_arena

@@ -22,7 +22,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from quadmission.errors import ScenarioRefused
 from quadmission.scenarios import ScenarioOptions
-from quadmission.square_flight import square
+from quadmission.scenarios.square.flight import square
 
 TARGET_XY_RMSE = 0.1  # m
 

@@ -95,7 +95,8 @@ class FlightControlParams:
 
 #: Where the field bounds come from; they are never in config/flight_control.yaml.
 FIELD_SOURCE = ("the field comes from the arena in use: the app must give field_min and "
-                "field_max as parameter overrides (quadmission.assembly.field_bounds(arena))")
+                "field_max as parameter overrides "
+                "(quadmission.assembly.companion.field_bounds(arena))")
 
 
 @dataclass(frozen=True)

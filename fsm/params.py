@@ -4,7 +4,7 @@ values in ``config/mission.yaml`` and ``config/operator.yaml``.
 What the contest tells every team before the run (where the pads are, which pad the
 drone starts from; for the operator, what each robot carries) is not in those files: it
 comes from the arena in use, and the app passes it as parameter overrides
-(``quadmission.mission_assembly``), as it passes the field bounds to flight control.
+(``quadmission.assembly.companion``), as it passes the field bounds to flight control.
 """
 
 from __future__ import annotations

@@ -242,7 +242,7 @@ def _stderr(line: str) -> None:
 
 def _sim_run(args: argparse.Namespace) -> int:
     from quadmission.errors import ScenarioRefused
-    from quadmission.report import REPORT_NAME
+    from quadmission.reports.report import REPORT_NAME
     from quadmission.scenarios import SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
 
@@ -291,7 +291,7 @@ def _run_services_args(p: argparse.ArgumentParser) -> None:
 
 def _run_services(args: argparse.Namespace) -> Any:
     from ground_station.server import resolve_token
-    from quadmission.run_services import GcsOptions, RunServices
+    from quadmission.assembly.services import GcsOptions, RunServices
 
     gcs = GcsOptions(args.host, args.port, resolve_token()) if args.gcs else None
     return RunServices(rtf=args.rtf, record=args.record, foxglove=args.foxglove,
@@ -321,7 +321,7 @@ def _fcu_schedule_args(p: argparse.ArgumentParser) -> None:
 
 
 def _fcu_schedule_run(args: argparse.Namespace) -> int:
-    from quadmission.offboard_harness import hover_flight
+    from quadmission.assembly.offboard_harness import hover_flight
     from sim.fcu.sitl import schedule_report
 
     print(f"flying {args.flight_s:.0f} s of hover to measure the schedule...", file=sys.stderr)
@@ -364,7 +364,7 @@ def _latency_args(p: argparse.ArgumentParser) -> None:
 
 
 def _latency_run(args: argparse.Namespace) -> int:
-    from quadmission.latency import (
+    from quadmission.experiments.latency import (
         LatencyConfig,
         fit_link,
         format_fit,
@@ -439,8 +439,8 @@ def _gcs_args(p: argparse.ArgumentParser) -> None:
 
 def _gcs_run(args: argparse.Namespace) -> int:
     from ground_station.player import BagPlayer
-    from quadmission.pacing import RealTimePacer
-    from quadmission.run_services import GcsOptions, RunServices
+    from quadmission.assembly.pacing import RealTimePacer
+    from quadmission.assembly.services import GcsOptions, RunServices
     from runtime import DeterministicExecutor
     from sim.arena import load_arena
 

@@ -34,7 +34,8 @@ add), are the table's. What the path adds is a consumer's wait (:meth:`AddedDela
 or whatever an end-to-end measurement shows beyond the idle link
 (:meth:`AddedDelay.measured`: queueing behind other messages on the FIFO line); the
 defaults in ``config/fcu_link.yaml`` were fitted to the latency experiment that way
-(``quadmission.latency.fit_link``). The wire time is physics: at the seed's 921 600 baud,
+(``quadmission.experiments.latency.fit_link``). The wire time is physics: at the seed's
+921 600 baud,
 8N1, 115 bytes take 1247.8 us, which leaves only 81 us of mean for everything else
 companion -> FCU. That direction has no floor, no framing overhead and a skewed gamma,
 and no room for a polled consumer: a 500 Hz poll alone adds 1000 +/- 577 us, which no

@@ -10,7 +10,7 @@ import pytest
 
 import interfaces
 from interfaces.px4.topics import FMU_OUT, XRCE_SESSION
-from quadmission.assembly import Companion, start_companion
+from quadmission.assembly.companion import Companion, start_companion
 from runtime import (
     Node,
     Time,

@@ -26,7 +26,7 @@ from flight_control.flight_control_node import (
     FlightControlNode,
 )
 from flight_control.frames import quat_to_yaw
-from quadmission.assembly import start_companion
+from quadmission.assembly.companion import start_companion
 from runtime import ActionClient, GoalStatus, Node, qos_profile_default
 from runtime.future import Future
 from sim.fcu.sitl import Sitl, build_sitl

@@ -25,12 +25,12 @@ from typing import Any
 import pytest
 
 import interfaces
-from quadmission.assembly import start_companion
-from quadmission.run_services import COMMAND_LOG, GcsOptions, RunServices
-from quadmission.square_fit import fit_square
-from quadmission.square_flight import LAND_SPEED, SQUARE_SPEED
-from quadmission.square_pilot import SquarePilot
-from quadmission.square_status import SquareStatusNode
+from quadmission.assembly.companion import start_companion
+from quadmission.assembly.services import COMMAND_LOG, GcsOptions, RunServices
+from quadmission.scenarios.square.fit import fit_square
+from quadmission.scenarios.square.flight import LAND_SPEED, SQUARE_SPEED
+from quadmission.scenarios.square.pilot import SquarePilot
+from quadmission.scenarios.square.status import SquareStatusNode
 from runtime import Node, qos_profile_default
 from sim.arena import default_arena
 from sim.fcu.sitl import build_sitl

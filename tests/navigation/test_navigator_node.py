@@ -1,5 +1,5 @@
 """The navigator node's explore path choice and its health, without flying (the flights are
-in tests/quadmission/test_navigate.py)."""
+in tests/quadmission/scenarios/test_navigate.py)."""
 
 from __future__ import annotations
 

@@ -175,7 +175,7 @@ def record() -> dict[str, np.ndarray]:
     firmware_module.Firmware.armed = property(armed)  # type: ignore
 
     from quadmission.scenarios import ScenarioOptions
-    from quadmission.square_flight import square
+    from quadmission.scenarios.square.flight import square
 
     with tempfile.TemporaryDirectory() as tmp:
         report = square(ScenarioOptions(out=Path(tmp)))

@@ -113,8 +113,9 @@ def test_null_link_delivers_at_the_send_time_and_loses_nothing() -> None:
 
 @pytest.mark.parametrize("direction", [TO_FCU, TO_COMPANION])
 def test_the_idle_link_leaves_room_for_what_the_path_adds(direction: LinkDirection) -> None:
-    """config/fcu_link.yaml is fitted end to end (quadmission.latency.fit_link; the figures
-    themselves are checked in tests/quadmission/test_latency.py): the FIFO line adds some
+    """config/fcu_link.yaml is fitted end to end (quadmission.experiments.latency.fit_link;
+    the figures themselves are checked in tests/quadmission/experiments/test_latency.py): the
+    FIFO line adds some
     queueing, so the idle link's own moments sit a little under Table 3, never above."""
     params = DEFAULTS.direction(direction)
     target = TABLE3[direction]

@@ -13,7 +13,11 @@ import numpy as np
 import pytest
 
 from interfaces.px4 import FMU_OUT, CommandResult, NavigationState, VehicleCmd
-from quadmission.offboard_harness import HarnessPhase, OffboardHarness, hover_flight
+from quadmission.assembly.offboard_harness import (
+    HarnessPhase,
+    OffboardHarness,
+    hover_flight,
+)
 from runtime import Node, qos_profile_px4_subscriber
 from sim.fcu.link import LinkDirection
 from sim.fcu.sitl import Sitl, build_sitl, schedule_report

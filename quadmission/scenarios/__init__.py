@@ -1,0 +1,30 @@
+"""Scenarios that ``quadmission sim --scenario NAME`` runs, each writing a report.
+
+A scenario is a function of :class:`ScenarioOptions` that writes ``report.json`` (and
+pictures) into ``options.out`` and returns the report. The registry maps names to them;
+later capabilities add theirs (the contest mission). Each report carries a one-line
+``verdict`` for a person; progress goes to ``options.progress`` (the CLI prints it on
+stderr).
+"""
+
+from __future__ import annotations
+
+from quadmission.scenarios.arena_tour import arena_tour
+from quadmission.scenarios.mission.scenario import mission_scenario
+from quadmission.scenarios.navigate import map_arena, navigate
+from quadmission.scenarios.options import ARENA_NAME, Scenario, ScenarioOptions
+from quadmission.scenarios.precision_landing.scenario import precision_landing
+from quadmission.scenarios.square.flight import square
+
+__all__ = ["ARENA_NAME", "DEFAULT_SCENARIO", "SCENARIOS", "Scenario", "ScenarioOptions"]
+
+SCENARIOS: dict[str, Scenario] = {
+    "arena-tour": arena_tour,
+    "map-arena": map_arena,
+    "mission": mission_scenario,
+    "navigate": navigate,
+    "precision-landing": precision_landing,
+    "square": square,
+}
+#: The most complete scenario there is; ``make sim`` runs it.
+DEFAULT_SCENARIO = "mission"

@@ -1,0 +1,153 @@
+"""A mission script that flies a square through the flight-control layer.
+
+It is what the navigator and the mission state machine will be: a client of
+``/flight_control/*`` and nothing else. It waits for the layer's health report to say
+the vehicle is ready, calls ``/flight_control/arm``, then sends the goals in turn:
+``takeoff`` to the square's altitude, one ``reach`` per corner (stopping at each), back
+to the first corner, and ``land`` with disarm. It never reads the simulator: where the
+vehicle really went is the scenario's business (:mod:`quadmission.evaluation.tracking`).
+
+Map frame (ENU), metres, seconds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+import interfaces
+from flight_control.clients import arm, arm_client
+from runtime import ActionClient, Node, qos_profile_default
+
+TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
+REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
+LAND = interfaces.get_action("quadmission_interfaces/action/Land")
+HEALTH_OK = 0  # ModuleHealth.LEVEL_OK
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class PilotPhase(Enum):
+    """Where the mission script is; the order is the flight's."""
+
+    WAIT_READY = "wait_ready"
+    ARM = "arm"
+    TAKEOFF = "takeoff"
+    SQUARE = "square"
+    LAND = "land"
+    DONE = "done"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True)
+class PilotOutcome:
+    """How the mission script ended: whether every step succeeded, and what it said."""
+
+    success: bool
+    phase: PilotPhase  # the step that ended it (DONE on success)
+    message: str
+
+
+class SquarePilot(Node):
+    """Arm, take off to ``altitude``, reach ``corners`` in order at ``speed``, land at
+    ``land_speed`` and disarm.
+
+    ``corners``: (N, 3) map-frame points [m]; the flight starts above the take-off
+    point, which should be the first corner's x, y (the square closes there).
+    """
+
+    def __init__(self, corners: Sequence[Sequence[float]], *, altitude: float,
+                 speed: float = 0.0, land_speed: float = 0.0, ready_timeout_s: float = 20.0,
+                 arm_attempts: int = 5, **kwargs: Any) -> None:
+        super().__init__("square_pilot", **kwargs)
+        self.corners: FloatArray = np.asarray(corners, dtype=np.float64).reshape(-1, 3)
+        if len(self.corners) == 0:
+            raise ValueError("SquarePilot: no corners to fly")
+        self.altitude = float(altitude)
+        self.speed = float(speed)  # m/s, reach cruise speed; 0: the layer's default
+        self.land_speed = float(land_speed)  # m/s, descent; 0: the FCU's own landing
+        self.ready_timeout_s = ready_timeout_s
+        self.arm_attempts = arm_attempts
+        self.phase = PilotPhase.WAIT_READY
+        self.phase_started_ns: dict[PilotPhase, int] = {PilotPhase.WAIT_READY: 0}
+        self.corner_index = 0  # the corner being flown to (during SQUARE)
+        self.outcome: PilotOutcome | None = None
+        self._health_level: int | None = None
+        self.arm_client = arm_client(self)
+        self.takeoff = ActionClient(self, TAKEOFF, "/flight_control/takeoff")
+        self.reach = ActionClient(self, REACH, "/flight_control/reach")
+        self.land = ActionClient(self, LAND, "/flight_control/land")
+        self.create_subscription("quadmission_interfaces/msg/HealthReport",
+                                 "/flight_control/health", self._on_health, qos_profile_default)
+        self.create_task(self._mission())
+
+    @property
+    def done(self) -> bool:
+        return self.outcome is not None
+
+    def _on_health(self, msg: Any) -> None:
+        self._health_level = int(msg.level)
+
+    def _enter(self, phase: PilotPhase) -> None:
+        self.phase = phase
+        self.phase_started_ns[phase] = self.now().nanoseconds
+        self.get_logger().info(f"square pilot: {phase.value}")
+
+    def _finish(self, success: bool, message: str) -> None:
+        failed_in = self.phase
+        self._enter(PilotPhase.DONE if success else PilotPhase.FAILED)
+        self.outcome = PilotOutcome(success, PilotPhase.DONE if success else failed_in, message)
+
+    async def _goal(self, client: ActionClient, goal: Any) -> tuple[bool, str]:
+        """Send ``goal`` and wait for its result: (succeeded, the server's message)."""
+        handle = await client.send_goal_async(goal)
+        if not handle.accepted:
+            response = await handle.get_result_async()
+            return False, f"rejected: {response.result.message}"
+        response = await handle.get_result_async()
+        return bool(response.result.success), str(response.result.message)
+
+    async def _mission(self) -> None:
+        waited = 0.0
+        while self._health_level != HEALTH_OK:
+            if waited >= self.ready_timeout_s:
+                self._finish(False, f"flight control not ready after {self.ready_timeout_s:g} s")
+                return
+            await self.sleep(0.1)
+            waited += 0.1
+        self._enter(PilotPhase.ARM)
+        refused = await arm(self, self.arm_client, self.arm_attempts)
+        if refused is not None:
+            self._finish(False, f"arm: {refused}")
+            return
+        self._enter(PilotPhase.TAKEOFF)
+        ok, message = await self._goal(self.takeoff,
+                                       interfaces.new(TAKEOFF.Goal, altitude=self.altitude))
+        if not ok:
+            self._finish(False, f"takeoff: {message}")
+            return
+        self._enter(PilotPhase.SQUARE)
+        for i, corner in enumerate(self.corners):
+            self.corner_index = i
+            goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.speed)
+            goal.target.position = interfaces.new("geometry_msgs/msg/Point", x=float(corner[0]),
+                                                  y=float(corner[1]), z=float(corner[2]))
+            ok, message = await self._goal(self.reach, goal)
+            if not ok:
+                self._finish(False, f"reach corner {i + 1}/{len(self.corners)}: {message}")
+                return
+        self._enter(PilotPhase.LAND)
+        ok, message = await self._goal(self.land, interfaces.new(LAND.Goal, disarm=True,
+                                                                speed=self.land_speed))
+        if not ok:
+            self._finish(False, f"land: {message}")
+            return
+        self._finish(True, message)
+
+
+__all__ = ["PilotOutcome", "PilotPhase", "SquarePilot"]
