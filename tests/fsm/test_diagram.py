@@ -1,4 +1,5 @@
-"""The README's state diagram is the one the code generates, and it draws every transition."""
+"""The docs' state diagram (docs/mission.md) is the one the code generates, and it draws every
+transition."""
 
 from __future__ import annotations
 
@@ -11,17 +12,17 @@ from fsm.diagram import BEGIN, END, mermaid, readme_block
 from fsm.mission_table import ERROR_POLICY, TRANSITIONS
 from quadmission.cli import main
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+PAGE = Path(__file__).resolve().parents[2] / "docs" / "mission.md"
 
 
-def test_the_readme_block_is_what_quadmission_fsm_diagram_prints(
+def test_the_docs_block_is_what_quadmission_fsm_diagram_prints(
         capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["fsm", "--diagram"]) == 0
     printed = capsys.readouterr().out
     assert printed == readme_block()
-    text = README.read_text(encoding="utf-8")
+    text = PAGE.read_text(encoding="utf-8")
     start, end = text.index(BEGIN), text.index(END) + len(END) + 1
-    assert text[start:end] == printed, "README is stale: paste `quadmission fsm --diagram`"
+    assert text[start:end] == printed, "docs/mission.md is stale: paste `quadmission fsm --diagram`"
 
 
 def test_the_diagram_has_one_edge_per_transition_and_a_row_per_cause() -> None:
