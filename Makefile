@@ -18,7 +18,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= runs/default
 
-.PHONY: test sim lint typecheck bench mutate mutate-clean clean system-deps
+.PHONY: test sim lint typecheck bench docs mutate mutate-clean clean system-deps
 
 # System libraries the Python wheels need: Mesa EGL for headless MuJoCo rendering, libusb for
 # open3d's import; and Debian's headless Chromium for the operator page's browser tests
@@ -78,6 +78,12 @@ bench: $(STAMP)
 	  echo "== $$name"; \
 	  MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python $$script --out benchmarks/results/$$name.json || exit 1; \
 	done
+
+## make docs: rewrite docs/results.md and the README's headline table from
+## benchmarks/results/*.json (after make bench; standard library only, no .venv needed);
+## tests/tools/test_results_page.py fails when they are stale
+docs:
+	$(PYTHON) tools/results_page.py
 
 ## make mutate: mutation testing (mutmut) of the pure modules; prints killed/total per module
 ## and fails below MUTATE_MIN_KILL %. Not part of `make test` (CPU-heavy: minutes per module).
