@@ -658,7 +658,8 @@ def headline_rows(r: Results) -> list[list[str]]:
          f"{span([x['rtf_no_camera'] for x in rounds], 1)} / "
          f"{span([x['rtf_down_camera'] for x in rounds], 1)} (rounds)",
          f"bare world loop {span([x['rtf_bare_world'] for x in rounds], 0)}"],
-        ["simulated FCU main-loop tick, mean", f"{sitl['fcu_tick_mean_us']:.0f} us",
+        ["simulated FCU main-loop tick, mean (wall clock)",
+         f"{sitl['fcu_tick_mean_us']:.0f} us at 1-min load {sitl['load_average_1min']:.1f}",
          f"budget {sitl['fcu_tick_budget_us']:.0f} us"],
         [f"A* at {astar['resolution_m']} m, corner to corner: networkx's time / ours",
          ratio(corner["networkx_s"] / corner["ours_s"], 0),
