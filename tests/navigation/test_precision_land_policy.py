@@ -103,6 +103,9 @@ def test_a_pad_farther_than_max_pad_distance_is_refused_with_the_distance():
     # 0: no limit
     assert goal_problem(PAD_ID, PAD, (-90.0, 3.0, 1.5), max_pad_distance=0.0,
                         min_altitude=0.8) is None
+    # a limit below a metre holds too
+    assert goal_problem(PAD_ID, PAD, (4.4, 3.0, 1.5), max_pad_distance=0.5,
+                        min_altitude=0.8) is not None
 
 
 def test_a_vehicle_too_low_above_the_pad_is_told_to_take_off():
@@ -164,12 +167,23 @@ def test_a_goal_search_radius_sizes_the_search_spiral():
     assert moves[points].position == pytest.approx(moves[0].position)  # round again
 
 
-def test_without_a_search_radius_the_configured_rings_are_searched():
+def test_a_small_search_radius_searches_one_ring():
     world = _World((4.0, 3.0, 1.5))
-    policy = _policy(world, search_rings=1, search_timeout_s=600.0)
+    policy = _policy(world, search_radius=0.5, search_rings=3, search_spacing=0.8,
+                     search_timeout_s=600.0)
     assert policy.params.search_rings == 1
     moves = _search_moves(world, policy, 10)
     assert moves[9].position == pytest.approx(moves[0].position)  # 1 + 8 points, round again
+
+
+def test_without_a_search_radius_the_configured_rings_are_searched():
+    world = _World((4.0, 3.0, 1.5))
+    policy = PrecisionLandPolicy(LandingParams(search_rings=0), LandingStrategy.CAPTURE,
+                                 PAD_ID, PAD, world.pose(), world.now_ns)
+    assert policy.params.search_rings == 0
+    moves = _search_moves(world, policy, 3)  # no ring: the pad's position, again and again
+    assert all(m.position == pytest.approx((PAD[0], PAD[1], P.search_altitude))
+               for m in moves)
 
 
 # -- a landing, tick by tick ---------------------------------------------------------------
