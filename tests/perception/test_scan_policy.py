@@ -44,7 +44,8 @@ def test_an_image_is_scanned_while_enabled_once_the_intrinsics_are_known():
 
 
 def test_the_mode_is_set_by_name_and_a_wrong_name_keeps_it():
-    policy = _policy()
+    policy = _policy(mode=ScanMode.PADS)
+    assert policy.mode is ScanMode.PADS
     assert policy.set_mode("robots") is None and policy.mode is ScanMode.ROBOTS
     assert policy.set_mode("cars") == "mode: 'cars' is not one of pads, robots, both"
     assert policy.mode is ScanMode.ROBOTS
@@ -100,6 +101,13 @@ def test_an_annotated_image_is_due_at_most_at_its_rate_and_only_for_listeners():
     assert not policy.annotated_due(S // 2 + 2, listeners=1)
 
 
+def test_an_annotated_image_below_one_hertz():
+    policy = _policy(annotated_rate_hz=0.5)
+    assert policy.annotated_due(0, listeners=1)
+    assert not policy.annotated_due(2 * S - 1, listeners=1)
+    assert policy.annotated_due(2 * S, listeners=1)
+
+
 def test_no_annotated_images_at_rate_zero():
     policy = _policy(annotated_rate_hz=0.0)
     assert not any(policy.annotated_due(t * S, listeners=1) for t in range(5))
@@ -112,12 +120,32 @@ def test_rotate_turns_a_vector_by_the_quaternion():
     assert rotate(roll, [0.0, 1.0, 0.0]) == pytest.approx([0.0, 0.0, 1.0])
 
 
+def test_a_single_precision_vector_is_rotated_in_double_precision():
+    q = _q_yaw(0.7)
+    v32 = np.array([0.1, -0.2, 1.3], dtype=np.float32)
+    exact = rotate(q, v32.astype(np.float64))
+    assert rotate(q, v32).dtype == np.float64
+    assert np.array_equal(rotate(q, v32), exact)
+
+
+def _q_multiply(p, q):
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return (pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw)
+
+
 def test_yaw_of_a_quaternion():
     for yaw in (0.0, 0.7, -2.5, math.pi / 2):
         assert yaw_of(_q_yaw(yaw)) == pytest.approx(yaw)
-    # a tilt does not change the heading
-    tilted = (math.cos(0.1), math.sin(0.1), 0.0, 0.0)
-    assert yaw_of(tilted) == pytest.approx(0.0)
+
+
+def test_a_tilt_does_not_change_the_heading():
+    for roll, pitch, yaw in ((0.1, 0.0, 0.0), (0.2, -0.3, 1.1), (-0.4, 0.25, -2.0)):
+        q_roll = (math.cos(roll / 2.0), math.sin(roll / 2.0), 0.0, 0.0)
+        q_pitch = (math.cos(pitch / 2.0), 0.0, math.sin(pitch / 2.0), 0.0)
+        q = _q_multiply(_q_yaw(yaw), _q_multiply(q_pitch, q_roll))  # ZYX: yaw, pitch, roll
+        assert yaw_of(q) == pytest.approx(yaw)
 
 
 def test_a_marker_straight_below_is_at_the_vehicles_xy():
