@@ -62,11 +62,7 @@ SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 RESULT: Any = PRECISION_LAND.Result
 REACH_RESULT: Any = REACH.Result
-_RESULT_CODE = {Outcome.LANDED: RESULT.RESULT_LANDED,
-                Outcome.MARKER_NOT_FOUND: RESULT.RESULT_MARKER_NOT_FOUND,
-                Outcome.MARKER_LOST: RESULT.RESULT_MARKER_LOST,
-                Outcome.FLIGHT_ERROR: RESULT.RESULT_FLIGHT_ERROR,
-                Outcome.TIMEOUT: RESULT.RESULT_TIMEOUT, Outcome.CANCELED: RESULT.RESULT_CANCELED}
+_RESULT_CODE = {o: getattr(RESULT, f"RESULT_{o.name}") for o in Outcome}  # name for name
 
 
 @dataclass(frozen=True)

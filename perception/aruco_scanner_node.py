@@ -16,13 +16,12 @@ when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure):
 
 ``~/enable`` (std_srvs/SetBool) switches scanning on and off; the ``mode`` parameter
 (pads, robots, both) chooses the ID whitelist and can be set at run time.
-Parameters: ``config/aruco_scanner.yaml``.
+Parameters: ``config/aruco_scanner.yaml`` (:class:`perception.params.ScannerParams`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -30,19 +29,11 @@ import numpy as np
 
 import interfaces
 from flight_control.health import health_report
-from perception.aruco import (
-    DICTIONARY_NAME,
-    ArucoScanner,
-    Marker,
-    MarkerKind,
-    Preprocess,
-    ScanMode,
-    ScannerSettings,
-    annotate,
-)
+from perception.aruco import DICTIONARY_NAME, ArucoScanner, Marker, MarkerKind, annotate
+from perception.params import ScannerParams
 from perception.scan_policy import Problem, ScanPolicy, marker_in_map, yaw_of
-from runtime import Node, Parameter, Time, param, qos_profile_default, qos_profile_sensor_data
-from runtime.parameters import SetParametersResult, validate_parameters
+from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sensor_data
+from runtime.parameters import SetParametersResult
 
 NODE_NAME = "aruco_scanner"
 IMAGE_TOPIC = "/camera/down/image_raw"
@@ -62,34 +53,6 @@ _KIND_CODE = {MarkerKind.PAD: MARKER.KIND_PAD, MarkerKind.ROBOT: MARKER.KIND_ROB
               MarkerKind.OTHER: MARKER.KIND_OTHER}
 _PROBLEM_TEXT = {Problem.IMAGE_STALE: f"no image on {IMAGE_TOPIC}",
                  Problem.NO_CAMERA_INFO: f"no {INFO_TOPIC}"}
-
-
-@dataclass(frozen=True)
-class ScannerParams:
-    """Parameters of ``aruco_scanner``; values live in ``config/aruco_scanner.yaml``."""
-
-    mode: ScanMode  # which markers are reported
-    enabled: bool = param(description="scanning at start")
-    pad_marker_size: float = param(unit="m", range=(0.0, 5.0), lo_open=True)
-    robot_marker_size: float = param(unit="m", range=(0.0, 5.0), lo_open=True)
-    camera_position: tuple[float, ...] = param(unit="m", range=(-2.0, 2.0),
-                                               description="optical centre, body FLU")
-    annotated_rate_hz: float = param(unit="Hz", range=(0.0, 30.0))
-    robot_report_interval_s: float = param(unit="s", range=(0.0, 60.0))
-    jpeg_quality: int = param(unit="%", range=(10, 100))
-    health_rate_hz: float = param(unit="Hz", range=(0.1, 10.0))
-    image_timeout_s: float = param(unit="s", range=(0.1, 10.0))
-    low_light: bool = param(description="measured preprocessing passes, else OpenCV defaults")
-    small_markers: bool = param(description="the SMALL pass for markers of a few px per module")
-
-    def __post_init__(self) -> None:
-        validate_parameters(self)
-        if len(self.camera_position) != 3:
-            raise ValueError(f"camera_position: expected [x, y, z], got {self.camera_position}")
-
-    @property
-    def side_lengths(self) -> dict[MarkerKind, float]:
-        return {MarkerKind.PAD: self.pad_marker_size, MarkerKind.ROBOT: self.robot_marker_size}
 
 
 def _quat_wxyz_from_matrix(r: np.ndarray) -> tuple[float, float, float, float]:
@@ -144,10 +107,7 @@ class ArucoScannerNode(Node):
             annotated_rate_hz=self.params.annotated_rate_hz,
             robot_report_interval_s=self.params.robot_report_interval_s,
             image_timeout_s=self.params.image_timeout_s)
-        settings = ScannerSettings() if self.params.low_light else ScannerSettings.opencv_defaults()
-        if self.params.low_light and not self.params.small_markers:
-            settings = replace(settings, passes=(Preprocess.NONE, Preprocess.STRETCH))
-        self.scanner = ArucoScanner(settings)
+        self.scanner = ArucoScanner(self.params.scanner_settings())
         self.camera: np.ndarray | None = None  # K, from camera_info
         self.markers_pub = self.create_publisher(
             "quadmission_interfaces/msg/MarkerDetectionArray", MARKERS_TOPIC, qos_profile_default)
