@@ -1,13 +1,16 @@
 """The navigation nodes' parameters: types, units and ranges here, values in
-``config/mapping.yaml``, ``config/path_finder.yaml`` and ``config/navigator.yaml``. The
-field bounds (``field_min``/``field_max``) come from the app, as for flight_control."""
+``config/mapping.yaml``, ``config/path_finder.yaml``, ``config/navigator.yaml`` and
+``config/precision_land.yaml``. The field bounds (``field_min``/``field_max``) come from
+the app, as for flight_control."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
+from navigation.precision_landing import LandingParams, LandingStrategy
 from navigation.voxel_graph import GraphParams
 from runtime import param
+from runtime.parameters import validate_parameters
 
 
 @dataclass(frozen=True)
@@ -144,4 +147,47 @@ class NavigatorParams:
                                   description="~/health publish rate")
 
 
-__all__ = ["MappingParams", "NavigatorParams", "PathFinderParams"]
+@dataclass(frozen=True)
+class PrecisionLandParams:
+    """Parameters of ``precision_land``; values live in ``config/precision_land.yaml``.
+    The algorithm's are :class:`LandingParams` field for field."""
+
+    strategy: LandingStrategy  # seed (latest pose) or capture (ours)
+    max_tilt: float = param(unit="rad", range=(0.001, 1.0))
+    filter_gain: float = param(range=(0.0, 1.0), lo_open=True)
+    resolution: float = param(unit="m", range=(0.0, 0.1))
+    align_radius: float = param(unit="m", range=(0.001, 1.0))
+    max_align_speed: float = param(unit="m/s", range=(0.001, 2.0))
+    descent_step: float = param(unit="m", range=(0.01, 2.0))
+    min_altitude: float = param(unit="m", range=(0.1, 5.0))
+    search_altitude: float = param(unit="m", range=(0.1, 10.0))
+    search_spacing: float = param(unit="m", range=(0.05, 5.0))
+    search_rings: int = param(range=(0, 10))
+    search_timeout_s: float = param(unit="s", range=(0.1, 600.0))
+    lost_timeout_s: float = param(unit="s", range=(0.1, 60.0))
+    retries: int = param(range=(0, 10))
+    timeout_s: float = param(unit="s", range=(1.0, 3600.0))
+    outlier_distance: float = param(unit="m", range=(0.01, 5.0))
+    height_tolerance: float = param(unit="m", range=(0.01, 5.0))
+    max_rejections: int = param(range=(1, 100))
+    min_fresh_frames: int = param(range=(1, 100))
+    reach_speed: float = param(unit="m/s", range=(0.05, 2.0))
+    reach_radius: float = param(unit="m", range=(0.02, 1.0))
+    land_speed: float = param(unit="m/s", range=(0.05, 2.0))
+    disarm: bool = param(description="disarm once landed")
+    max_pad_distance: float = param(unit="m", range=(0.0, 100.0),
+                                    description="goals farther than this are rejected")
+    health_rate_hz: float = param(unit="Hz", range=(0.1, 10.0))
+    poll_s: float = param(unit="s", range=(0.001, 1.0),
+                          description="how often the goal looks at new frames")
+
+    def __post_init__(self) -> None:
+        validate_parameters(self)
+        self.landing()  # cross-field checks
+
+    def landing(self) -> LandingParams:
+        names = {f.name for f in fields(LandingParams)}
+        return LandingParams(**{n: getattr(self, n) for n in names})
+
+
+__all__ = ["MappingParams", "NavigatorParams", "PathFinderParams", "PrecisionLandParams"]

@@ -1,40 +1,40 @@
 """The precision-landing action node (seed 003 sec. 3.3.2): ``/navigation/precision_land``.
 
 A goal names a pad (its marker ID) and where the pad should be. The node feeds every
-``/perception/markers`` frame to :class:`navigation.precision_landing.PrecisionLander`
-(the whole decision, pure) and carries out what it returns, through the flight-control
-layer only: ``/flight_control/reach`` to move, ``/flight_control/land`` for the final
-landing. With the ``capture`` strategy each measurement is paired with the vehicle's pose
-at the image's capture time from ``/fcu/pose_at``; ``seed`` uses the latest
-``/fcu/odometry``, as the paper does. It never reads simulator truth.
+``/perception/markers`` frame, each move's and the land's end, and a cancel to
+:class:`navigation.precision_land_policy.PrecisionLandPolicy` (the whole decision, pure,
+around the seed's step :class:`navigation.precision_landing.PrecisionLander`) and
+carries out what it returns, through the flight-control layer only:
+``/flight_control/reach`` to move, ``/flight_control/land`` for the final landing. With
+the ``capture`` strategy each measurement is paired with the vehicle's pose at the
+image's capture time from ``/fcu/pose_at``; ``seed`` uses the latest ``/fcu/odometry``,
+as the paper does. It never reads simulator truth.
 
 Results: LANDED, MARKER_NOT_FOUND, MARKER_LOST, FLIGHT_ERROR (a reach or the land
 failed), TIMEOUT, CANCELED, each with a message. Feedback at each frame: phase, marker
 visible, the (filtered) horizontal error, the reference altitude. Health on ``~/health``.
-Parameters: ``config/precision_land.yaml``.
+Parameters: ``config/precision_land.yaml`` (:class:`navigation.params.PrecisionLandParams`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 from typing import Any
-
-import numpy as np
 
 import interfaces
 from flight_control.health import health_report
-from navigation.precision_landing import (
-    Fail,
-    Failure,
-    LandingParams,
-    LandingStrategy,
-    LandNow,
-    Measurement,
-    Pose,
-    PrecisionLander,
-    ReachTo,
+from navigation.params import PrecisionLandParams
+from navigation.precision_land_policy import (
+    Finish,
+    Move,
+    Outcome,
+    PrecisionLandPolicy,
+    Touchdown,
+    goal_problem,
+    pad_marker,
 )
+from navigation.precision_landing import Measurement, Pose
 from runtime import (
     ActionClient,
     ActionServer,
@@ -43,11 +43,9 @@ from runtime import (
     Rejection,
     ServerGoalHandle,
     Time,
-    param,
     qos_profile_default,
     qos_profile_sensor_data,
 )
-from runtime.parameters import validate_parameters
 
 NODE_NAME = "precision_land"
 ACTION_NAME = "/navigation/precision_land"
@@ -64,51 +62,7 @@ SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 RESULT: Any = PRECISION_LAND.Result
 REACH_RESULT: Any = REACH.Result
-_FAILURE_CODE = {Failure.NOT_FOUND: RESULT.RESULT_MARKER_NOT_FOUND,
-                 Failure.LOST: RESULT.RESULT_MARKER_LOST, Failure.TIMEOUT: RESULT.RESULT_TIMEOUT}
-
-
-@dataclass(frozen=True)
-class PrecisionLandParams:
-    """Parameters of ``precision_land``; values live in ``config/precision_land.yaml``.
-    The algorithm's are :class:`LandingParams` field for field."""
-
-    strategy: LandingStrategy  # seed (latest pose) or capture (ours)
-    max_tilt: float = param(unit="rad", range=(0.001, 1.0))
-    filter_gain: float = param(range=(0.0, 1.0), lo_open=True)
-    resolution: float = param(unit="m", range=(0.0, 0.1))
-    align_radius: float = param(unit="m", range=(0.001, 1.0))
-    max_align_speed: float = param(unit="m/s", range=(0.001, 2.0))
-    descent_step: float = param(unit="m", range=(0.01, 2.0))
-    min_altitude: float = param(unit="m", range=(0.1, 5.0))
-    search_altitude: float = param(unit="m", range=(0.1, 10.0))
-    search_spacing: float = param(unit="m", range=(0.05, 5.0))
-    search_rings: int = param(range=(0, 10))
-    search_timeout_s: float = param(unit="s", range=(0.1, 600.0))
-    lost_timeout_s: float = param(unit="s", range=(0.1, 60.0))
-    retries: int = param(range=(0, 10))
-    timeout_s: float = param(unit="s", range=(1.0, 3600.0))
-    outlier_distance: float = param(unit="m", range=(0.01, 5.0))
-    height_tolerance: float = param(unit="m", range=(0.01, 5.0))
-    max_rejections: int = param(range=(1, 100))
-    min_fresh_frames: int = param(range=(1, 100))
-    reach_speed: float = param(unit="m/s", range=(0.05, 2.0))
-    reach_radius: float = param(unit="m", range=(0.02, 1.0))
-    land_speed: float = param(unit="m/s", range=(0.05, 2.0))
-    disarm: bool = param(description="disarm once landed")
-    max_pad_distance: float = param(unit="m", range=(0.0, 100.0),
-                                    description="goals farther than this are rejected")
-    health_rate_hz: float = param(unit="Hz", range=(0.1, 10.0))
-    poll_s: float = param(unit="s", range=(0.001, 1.0),
-                          description="how often the goal looks at new frames")
-
-    def __post_init__(self) -> None:
-        validate_parameters(self)
-        self.landing()  # cross-field checks
-
-    def landing(self) -> LandingParams:
-        names = {f.name for f in fields(LandingParams)}
-        return LandingParams(**{n: getattr(self, n) for n in names})
+_RESULT_CODE = {o: getattr(RESULT, f"RESULT_{o.name}") for o in Outcome}  # name for name
 
 
 @dataclass(frozen=True)
@@ -123,6 +77,10 @@ def _yaw_roll_pitch(q: Any) -> tuple[float, float, float]:
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
     return yaw, roll, pitch
+
+
+def _point(point_msg: Any) -> tuple[float, float, float]:
+    return float(point_msg.x), float(point_msg.y), float(point_msg.z)
 
 
 def _pose(pose_msg: Any) -> Pose:
@@ -164,11 +122,9 @@ class PrecisionLandNode(Node):
     def _on_markers(self, msg: Any) -> None:
         if self.watch_id is None:
             return
-        marker = None
-        for d in msg.detections:
-            if int(d.id) == self.watch_id:
-                marker = Measurement((float(d.offset_x), float(d.offset_y)), float(d.height))
-                break
+        marker = pad_marker(((int(d.id), Measurement((float(d.offset_x), float(d.offset_y)),
+                                                     float(d.height)))
+                             for d in msg.detections), self.watch_id)
         self.frames.append(_Frame(Time.from_msg(msg.header.stamp).nanoseconds, marker))
 
     def _latest(self) -> tuple[Pose, float] | None:
@@ -185,34 +141,22 @@ class PrecisionLandNode(Node):
         latest = self._latest()
         if latest is None:
             return Rejection(f"no {ODOMETRY_TOPIC} yet: where is the vehicle?")
-        pad = goal.pad_position
-        values = (float(pad.x), float(pad.y), float(pad.z))
-        if not all(math.isfinite(v) for v in values):
-            return Rejection(f"pad_position {values} is not finite")
-        distance = math.hypot(values[0] - latest[0].position[0],
-                              values[1] - latest[0].position[1])
-        if self.params.max_pad_distance > 0.0 and distance > self.params.max_pad_distance:
-            return Rejection(f"pad {goal.pad_id} is {distance:.2f} m away (more than "
-                             f"{self.params.max_pad_distance:g} m): navigate there first")
-        height = latest[0].position[2] - values[2]
-        if height < self.params.min_altitude - 0.2:
-            return Rejection(f"the vehicle is {height:.2f} m above the pad: take off first "
-                             f"(at least {self.params.min_altitude:g} m)")
-        return GoalResponse.ACCEPT
+        problem = goal_problem(goal.pad_id, _point(goal.pad_position), latest[0].position,
+                               max_pad_distance=self.params.max_pad_distance,
+                               min_altitude=self.params.min_altitude)
+        return GoalResponse.ACCEPT if problem is None else Rejection(problem)
 
-    def _result(self, handle: ServerGoalHandle, code: int, message: str,
-                lander: PrecisionLander | None, position: Any = None) -> Any:
-        success = code == RESULT.RESULT_LANDED
-        if success:
+    def _result(self, handle: ServerGoalHandle, finish: Finish, policy: PrecisionLandPolicy,
+                position: Any = None) -> Any:
+        if finish.success:
             handle.succeed()
-        elif code == RESULT.RESULT_CANCELED:
+        elif finish.outcome is Outcome.CANCELED:
             handle.canceled()
         else:
             handle.abort()
-        error = lander.error if lander is not None and lander.error is not None else None
-        result = interfaces.new(
-            RESULT, result=int(code), success=success, message=message,
-            lateral_error=float(np.hypot(*error)) if error is not None else math.nan)
+        result = interfaces.new(RESULT, result=_RESULT_CODE[finish.outcome],
+                                success=finish.success, message=finish.message,
+                                lateral_error=policy.lateral_error)
         if position is not None:
             result.position = position
         elif (latest := self._latest()) is not None:
@@ -220,8 +164,8 @@ class PrecisionLandNode(Node):
             result.position = interfaces.new("geometry_msgs/msg/Point", x=x, y=y, z=z)
         self.active = False
         self.watch_id = None
-        self.last_outcome = message
-        self.get_logger().info(f"precision_land: {message}")
+        self.last_outcome = finish.message
+        self.get_logger().info(f"precision_land: {finish.message}")
         return result
 
     async def _pose_at(self, stamp_ns: int) -> Pose | None:
@@ -231,105 +175,84 @@ class PrecisionLandNode(Node):
             return None
         return _pose(response.odometry.pose.pose)
 
-    def _reach_goal(self, target: tuple[float, float, float], yaw: float) -> Any:
+    def _reach_goal(self, move: Move) -> Any:
         goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.params.reach_speed,
                               radius=self.params.reach_radius)
-        goal.target.position = interfaces.new("geometry_msgs/msg/Point", x=target[0],
-                                              y=target[1], z=target[2])
+        x, y, z = move.position
+        goal.target.position = interfaces.new("geometry_msgs/msg/Point", x=x, y=y, z=z)
         goal.target.orientation = interfaces.new("geometry_msgs/msg/Quaternion",
-                                                 w=math.cos(yaw / 2.0), z=math.sin(yaw / 2.0))
+                                                 w=math.cos(move.yaw / 2.0),
+                                                 z=math.sin(move.yaw / 2.0))
         return goal
 
     async def _execute(self, handle: ServerGoalHandle) -> Any:
         goal = handle.request
-        pad = (float(goal.pad_position.x), float(goal.pad_position.y),
-               float(goal.pad_position.z))
-        params = self.landing_params
-        if goal.search_radius > 0.0:  # as many rings as cover the radius
-            rings = max(1, math.ceil(goal.search_radius / params.search_spacing))
-            params = replace(params, search_rings=rings)
         start = self._latest()
         assert start is not None  # checked by the goal callback
-        lander = PrecisionLander(params, pad, self.params.strategy,
-                                 start_s=self.now().nanoseconds / 1e9)
-        lander.start(start[0].position)
-        hold_yaw = start[0].yaw
+        policy = PrecisionLandPolicy(self.landing_params, self.params.strategy,
+                                     int(goal.pad_id), _point(goal.pad_position), start[0],
+                                     self.now().nanoseconds,
+                                     search_radius=float(goal.search_radius))
         self.active = True
         self.watch_id = int(goal.pad_id)
         self.frames = []
         if self.scanner_enable.service_is_ready():
             self.scanner_enable.call_async(interfaces.new(SET_BOOL.Request, data=True))
         reach_result: Any = None  # the running reach's result future
-        capture = self.params.strategy is LandingStrategy.CAPTURE
         while True:
             if handle.is_cancel_requested:
-                return self._result(handle, RESULT.RESULT_CANCELED, "canceled", lander)
+                return self._result(handle, policy.cancel(), policy)
             if reach_result is not None and reach_result.done():
                 r = reach_result.result().result
                 reach_result = None
-                if not r.success and r.result == REACH_RESULT.RESULT_TIMEOUT:
-                    # a correction that stalls just outside its small sphere (seen: 3.0 cm
-                    # from the target, radius 3 cm) is no flight error: the next frame
-                    # measures again from where the vehicle is, within the landing's timeouts
-                    self.get_logger().warn(f"precision_land: correction move: {r.message}")
-                elif not r.success:
-                    return self._result(handle, RESULT.RESULT_FLIGHT_ERROR,
-                                        f"reach failed: {r.message}", lander)
+                ended = policy.reach_ended(r.success, r.result == REACH_RESULT.RESULT_TIMEOUT,
+                                           r.message)
+                if isinstance(ended, Finish):
+                    return self._result(handle, ended, policy)
+                if ended.why:
+                    self.get_logger().warn(f"precision_land: {ended.why}")
             frames, self.frames = self.frames, []
-            if not frames and self.now().nanoseconds / 1e9 - lander.start_s > params.timeout_s:
-                return self._result(handle, RESULT.RESULT_TIMEOUT,
-                                    f"pad {goal.pad_id}: no marker frames for "
-                                    f"{params.timeout_s:g} s (is the scanner running?)", lander)
+            if (timeout := policy.poll(self.now().nanoseconds, bool(frames))) is not None:
+                return self._result(handle, timeout, policy)
             for frame in frames:
                 latest = self._latest()
                 assert latest is not None
-                pose = latest[0]
-                if capture and frame.marker is not None:
-                    at = await self._pose_at(frame.stamp_ns)
-                    if at is None:
-                        continue
-                    pose = at
-                command = lander.on_frame(self.now().nanoseconds / 1e9, frame.marker, pose,
-                                          latest[0].position, latest[1],
-                                          busy=reach_result is not None)
-                self._feedback(handle, lander, frame.marker is not None)
-                if isinstance(command, Fail):
-                    return self._result(handle, _FAILURE_CODE[command.failure],
-                                        f"pad {goal.pad_id}: {command.failure.value}: "
-                                        f"{command.message}", lander)
-                if isinstance(command, ReachTo):
-                    reach = await self.reach.send_goal_async(
-                        self._reach_goal(command.position, hold_yaw))
+                pose: Pose | None = latest[0]
+                if policy.needs_capture_pose(frame.marker):
+                    pose = await self._pose_at(frame.stamp_ns)
+                if pose is None:
+                    continue  # no pose at its capture time: the frame says nothing
+                command = policy.frame(self.now().nanoseconds, frame.marker, pose,
+                                       latest[0].position, latest[1])
+                self._feedback(handle, policy, frame.marker is not None)
+                if isinstance(command, Finish):
+                    return self._result(handle, command, policy)
+                if isinstance(command, Move):
+                    reach = await self.reach.send_goal_async(self._reach_goal(command))
                     if not reach.accepted:
                         rejected = await reach.get_result_async()
-                        return self._result(handle, RESULT.RESULT_FLIGHT_ERROR,
-                                            f"reach rejected: {rejected.result.message}", lander)
+                        return self._result(
+                            handle, policy.reach_rejected(rejected.result.message), policy)
                     reach_result = reach.get_result_async()
                     break  # frames queued before the move are stale
-                if isinstance(command, LandNow):
-                    return await self._final_land(handle, lander, goal.pad_id)
+                if isinstance(command, Touchdown):
+                    return await self._final_land(handle, policy)
             await self.sleep(self.params.poll_s)
 
-    async def _final_land(self, handle: ServerGoalHandle, lander: PrecisionLander,
-                          pad_id: int) -> Any:
-        self._feedback(handle, lander, True)
+    async def _final_land(self, handle: ServerGoalHandle, policy: PrecisionLandPolicy) -> Any:
+        self._feedback(handle, policy, True)
         land = await self.land.send_goal_async(
             interfaces.new(LAND.Goal, speed=self.params.land_speed, disarm=self.params.disarm))
-        response = await land.get_result_async()
-        r = response.result
-        if not land.accepted or not r.success:
-            return self._result(handle, RESULT.RESULT_FLIGHT_ERROR, f"land failed: {r.message}",
-                                lander)
-        return self._result(handle, RESULT.RESULT_LANDED, f"landed on pad {pad_id}", lander,
-                            position=r.position)
+        r = (await land.get_result_async()).result
+        finish = policy.land_ended(land.accepted and r.success, r.message)
+        return self._result(handle, finish, policy,
+                            position=r.position if finish.success else None)
 
-    def _feedback(self, handle: ServerGoalHandle, lander: PrecisionLander,
+    def _feedback(self, handle: ServerGoalHandle, policy: PrecisionLandPolicy,
                   visible: bool) -> None:
-        error = lander.error
         handle.publish_feedback(interfaces.new(
-            PRECISION_LAND.Feedback, phase=int(lander.phase.value), marker_visible=visible,
-            lateral_error=float(np.hypot(*error)) if error is not None else math.nan,
-            altitude=float(lander.reference_altitude)))
+            PRECISION_LAND.Feedback, phase=int(policy.phase.value), marker_visible=visible,
+            lateral_error=policy.lateral_error, altitude=float(policy.reference_altitude)))
 
     # -- health ----------------------------------------------------------------------------
     def _publish_health(self) -> None:

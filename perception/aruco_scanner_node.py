@@ -1,7 +1,8 @@
 """The ArUco scanner node (seed 003 sec. 3.3.1): markers on the downward camera.
 
 Subscribes to ``/camera/down/image_raw`` and ``/camera/down/camera_info``; for each image
-while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes:
+while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes (what is due
+when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure):
 
 - ``/perception/markers`` (MarkerDetectionArray): every accepted marker with its ID,
   kind (pad/robot), eq. 1 centre, body-frame offset [m], height [m] and pose, stamped
@@ -15,13 +16,12 @@ while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes:
 
 ``~/enable`` (std_srvs/SetBool) switches scanning on and off; the ``mode`` parameter
 (pads, robots, both) chooses the ID whitelist and can be set at run time.
-Parameters: ``config/aruco_scanner.yaml``.
+Parameters: ``config/aruco_scanner.yaml`` (:class:`perception.params.ScannerParams`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -29,19 +29,11 @@ import numpy as np
 
 import interfaces
 from flight_control.health import health_report
-from perception.aruco import (
-    DICTIONARY_NAME,
-    ArucoScanner,
-    Marker,
-    MarkerKind,
-    Preprocess,
-    ScanMode,
-    ScannerSettings,
-    annotate,
-    optical_to_body,
-)
-from runtime import Node, Parameter, Time, param, qos_profile_default, qos_profile_sensor_data
-from runtime.parameters import SetParametersResult, validate_parameters
+from perception.aruco import DICTIONARY_NAME, ArucoScanner, Marker, MarkerKind, annotate
+from perception.params import ScannerParams
+from perception.scan_policy import Problem, ScanPolicy, marker_in_map, yaw_of
+from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sensor_data
+from runtime.parameters import SetParametersResult
 
 NODE_NAME = "aruco_scanner"
 IMAGE_TOPIC = "/camera/down/image_raw"
@@ -59,34 +51,8 @@ SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
 POSE_AT = interfaces.get_service("quadmission_interfaces/srv/PoseAt")
 _KIND_CODE = {MarkerKind.PAD: MARKER.KIND_PAD, MarkerKind.ROBOT: MARKER.KIND_ROBOT,
               MarkerKind.OTHER: MARKER.KIND_OTHER}
-
-
-@dataclass(frozen=True)
-class ScannerParams:
-    """Parameters of ``aruco_scanner``; values live in ``config/aruco_scanner.yaml``."""
-
-    mode: ScanMode  # which markers are reported
-    enabled: bool = param(description="scanning at start")
-    pad_marker_size: float = param(unit="m", range=(0.0, 5.0), lo_open=True)
-    robot_marker_size: float = param(unit="m", range=(0.0, 5.0), lo_open=True)
-    camera_position: tuple[float, ...] = param(unit="m", range=(-2.0, 2.0),
-                                               description="optical centre, body FLU")
-    annotated_rate_hz: float = param(unit="Hz", range=(0.0, 30.0))
-    robot_report_interval_s: float = param(unit="s", range=(0.0, 60.0))
-    jpeg_quality: int = param(unit="%", range=(10, 100))
-    health_rate_hz: float = param(unit="Hz", range=(0.1, 10.0))
-    image_timeout_s: float = param(unit="s", range=(0.1, 10.0))
-    low_light: bool = param(description="measured preprocessing passes, else OpenCV defaults")
-    small_markers: bool = param(description="the SMALL pass for markers of a few px per module")
-
-    def __post_init__(self) -> None:
-        validate_parameters(self)
-        if len(self.camera_position) != 3:
-            raise ValueError(f"camera_position: expected [x, y, z], got {self.camera_position}")
-
-    @property
-    def side_lengths(self) -> dict[MarkerKind, float]:
-        return {MarkerKind.PAD: self.pad_marker_size, MarkerKind.ROBOT: self.robot_marker_size}
+_PROBLEM_TEXT = {Problem.IMAGE_STALE: f"no image on {IMAGE_TOPIC}",
+                 Problem.NO_CAMERA_INFO: f"no {INFO_TOPIC}"}
 
 
 def _quat_wxyz_from_matrix(r: np.ndarray) -> tuple[float, float, float, float]:
@@ -130,39 +96,19 @@ def jpeg_msg(rgb: np.ndarray, header: Any, quality: int) -> Any:
                           data=np.frombuffer(buffer.tobytes(), dtype=np.uint8))
 
 
-def _rotate(q_wxyz: tuple[float, float, float, float], v: np.ndarray) -> np.ndarray:
-    w, x, y, z = q_wxyz
-    u = np.array([x, y, z])
-    return np.asarray(v + 2.0 * np.cross(u, np.cross(u, v) + w * v), dtype=np.float64)
-
-
-@dataclass
-class _RobotTrack:
-    sightings: int = 0
-    mean: np.ndarray | None = None  # m, map x, y, z
-    sq: np.ndarray | None = None  # running sum of squared deviations (Welford)
-    last_report_ns: int | None = None
-
-
 class ArucoScannerNode(Node):
     """See the module docstring."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(ScannerParams)
-        self.mode = self.params.mode
-        self.enabled = self.params.enabled
-        settings = ScannerSettings() if self.params.low_light else ScannerSettings.opencv_defaults()
-        if self.params.low_light and not self.params.small_markers:
-            settings = replace(settings, passes=(Preprocess.NONE, Preprocess.STRETCH))
-        self.scanner = ArucoScanner(settings)
+        self.policy = ScanPolicy(
+            enabled=self.params.enabled, mode=self.params.mode,
+            annotated_rate_hz=self.params.annotated_rate_hz,
+            robot_report_interval_s=self.params.robot_report_interval_s,
+            image_timeout_s=self.params.image_timeout_s)
+        self.scanner = ArucoScanner(self.params.scanner_settings())
         self.camera: np.ndarray | None = None  # K, from camera_info
-        self.frames = 0
-        self.frames_with_markers = 0
-        self.detections = 0
-        self.robots: dict[int, _RobotTrack] = {}
-        self._last_image_ns: int | None = None
-        self._last_annotated_ns: int | None = None
         self.markers_pub = self.create_publisher(
             "quadmission_interfaces/msg/MarkerDetectionArray", MARKERS_TOPIC, qos_profile_default)
         self.robot_pub = self.create_publisher("quadmission_interfaces/msg/RobotFound",
@@ -180,9 +126,13 @@ class ArucoScannerNode(Node):
         self.add_on_set_parameters_callback(self._on_set)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
+    @property
+    def enabled(self) -> bool:
+        return self.policy.enabled
+
     # -- control ---------------------------------------------------------------------------
     def _on_enable(self, request: Any, response: Any) -> Any:
-        self.enabled = bool(request.data)
+        self.policy.enabled = bool(request.data)
         response.success = True
         response.message = f"scanning {'enabled' if self.enabled else 'disabled'}"
         return response
@@ -190,14 +140,10 @@ class ArucoScannerNode(Node):
     def _on_set(self, params: list[Parameter]) -> SetParametersResult:
         for p in params:
             if p.name == "mode":
-                try:
-                    self.mode = ScanMode(p.value)
-                except ValueError:
-                    allowed = ", ".join(m.value for m in ScanMode)
-                    return SetParametersResult(False, f"mode: {p.value!r} is not one of "
-                                                      f"{allowed}")
+                if (problem := self.policy.set_mode(p.value)) is not None:
+                    return SetParametersResult(False, problem)
             elif p.name == "enabled":
-                self.enabled = bool(p.value)
+                self.policy.enabled = bool(p.value)
         return SetParametersResult(True)
 
     # -- images ----------------------------------------------------------------------------
@@ -206,53 +152,31 @@ class ArucoScannerNode(Node):
 
     def _on_image(self, msg: Any) -> None:
         stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
-        self._last_image_ns = self.now().nanoseconds
-        if not self.enabled or self.camera is None:
-            return
+        now_ns = self.now().nanoseconds
+        camera = self.camera
+        if not self.policy.image(now_ns, camera is not None) or camera is None:
+            return  # (camera None: never scanned; the second test is for the type checker)
         if msg.encoding != "rgb8":
             self.get_logger().warn(f"{IMAGE_TOPIC}: expected rgb8, got {msg.encoding!r}")
             return
         image = np.asarray(msg.data, dtype=np.uint8).reshape(msg.height, msg.width, 3)
-        markers = self.scanner.detect(image, self.camera, self.params.side_lengths, self.mode)
-        self.frames += 1
-        self.frames_with_markers += bool(markers)
-        self.detections += len(markers)
+        markers = self.scanner.detect(image, camera, self.params.side_lengths,
+                                      self.policy.mode)
+        due = self.policy.scanned(now_ns, [(m.id, m.kind) for m in markers])
         header = msg.header
         self.markers_pub.publish(interfaces.new(
             "quadmission_interfaces/msg/MarkerDetectionArray", header=header,
             detections=[detection_msg(m, header) for m in markers]))
         annotated: np.ndarray | None = None
-        if self._annotated_due():
+        if self.policy.annotated_due(now_ns, self.annotated_pub.get_subscription_count()):
             annotated = annotate(image, markers)
-            self._last_annotated_ns = self.now().nanoseconds
             self.annotated_pub.publish(interfaces.new(
                 "sensor_msgs/msg/Image", header=header, height=msg.height, width=msg.width,
                 encoding="rgb8", step=3 * msg.width, data=annotated.reshape(-1)))
-        for m in markers:
-            if m.kind is MarkerKind.ROBOT and self._robot_due(m.id):
-                if annotated is None:
-                    annotated = annotate(image, markers)
-                self.robots.setdefault(m.id, _RobotTrack()).last_report_ns = \
-                    self.now().nanoseconds
-                self.create_task(self._report_robot(m, stamp_ns, image, annotated))
-
-    def _annotated_due(self) -> bool:
-        rate = self.params.annotated_rate_hz
-        if rate <= 0.0 or not self.annotated_pub.get_subscription_count():
-            return False
-        last = self._last_annotated_ns
-        return last is None or self.now().nanoseconds - last >= 1e9 / rate
-
-    def _robot_due(self, marker_id: int) -> bool:
-        track = self.robots.get(marker_id)
-        if track is None or track.last_report_ns is None:
-            return True
-        return self.now().nanoseconds - track.last_report_ns >= \
-            self.params.robot_report_interval_s * 1e9
-
-    def marker_in_body(self, marker: Marker) -> np.ndarray:
-        """The marker centre [m] from the body origin, body FLU (camera mounting added)."""
-        return optical_to_body(marker.position_cam) + np.asarray(self.params.camera_position)
+        for i in due:
+            if annotated is None:
+                annotated = annotate(image, markers)
+            self.create_task(self._report_robot(markers[i], stamp_ns, image, annotated))
 
     async def _report_robot(self, marker: Marker, stamp_ns: int, image: np.ndarray,
                             annotated: np.ndarray) -> None:
@@ -270,20 +194,12 @@ class ArucoScannerNode(Node):
         pose = response.odometry.pose.pose
         o, p = pose.orientation, pose.position
         q = (float(o.w), float(o.x), float(o.y), float(o.z))
-        position = np.array([p.x, p.y, p.z]) + _rotate(q, self.marker_in_body(marker))
-        track = self.robots.setdefault(marker.id, _RobotTrack())
-        track.sightings += 1
-        if track.mean is None or track.sq is None:
-            track.mean, track.sq = position.copy(), np.zeros(3)
-        else:
-            delta = position - track.mean
-            track.mean = track.mean + delta / track.sightings
-            track.sq = track.sq + delta * (position - track.mean)
-        n = track.sightings
-        std = float(math.sqrt((track.sq[0] + track.sq[1]) / (n - 1))) if n > 1 else 0.0
+        track = self.policy.sighting(marker.id, marker_in_map(
+            np.array([p.x, p.y, p.z]), q, marker.position_cam, self.params.camera_position))
+        assert track.mean is not None  # one sighting at least
         header = interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
                                 frame_id=MAP_FRAME)
-        yaw = math.atan2(2.0 * (q[0] * q[3] + q[1] * q[2]), 1.0 - 2.0 * (q[2] ** 2 + q[3] ** 2))
+        yaw = yaw_of(q)
         quality = self.params.jpeg_quality
         self.robot_pub.publish(interfaces.new(
             "quadmission_interfaces/msg/RobotFound", header=header, marker_id=marker.id,
@@ -293,25 +209,21 @@ class ArucoScannerNode(Node):
                                         y=float(track.mean[1]), z=float(track.mean[2])),
                 orientation=interfaces.new("geometry_msgs/msg/Quaternion",
                                            w=math.cos(yaw / 2.0), z=math.sin(yaw / 2.0))),
-            position_std=std, sightings=n,
+            position_std=track.horizontal_std, sightings=track.sightings,
             picture_raw=jpeg_msg(image, header, quality),
             picture_annotated=jpeg_msg(annotated, header, quality)))
 
     # -- health ----------------------------------------------------------------------------
     def _publish_health(self) -> None:
         now = self.now()
-        last = self._last_image_ns
-        stale = last is None or now.nanoseconds - last > self.params.image_timeout_s * 1e9
-        problems = []
-        if self.enabled and stale:
-            problems.append(f"no image on {IMAGE_TOPIC}")
-        if self.enabled and self.camera is None:
-            problems.append(f"no {INFO_TOPIC}")
+        problems = [_PROBLEM_TEXT[p] for p in
+                    self.policy.problems(now.nanoseconds, self.camera is not None)]
         level = HEALTH.LEVEL_ERROR if problems else HEALTH.LEVEL_OK
         message = "; ".join(problems) if problems else ("" if self.enabled else "disabled")
-        values = {"enabled": str(self.enabled).lower(), "mode": self.mode.value,
-                  "frames": self.frames, "frames_with_markers": self.frames_with_markers,
-                  "detections": self.detections, "robots_seen": len(self.robots)}
+        policy = self.policy
+        values = {"enabled": str(self.enabled).lower(), "mode": policy.mode.value,
+                  "frames": policy.frames, "frames_with_markers": policy.frames_with_markers,
+                  "detections": policy.detections, "robots_seen": len(policy.robots)}
         self.health_pub.publish(health_report(NODE_NAME, level, message, values, now.to_msg()))
 
 

@@ -1,0 +1,179 @@
+"""The ArUco scanner's decisions, one image at a time (seed 003 sec. 3.3.1). Pure: numpy,
+no runtime; the detection itself is :mod:`perception.aruco`'s.
+
+:class:`ScanPolicy` decides, for ``aruco_scanner_node``:
+
+- which images are scanned: while enabled, once the camera's intrinsics are known;
+- when an annotated image is due: at most ``annotated_rate_hz``, and only while someone
+  listens;
+- which robot markers are reported: each robot at most once per
+  ``robot_report_interval_s``, its first sighting at once;
+- where a robot is: each reported sighting puts the marker in the map frame from the
+  vehicle's pose at capture time (:func:`marker_in_map`), and the robot's estimate is
+  the running mean of them with its horizontal standard deviation (:class:`RobotTrack`);
+- what health says: the camera stale or without intrinsics (while enabled), the counts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+import numpy.typing as npt
+
+from perception.aruco import MarkerKind, ScanMode, optical_to_body
+
+FloatArray = npt.NDArray[np.float64]
+Quaternion = tuple[float, float, float, float]  # w, x, y, z
+
+
+class Problem(Enum):
+    """What health reports as wrong with the scanner's inputs."""
+
+    IMAGE_STALE = "image_stale"  # no image for image_timeout_s (or never)
+    NO_CAMERA_INFO = "no_camera_info"  # no intrinsics yet: images cannot be measured
+
+
+def rotate(q: Quaternion, v: npt.ArrayLike) -> FloatArray:
+    """``v`` rotated by the unit quaternion ``q`` (w, x, y, z)."""
+    w, x, y, z = q
+    u = np.array([x, y, z])
+    v = np.asarray(v, dtype=np.float64)
+    return np.asarray(v + 2.0 * np.cross(u, np.cross(u, v) + w * v), dtype=np.float64)
+
+
+def yaw_of(q: Quaternion) -> float:
+    """The heading [rad] of the unit quaternion ``q`` (w, x, y, z), ENU."""
+    return math.atan2(2.0 * (q[0] * q[3] + q[1] * q[2]), 1.0 - 2.0 * (q[2] ** 2 + q[3] ** 2))
+
+
+def marker_in_map(vehicle_position: npt.ArrayLike, vehicle_orientation: Quaternion,
+                  marker_position_cam: npt.ArrayLike, camera_position: npt.ArrayLike,
+                  ) -> FloatArray:
+    """The marker centre [m] in the map frame: its position in the down camera's optical
+    frame, moved to the body (camera mounted at ``camera_position``, body FLU) and placed
+    with the vehicle's pose."""
+    in_body = optical_to_body(marker_position_cam) + np.asarray(camera_position)
+    return np.asarray(vehicle_position, dtype=np.float64) + rotate(vehicle_orientation,
+                                                                   in_body)
+
+
+@dataclass
+class RobotTrack:
+    """One robot: its sightings merged (running mean and squared deviations, Welford) and
+    when it was last reported."""
+
+    sightings: int = 0
+    mean: FloatArray | None = None  # m, map x, y, z
+    sq: FloatArray | None = None  # running sum of squared deviations
+    last_report_ns: int | None = None
+
+    def add(self, position: FloatArray) -> None:
+        """Merge one sighting at ``position`` [m, map]."""
+        self.sightings += 1
+        if self.mean is None or self.sq is None:
+            self.mean, self.sq = position.copy(), np.zeros(3)
+        else:
+            delta = position - self.mean
+            self.mean = self.mean + delta / self.sightings
+            self.sq = self.sq + delta * (position - self.mean)
+
+    @property
+    def horizontal_std(self) -> float:
+        """m, the sample standard deviation of the horizontal position; 0 from one."""
+        n = self.sightings
+        if n < 2 or self.sq is None:
+            return 0.0
+        return float(math.sqrt((self.sq[0] + self.sq[1]) / (n - 1)))
+
+
+class ScanPolicy:
+    """The scanner's state and decisions; see the module docstring. Times are int
+    nanoseconds on the node's clock."""
+
+    def __init__(self, *, enabled: bool, mode: ScanMode, annotated_rate_hz: float,
+                 robot_report_interval_s: float, image_timeout_s: float) -> None:
+        self.enabled = enabled
+        self.mode = mode
+        self.annotated_rate_hz = annotated_rate_hz
+        self.robot_report_interval_s = robot_report_interval_s
+        self.image_timeout_s = image_timeout_s
+        self.frames = 0  # images scanned
+        self.frames_with_markers = 0
+        self.detections = 0
+        self.robots: dict[int, RobotTrack] = {}  # by marker ID, once reported
+        self._last_image_ns: int | None = None
+        self._last_annotated_ns: int | None = None
+
+    def set_mode(self, value: str) -> str | None:
+        """Switch to the mode named ``value``; else say why not (and keep the mode)."""
+        try:
+            self.mode = ScanMode(value)
+        except ValueError:
+            allowed = ", ".join(m.value for m in ScanMode)
+            return f"mode: {value!r} is not one of {allowed}"
+        return None
+
+    def image(self, now_ns: int, camera_known: bool) -> bool:
+        """An image arrived: whether to scan it."""
+        self._last_image_ns = now_ns
+        return self.enabled and camera_known
+
+    def scanned(self, now_ns: int, markers: Sequence[tuple[int, MarkerKind]]) -> list[int]:
+        """An image was scanned and these (ID, kind) markers accepted: the indices of the
+        robot markers to report now (each then counts as reported at ``now_ns``)."""
+        self.frames += 1
+        self.frames_with_markers += bool(markers)
+        self.detections += len(markers)
+        due = []
+        for i, (marker_id, kind) in enumerate(markers):
+            if kind is MarkerKind.ROBOT and self._robot_due(marker_id, now_ns):
+                self.robots.setdefault(marker_id, RobotTrack()).last_report_ns = now_ns
+                due.append(i)
+        return due
+
+    def _robot_due(self, marker_id: int, now_ns: int) -> bool:
+        track = self.robots.get(marker_id)
+        if track is None or track.last_report_ns is None:
+            return True
+        return now_ns - track.last_report_ns >= self.robot_report_interval_s * 1e9
+
+    def annotated_due(self, now_ns: int, listeners: int) -> bool:
+        """Whether to publish an annotated image now (then it counts as published)."""
+        rate = self.annotated_rate_hz
+        if rate <= 0.0 or not listeners:
+            return False
+        last = self._last_annotated_ns
+        if last is None or now_ns - last >= 1e9 / rate:
+            self._last_annotated_ns = now_ns
+            return True
+        return False
+
+    def sighting(self, marker_id: int, position: FloatArray) -> RobotTrack:
+        """A reported robot marker placed at ``position`` [m, map]: its merged track."""
+        track = self.robots.setdefault(marker_id, RobotTrack())
+        track.add(position)
+        return track
+
+    def problems(self, now_ns: int, camera_known: bool) -> list[Problem]:
+        """What is wrong with the inputs while enabled (nothing while disabled)."""
+        if not self.enabled:
+            return []
+        last = self._last_image_ns
+        stale = last is None or now_ns - last > self.image_timeout_s * 1e9
+        return ([Problem.IMAGE_STALE] if stale else []) + \
+            ([] if camera_known else [Problem.NO_CAMERA_INFO])
+
+
+__all__ = [
+    "Problem",
+    "Quaternion",
+    "RobotTrack",
+    "ScanPolicy",
+    "marker_in_map",
+    "rotate",
+    "yaw_of",
+]
