@@ -279,11 +279,11 @@ class Firmware:
         self.mixer = Mixer(cfg.quad)
         self.estimator = Estimator(cfg.estimator)
         self.commander = Commander(cfg.commander)
-        self.land_detector = LandDetector(replace(
+        self.land_detector = LandDetector(
             cfg.land_detector,
             thrust_min=cfg.control.thrust_min_fraction,
             thrust_hover=cfg.quad.hover_thrust / cfg.quad.max_motor_thrust,
-        ))
+        )
         self.battery_model = BatteryModel(cfg.battery.model)
         self.battery_estimator = BatteryEstimator(
             cfg.battery.estimator, cfg.battery.model.cell_count, cfg.battery.model.capacity_mah
