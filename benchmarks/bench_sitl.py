@@ -26,7 +26,8 @@ is judged against, in the same run (so the ratios hold on a loaded machine):
 - ``messages_per_sim_s`` (every sample written on the in-process transport, per simulated
   second) and ``us_per_message`` (publish -> deliver -> callback of the flight's topic mix,
   weighted by how often each was written);
-- ``tracking_rmse_m``: the scenario's own xy tracking RMSE (setpoint vs ground truth);
+- ``tracking_rmse_m``: the scenario's own xy tracking RMSE (ground truth vs the planned
+  outline: the distance to the nearest point of the square's edges);
 - ``physics_rate``: the same flight at 3 kHz and at lower rates: the true trajectory's
   largest and RMS difference against the 3 kHz one, and each rate's RMSE;
 - ``camera``: one downward frame rendered, published and delivered at 640x480 and

@@ -40,7 +40,14 @@ from flight_control.px4_messages import (
     vision_odometry,
 )
 from flight_control.timesync import ReportedOffset, make_estimator
-from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
+from interfaces.px4 import (
+    COMPANION_COMPONENT_ID,
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
+    FMU_IN,
+    FMU_OUT,
+    ArmingState,
+)
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
 from interfaces.px4.topics import XRCE_SESSION
 from runtime import (
@@ -68,7 +75,6 @@ ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MAP_FRAME = "map"
 BODY_FRAME = "base_link"
-COMPANION_COMPONENT = 191  # MAV_COMP_ID_ONBOARD_COMPUTER
 
 # /fcu/odometry's classes, built directly at 100 Hz (every field given; validated when
 # published), as rclpy code would build them
@@ -361,8 +367,9 @@ class FcuBridgeNode(Node):
             "px4_msgs/msg/VehicleCommand", timestamp=self.to_fcu_us(self.now().nanoseconds),
             command=int(msg.command), param1=float(msg.param1), param2=float(msg.param2),
             param3=float(msg.param3), param4=float(msg.param4), param5=float(msg.param5),
-            param6=float(msg.param6), param7=float(msg.param7), target_system=1,
-            target_component=1, source_system=1, source_component=COMPANION_COMPONENT,
+            param6=float(msg.param6), param7=float(msg.param7), target_system=FCU_SYSTEM_ID,
+            target_component=FCU_COMPONENT_ID, source_system=FCU_SYSTEM_ID,
+            source_component=COMPANION_COMPONENT_ID,
             from_external=True))
 
     def _on_vision(self, msg: Any) -> None:

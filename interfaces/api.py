@@ -501,6 +501,40 @@ def describe(type_or_name: type | str) -> tuple[list[ConstantInfo], list[FieldIn
     return constants, infos
 
 
+#: The message types a service and an action are made of, in their file's order.
+SERVICE_PARTS = ("request", "response")
+ACTION_PARTS = ("goal", "result", "feedback")
+
+
+def interface_parts(name: str) -> list[tuple[str, str]]:
+    """The message types that make up the message, service or action ``name``, each with
+    its part: ``[("message", T)]``, ``[("request", T_Request), ("response", T_Response)]``
+    or ``[("goal", T_Goal), ("result", T_Result), ("feedback", T_Feedback)]``.
+
+    ``pkg/msg/Name``, ``pkg/srv/Name`` and ``pkg/action/Name`` are taken as written;
+    ``pkg/Name`` is looked up as a message, then a service, then an action.
+    """
+    parts = name.strip("/").split("/")
+    if len(parts) == 3 and parts[1] in ("msg", "srv", "action"):
+        kinds = [parts[1]]
+    else:
+        kinds = ["msg", "srv", "action"] if len(parts) == 2 else []
+    types = typestore().types
+    for kind in kinds:
+        typename = _normalise(name, kind)
+        if kind == "msg":
+            if typename in types:
+                return [("message", typename)]
+            continue
+        members = [(part, f"{typename}_{part.capitalize()}")
+                   for part in (SERVICE_PARTS if kind == "srv" else ACTION_PARTS)]
+        if all(member in types for _, member in members):
+            return members
+    what = {"msg": "message", "srv": "service", "action": "action"}
+    kind_text = what[kinds[0]] if len(kinds) == 1 else "message, service or action"
+    raise UnknownTypeError(f"unknown {kind_text} type {name!r}")
+
+
 def registered_types(package: str | None = None) -> list[str]:
     """Every registered message type name, optionally of one package, sorted."""
     names = sorted(typestore().types)

@@ -83,8 +83,10 @@ class Command:
 
 # -- interfaces ------------------------------------------------------------------------------
 def _interfaces_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("name", nargs="?", help="a type to show (constants, then each field's type, "
-                   "name and default), e.g. px4_msgs/msg/VehicleOdometry")
+    p.add_argument("name", nargs="?", help="a message, service or action to show (constants, "
+                   "then each field's type, name and default; a service's request and "
+                   "response, an action's goal, result and feedback), e.g. "
+                   "px4_msgs/msg/VehicleOdometry or quadmission_interfaces/action/Reach")
     p.add_argument("--package", help="list only this package's types")
 
 
@@ -92,20 +94,30 @@ def _interfaces_run(args: argparse.Namespace) -> int:
     import interfaces
 
     if args.name:
-        constants, fields = interfaces.describe(args.name)
-        for c in constants:
-            print(f"{c.type} {c.name}={c.value}")
-        if constants and fields:
-            print()
-        type_w = max((len(f.type) for f in fields), default=0)
-        name_w = max((len(f.name) for f in fields), default=0)
-        for f in fields:
-            default = "" if f.nested else f"  {f.default!r}"
-            print(f"{f.type:<{type_w}}  {f.name:<{name_w}}{default}".rstrip())
+        parts = interfaces.interface_parts(args.name)
+        for i, (part, typename) in enumerate(parts):
+            if len(parts) > 1:  # the .srv/.action file's layout: parts between ---
+                print(f"{'---' + chr(10) if i else ''}# {part}: {typename}")
+            _print_type(typename)
         return 0
     for name in interfaces.registered_types(args.package):
         print(name)
     return 0
+
+
+def _print_type(typename: str) -> None:
+    import interfaces
+
+    constants, fields = interfaces.describe(typename)
+    for c in constants:
+        print(f"{c.type} {c.name}={c.value}")
+    if constants and fields:
+        print()
+    type_w = max((len(f.type) for f in fields), default=0)
+    name_w = max((len(f.name) for f in fields), default=0)
+    for f in fields:
+        default = "" if f.nested else f"  {f.default!r}"
+        print(f"{f.type:<{type_w}}  {f.name:<{name_w}}{default}".rstrip())
 
 
 # -- launch ----------------------------------------------------------------------------------

@@ -15,6 +15,10 @@ from interfaces.px4.constants import (
     VelocityFrame,
 )
 from interfaces.px4.modes import (
+    BROADCAST_ID,
+    COMPANION_COMPONENT_ID,
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
     FORCE_ARM_DISARM_MAGIC,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_TYPE_QUADROTOR,
@@ -25,6 +29,10 @@ from interfaces.px4.modes import (
 from interfaces.px4.topics import FMU_IN, FMU_OUT, FmuTopic
 
 __all__ = [
+    "BROADCAST_ID",
+    "COMPANION_COMPONENT_ID",
+    "FCU_COMPONENT_ID",
+    "FCU_SYSTEM_ID",
     "FMU_IN",
     "FMU_OUT",
     "FORCE_ARM_DISARM_MAGIC",

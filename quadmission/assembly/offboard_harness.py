@@ -30,6 +30,9 @@ import interfaces
 from flight_control.px4_messages import vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces.px4 import (
+    COMPANION_COMPONENT_ID,
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     ArmingState,
     NavigationState,
@@ -214,8 +217,9 @@ class OffboardHarness(Node):
     def command(self, command: int, **params: float) -> None:
         self.command_pub.publish(interfaces.new(
             "px4_msgs/msg/VehicleCommand", timestamp=self.fcu_time_us(self.now().nanoseconds),
-            command=command, target_system=1, target_component=1, source_system=255,
-            source_component=1, from_external=True, **params))
+            command=command, target_system=FCU_SYSTEM_ID, target_component=FCU_COMPONENT_ID,
+            source_system=FCU_SYSTEM_ID, source_component=COMPANION_COMPONENT_ID,
+            from_external=True, **params))
 
     def _enter(self, phase: HarnessPhase) -> None:
         self.phase = phase

@@ -1,6 +1,12 @@
-"""Judging a flight against ground truth: the setpoints the flight-control layer streamed
-(``/fcu/setpoint``, recorded as any subscriber would) against where the simulator says
-the vehicle was at the same instants.
+"""Judging a flight against ground truth, where the simulator says the vehicle was, against
+one of two references:
+
+- :func:`tracking`: the setpoints the flight-control layer streamed (``/fcu/setpoint``,
+  recorded as any subscriber would), at the setpoints' instants: how well the vehicle
+  followed its commands;
+- :func:`outline_tracking`: a planned path (a polyline at one altitude), at every ground
+  truth sample: the distance to the nearest point of the path, so a flight whose commands
+  cut a corner is penalised, which the setpoint comparison cannot see.
 
 Evaluation only: the companion never sees any of this. Map frame (ENU), metres, seconds.
 """
@@ -8,6 +14,7 @@ Evaluation only: the companion never sees any of this. Map frame (ENU), metres, 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,17 +49,18 @@ class SetpointRecorder(Node):
 
 @dataclass(frozen=True)
 class Tracking:
-    """Setpoint vs flown position over a window: per-sample errors and their summary."""
+    """Flown position vs a reference over a window: per-sample errors and their summary."""
 
-    t: FloatArray  # s, setpoint stamps in the window
-    setpoint: FloatArray  # m, (N, 3)
-    flown: FloatArray  # m, (N, 3), ground truth at the stamps
+    t: FloatArray  # s, the sample instants in the window
+    reference: FloatArray  # m, (N, 3), where the vehicle should have been at each
+    flown: FloatArray  # m, (N, 3), ground truth at the same instants
     window: tuple[float, float]  # s
+    against: str  # what the reference is, in words, for reports and plots
 
     @property
     def error(self) -> FloatArray:
-        """Flown minus setpoint [m], (N, 3)."""
-        return self.flown - self.setpoint
+        """Flown minus reference [m], (N, 3)."""
+        return self.flown - self.reference
 
     @property
     def error_xy(self) -> FloatArray:
@@ -68,7 +76,7 @@ class Tracking:
         return per_axis | {"xy": float(np.sqrt(np.mean(self.error_xy ** 2)))}
 
     def max_error(self) -> float | None:
-        """Largest 3-D distance [m] between setpoint and vehicle; None without samples."""
+        """Largest 3-D distance [m] between reference and vehicle; None without samples."""
         return float(np.max(np.linalg.norm(self.error, axis=1))) if len(self.t) else None
 
 
@@ -86,7 +94,42 @@ def tracking(stamps: FloatArray, setpoints: FloatArray, truth: Trajectory,
     t = stamps[keep]
     flown = np.column_stack([np.interp(t, truth.t, truth.position[:, i]) for i in range(3)]) \
         if len(t) else np.zeros((0, 3))
-    return Tracking(t, setpoints[keep], flown, (start, end))
+    return Tracking(t, setpoints[keep], flown, (start, end), SETPOINT_TOPIC)
+
+
+def nearest_on_polyline(points: FloatArray, polyline: FloatArray) -> FloatArray:
+    """For each point (N, 2), the nearest point (N, 2) of the polyline (M >= 1, 2): of its
+    segments, or its one point. Points and polyline in the same frame and unit."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    vertices = np.asarray(polyline, dtype=np.float64).reshape(-1, 2)
+    if len(vertices) == 0:
+        raise ValueError("the polyline has no points")
+    if len(vertices) == 1:
+        return np.repeat(vertices, len(points), axis=0)
+    a, b = vertices[:-1], vertices[1:]  # (S, 2) segments
+    ab = b - a
+    length_sq = np.einsum("sk,sk->s", ab, ab)
+    ap = points[:, None, :] - a[None, :, :]  # (N, S, 2)
+    along = np.einsum("nsk,sk->ns", ap, ab) / np.where(length_sq > 0.0, length_sq, 1.0)
+    foot = a[None] + np.clip(along, 0.0, 1.0)[..., None] * ab[None]  # (N, S, 2)
+    nearest = np.argmin(np.einsum("nsk,nsk->ns", points[:, None] - foot,
+                                  points[:, None] - foot), axis=1)
+    return foot[np.arange(len(points)), nearest]
+
+
+def outline_tracking(truth: Trajectory, outline: Sequence[tuple[float, float]],
+                     altitude: float, window: tuple[float, float]) -> Tracking:
+    """Every ground-truth sample in ``[start, end)`` of ``window`` [s] against the planned
+    path: the polyline ``outline`` [m] (closed if its last point is its first) flown at
+    ``altitude`` [m]. The reference of a sample is the nearest point of the path, so the
+    horizontal error is the distance to the outline, the vertical one the height off
+    ``altitude``; where along the path the vehicle is (early, late) does not count."""
+    start, end = window
+    keep = (truth.t >= start) & (truth.t < end)
+    t, flown = truth.t[keep], truth.position[keep].reshape(-1, 3)
+    nearest = nearest_on_polyline(flown[:, :2], np.asarray(outline, dtype=np.float64))
+    reference = np.column_stack([nearest, np.full(len(t), float(altitude))])
+    return Tracking(t, reference, flown, (start, end), "the planned outline")
 
 
 def rounded(value: float | None, digits: int = 4) -> float | None:
@@ -96,4 +139,5 @@ def rounded(value: float | None, digits: int = 4) -> float | None:
     return round(float(value), digits)
 
 
-__all__ = ["SETPOINT_TOPIC", "SetpointRecorder", "Tracking", "rounded", "tracking"]
+__all__ = ["SETPOINT_TOPIC", "SetpointRecorder", "Tracking", "nearest_on_polyline",
+           "outline_tracking", "rounded", "tracking"]

@@ -2,7 +2,8 @@
 
 :func:`save_path_figure` draws ``path.png``: a top view of the arena around the flight
 (metre axes, walls, obstacles, pads, the start pad, setpoint against flown path, the
-crash point if any), the altitude against time, and the position error against time.
+crash point if any), the altitude against time, and the position error against time (against
+what the :class:`~quadmission.evaluation.tracking.Tracking` says).
 """
 
 from __future__ import annotations
@@ -163,13 +164,13 @@ def save_path_figure(path: Path, picture: FlightPicture) -> None:
         err.plot(tr.t, np.abs(tr.error[:, 2]) * 100.0, color="tab:cyan", label="vertical |e_z|")
         err.legend(loc="best", fontsize=8)
     else:
-        err.text(0.5, 0.5, "no setpoint on the square to compare", ha="center",
+        err.text(0.5, 0.5, "no flight on the square to compare", ha="center",
                  va="center", transform=err.transAxes)
     if picture.crash is not None:
         err.axvline(picture.crash.t_s, color="black", linestyle="--")
     err.set_xlabel("simulated time [s]")
-    err.set_ylabel("error flown - setpoint [cm]")
-    err.set_title("position error")
+    err.set_ylabel("error flown - reference [cm]")
+    err.set_title(f"position error against {tr.against}")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
 

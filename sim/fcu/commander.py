@@ -158,6 +158,10 @@ from enum import Enum, IntEnum
 from typing import NamedTuple
 
 from interfaces.px4 import (
+    BROADCAST_ID,
+    COMPANION_COMPONENT_ID,
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
     FORCE_ARM_DISARM_MAGIC,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     ArmDisarmReason,
@@ -494,9 +498,9 @@ class BatteryFailsafeAction(Enum):
 class CommanderParams:
     """Everything in ``config/fcu_commander.yaml``; defaults are PX4's where PX4 has one."""
 
-    system_id: int = param(1, range=(1, 255))
+    system_id: int = param(FCU_SYSTEM_ID, range=(1, 255))
     """``MAV_SYS_ID``: commands for another system are ignored (0 = broadcast)."""
-    component_id: int = param(1, range=(1, 255))
+    component_id: int = param(FCU_COMPONENT_ID, range=(1, 255))
     """``MAV_COMP_ID``: commands for another component are ignored (0 = all)."""
     offboard_min_rate_hz: float = param(2.0, unit="Hz", range=(0.1, 1000.0))
     """The offboard heartbeat must be faster than this (gaps below 1 / rate)."""
@@ -550,10 +554,10 @@ class VehicleCommandData:
     param5: float = 0.0
     param6: float = 0.0
     param7: float = 0.0
-    target_system: int = 1
-    target_component: int = 1
-    source_system: int = 1
-    source_component: int = 1
+    target_system: int = FCU_SYSTEM_ID
+    target_component: int = FCU_COMPONENT_ID
+    source_system: int = FCU_SYSTEM_ID
+    source_component: int = COMPANION_COMPONENT_ID
     confirmation: int = 0
     from_external: bool = True
     timestamp_us: int = 0
@@ -1066,9 +1070,8 @@ def commander_step(
 
     acks: list[VehicleCommandAckData] = []
     for cmd in inputs.commands:
-        if cmd.target_system not in (0, params.system_id) or cmd.target_component not in (
-            0,
-            params.component_id,
+        if cmd.target_system not in (BROADCAST_ID, params.system_id) or (
+            cmd.target_component not in (BROADCAST_ID, params.component_id)
         ):
             continue  # for someone else: PX4 neither executes nor acknowledges it
         s, ack = _handle_command(ctx, s, cmd)

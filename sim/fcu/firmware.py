@@ -26,6 +26,8 @@ import numpy.typing as npt
 
 import interfaces
 from interfaces.px4 import (
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
     MAV_TYPE_QUADROTOR,
     ODOMETRY_QUALITY_BEST,
     ArmingState,
@@ -277,11 +279,11 @@ class Firmware:
         self.mixer = Mixer(cfg.quad)
         self.estimator = Estimator(cfg.estimator)
         self.commander = Commander(cfg.commander)
-        self.land_detector = LandDetector(replace(
+        self.land_detector = LandDetector(
             cfg.land_detector,
             thrust_min=cfg.control.thrust_min_fraction,
             thrust_hover=cfg.quad.hover_thrust / cfg.quad.max_motor_thrust,
-        ))
+        )
         self.battery_model = BatteryModel(cfg.battery.model)
         self.battery_estimator = BatteryEstimator(
             cfg.battery.estimator, cfg.battery.model.cell_count, cfg.battery.model.capacity_mah
@@ -730,8 +732,10 @@ class Firmware:
             nav_state_user_intention=int(st.nav_state_user_intention),
             nav_state=int(st.nav_state), failsafe=st.failsafe,
             vehicle_type=int(VehicleType.ROTARY_WING), system_type=MAV_TYPE_QUADROTOR,
-            system_id=self.config.commander.system_id if self.config.commander else 1,
-            component_id=1, pre_flight_checks_pass=st.pre_flight_checks_pass,
+            system_id=self.config.commander.system_id if self.config.commander else FCU_SYSTEM_ID,
+            component_id=(self.config.commander.component_id if self.config.commander
+                          else FCU_COMPONENT_ID),
+            pre_flight_checks_pass=st.pre_flight_checks_pass,
             power_input_valid=True, safety_off=True)
 
     def _msg_battery_status(self) -> Any:

@@ -53,60 +53,44 @@ _US_PER_S = 1_000_000
 
 @dataclass(frozen=True, slots=True)
 class LandDetectorParams:
-    """PX4's ``LNDMC_*``, ``LNDMC_FFALL_*`` and ``MPC_THR_*`` parameters (PX4 defaults)."""
+    """PX4's ``LNDMC_*`` and ``LNDMC_FFALL_*`` parameters and the stage thresholds' factors.
 
-    z_vel_max: float = param(0.25, unit="m/s", range=(0.0, 10.0))
+    No defaults: the values live in ``config/fcu_land_detector.yaml`` alone (PX4's defaults,
+    with PX4's names, are noted there), so code and config cannot disagree. The thrust range
+    the thresholds scale (PX4's ``MPC_THR_MIN`` and ``MPC_THR_HOVER``) is no parameter of the
+    detector: :class:`LandDetector` takes it from the controller and the airframe.
+    """
+
+    z_vel_max: float = param(unit="m/s", range=(0.0, 10.0))
     """``LNDMC_Z_VEL_MAX`` [m/s]: vertical speed below which the vehicle is not moving."""
-    xy_vel_max: float = param(1.5, unit="m/s", range=(0.0, 10.0))
+    xy_vel_max: float = param(unit="m/s", range=(0.0, 10.0))
     """``LNDMC_XY_VEL_MAX`` [m/s]: horizontal speed allowed while landed."""
-    rot_max_deg_s: float = param(20.0, unit="deg/s", range=(0.0, 1000.0))
+    rot_max_deg_s: float = param(unit="deg/s", range=(0.0, 1000.0))
     """``LNDMC_ROT_MAX`` [deg/s]: roll/pitch rate allowed while landed."""
-    trigger_time_s: float = param(1.0, unit="s", range=(0.0, 10.0))
+    trigger_time_s: float = param(unit="s", range=(0.0, 10.0))
     """``LNDMC_TRIG_TIME`` [s]: total hysteresis, a third per stage."""
-    freefall_acc_threshold: float = param(2.0, unit="m/s^2", range=(0.0, 10.0))
+    freefall_acc_threshold: float = param(unit="m/s^2", range=(0.0, 10.0))
     """``LNDMC_FFALL_THR`` [m/s^2]: specific-force norm below which the vehicle falls."""
-    freefall_trigger_time_s: float = param(0.3, unit="s", range=(0.0, 5.0))
+    freefall_trigger_time_s: float = param(unit="s", range=(0.0, 5.0))
     """``LNDMC_FFALL_TTRI`` [s]."""
-    thrust_min: float = param(0.12, range=(0.0, 1.0))
-    """``MPC_THR_MIN``: minimum collective thrust in auto modes [0..1]; the firmware sets it
-    from ``fcu_control.thrust_min_fraction``."""
-    thrust_hover: float = param(0.5, range=(0.0, 1.0))
-    """``MPC_THR_HOVER``: hover collective thrust [0..1]; the firmware sets it from the
-    airframe's hover thrust."""
-    descent_vz_threshold: float = param(0.6, unit="m/s", range=(0.0, 10.0))
+    descent_vz_threshold: float = param(unit="m/s", range=(0.0, 10.0))
     """Commanded descent speed [m/s, NED down] above which the vehicle is ``in_descend``."""
-    low_thrust_fraction: float = param(0.3, range=(0.0, 1.0))
+    low_thrust_fraction: float = param(range=(0.0, 1.0))
     """Ground contact needs thrust at or below ``min + this * (hover - min)`` (PX4: 0.3)."""
-    minimal_thrust_fraction: float = param(0.1, range=(0.0, 1.0))
+    minimal_thrust_fraction: float = param(range=(0.0, 1.0))
     """Maybe landed needs thrust at or below ``min + this * (hover - min)`` (PX4: 0.1)."""
-    z_vel_widening: float = param(2.5, range=(1.0, 10.0))
+    z_vel_widening: float = param(range=(1.0, 10.0))
     """Factor on ``z_vel_max`` once maybe landed (PX4: 2.5)."""
-    rotation_widening: float = param(2.5, range=(1.0, 10.0))
+    rotation_widening: float = param(range=(1.0, 10.0))
     """Factor on ``rot_max_deg_s`` once maybe landed (PX4: 2.5)."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
-        if self.thrust_hover <= self.thrust_min:
-            raise ParameterError(
-                f"{self.thrust_hover!r} must be above thrust_min = {self.thrust_min!r}",
-                key="thrust_hover",
-            )
 
     @property
     def stage_time_us(self) -> int:
         """Hysteresis of each stage [us]."""
         return round(self.trigger_time_s * _US_PER_S / 3)
-
-    @property
-    def low_thrust(self) -> float:
-        """Thrust at or below which ground contact is possible."""
-        return self.thrust_min + (self.thrust_hover - self.thrust_min) * self.low_thrust_fraction
-
-    @property
-    def minimal_thrust(self) -> float:
-        """Thrust at or below which the vehicle may be landed."""
-        span = self.thrust_hover - self.thrust_min
-        return self.thrust_min + span * self.minimal_thrust_fraction
 
 
 # The per-update records are named tuples: immutable, and built in one call at 50 Hz.
@@ -194,8 +178,19 @@ class Hysteresis:
 class LandDetector:
     """Call :meth:`update` at a fixed rate (PX4: 50 Hz) with non-decreasing times."""
 
-    def __init__(self, params: LandDetectorParams | None = None) -> None:
-        self.params = params if params is not None else LandDetectorParams()
+    def __init__(self, params: LandDetectorParams, *, thrust_min: float,
+                 thrust_hover: float) -> None:
+        """``thrust_min`` and ``thrust_hover``: PX4's ``MPC_THR_MIN`` and ``MPC_THR_HOVER``,
+        collective thrust as a fraction of the maximum [0..1], the controller's floor and
+        the airframe's hover thrust."""
+        if not 0.0 <= thrust_min < thrust_hover <= 1.0:
+            raise ParameterError(
+                f"{thrust_hover!r} must be above thrust_min = {thrust_min!r}, both in [0, 1]",
+                key="thrust_hover",
+            )
+        self.params = params
+        self.thrust_min = thrust_min
+        self.thrust_hover = thrust_hover
         stage = self.params.stage_time_us
         self._ground_contact = Hysteresis(True, to_true_us=stage)
         self._maybe_landed = Hysteresis(True, to_true_us=stage)
@@ -205,8 +200,9 @@ class LandDetector:
         )
         self._in_descend = False
         # the parameters' derived thresholds, once (update runs at 50 Hz)
-        self._low_thrust = self.params.low_thrust
-        self._minimal_thrust = self.params.minimal_thrust
+        span = thrust_hover - thrust_min
+        self._low_thrust = thrust_min + span * params.low_thrust_fraction
+        self._minimal_thrust = thrust_min + span * params.minimal_thrust_fraction
         self._rot_max_rad_s = math.radians(self.params.rot_max_deg_s)
 
     def update(self, inputs: LandDetectorInputs) -> LandDetectedData:

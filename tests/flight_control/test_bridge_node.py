@@ -9,6 +9,14 @@ import numpy as np
 import pytest
 
 import interfaces
+from interfaces.px4 import (
+    COMPANION_COMPONENT_ID,
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
+    FMU_IN,
+    CommandResult,
+    VehicleCmd,
+)
 from interfaces.px4.topics import FMU_OUT, XRCE_SESSION
 from quadmission.assembly.companion import Companion, start_companion
 from runtime import (
@@ -118,6 +126,32 @@ def test_setpoints_fly_the_vehicle_in_the_map_frame() -> None:
     pilot.target = (start[0] + 1.0, start[1] + 0.5, start[2] + 1.0)  # 1 m east, 0.5 m north
     sitl.run(6.0)
     assert _truth(sitl).position == pytest.approx(np.array(pilot.target), abs=0.1)
+
+
+def test_commands_go_to_the_fcu_from_the_companion_and_the_ack_comes_back() -> None:
+    # MAVLink addressing: the FCU executes and acknowledges only commands for its own system
+    # and component (or broadcast), and addresses the ack to the command's source
+    sitl, _, pilot = _setup(seed=15)
+    sent: list[Any] = []
+    acks: list[Any] = []
+    statuses: list[Any] = []
+    tap = Node("mavlink_tap", context=sitl.executor.context)
+    for topic, sink in ((FMU_IN["vehicle_command"], sent),
+                        (FMU_OUT["vehicle_command_ack"], acks),
+                        (FMU_OUT["vehicle_status"], statuses)):
+        tap.create_subscription(topic.type, topic.name, sink.append, qos_profile_px4_subscriber)
+    sitl.run(0.5)
+    pilot.command(int(VehicleCmd.COMPONENT_ARM_DISARM), param1=1.0)
+    sitl.run(1.0)
+    assert [(c.target_system, c.target_component, c.source_system, c.source_component)
+            for c in sent] == [(FCU_SYSTEM_ID, FCU_COMPONENT_ID, FCU_SYSTEM_ID,
+                                COMPANION_COMPONENT_ID)]
+    assert (statuses[-1].system_id, statuses[-1].component_id) == (FCU_SYSTEM_ID,
+                                                                   FCU_COMPONENT_ID)
+    assert [(a.command, a.result, a.target_system, a.target_component) for a in acks] == [
+        (VehicleCmd.COMPONENT_ARM_DISARM, CommandResult.ACCEPTED, FCU_SYSTEM_ID,
+         COMPANION_COMPONENT_ID)]
+    assert pilot.status.armed
 
 
 def test_pose_history_answers_where_the_vehicle_was() -> None:

@@ -236,3 +236,38 @@ def test_a_command_without_the_token_is_refused(browser: Any, flight: Flight) ->
     log = [json.loads(line) for line in (flight.out / COMMAND_LOG).read_text().splitlines()]
     refusals = [e for e in log if not e["accepted"]]
     assert len(refusals) >= 3 and all(e["reason"] == "missing or wrong token" for e in refusals)
+
+
+# Everything the operator needs, by selector: the right column's controls above all (the
+# Resume button and the sequence's label were cut off at 1400 px wide by a fixed-width grid).
+OPERATOR_CONTROLS = ("#btn-start", "#btn-pause", "#btn-resume", "#btn-abort",
+                     "label:has(#sequence)", "#sequence", "#send-sequence", "#token",
+                     "#map", "#fsm", "#camera")
+
+
+@pytest.mark.parametrize("width", [1280, 1400])
+def test_the_page_fits_a_laptop_screen(browser: Any, flight: Flight, width: int) -> None:
+    page = browser.new_page(viewport={"width": width, "height": 800})
+    try:
+        page.goto(flight.url)
+        # live content in every column: the pose under the map, the proposal beside its box
+        page.wait_for_function("document.getElementById('pose').textContent.startsWith('x ')",
+                               timeout=WAIT_MS)
+        page.wait_for_function("document.getElementById('proposal-note').textContent !== ''",
+                               timeout=WAIT_MS)
+        page.screenshot(path=str(OUTPUT / f"width_{width}.png"), full_page=True)
+        scroll_width = page.evaluate("document.documentElement.scrollWidth")
+        assert scroll_width <= width, f"the page scrolls sideways: {scroll_width} px wide"
+        for selector in OPERATOR_CONTROLS:
+            box = page.locator(selector).bounding_box()
+            assert page.locator(selector).is_visible() and box is not None, selector
+            assert box["x"] >= 0 and box["x"] + box["width"] <= width, (
+                f"{selector} spans x {box['x']:.0f}..{box['x'] + box['width']:.0f} px, "
+                f"outside the {width} px window")
+        cut = page.evaluate("""() => [...document.querySelectorAll('main *')]
+            .filter(e => { const r = e.getBoundingClientRect();
+                           return r.width > 0 && (r.left < -0.5 || r.right > innerWidth + 0.5); })
+            .map(e => e.id || e.tagName)""")
+        assert cut == [], f"cut off at the window's edge: {cut}"
+    finally:
+        page.close()

@@ -86,6 +86,45 @@ def test_unknown_names_raise_unknown_type_error(getter: Any, name: str) -> None:
     assert isinstance(info.value, KeyError)
 
 
+@pytest.mark.parametrize(
+    ("name", "parts"),
+    [
+        ("px4_msgs/msg/VehicleOdometry", [("message", "px4_msgs/msg/VehicleOdometry")]),
+        (f"{QM}/MissionState", [("message", f"{QM}/msg/MissionState")]),
+        (f"{QM}/srv/PlanPath", [("request", f"{QM}/srv/PlanPath_Request"),
+                                ("response", f"{QM}/srv/PlanPath_Response")]),
+        (f"{QM}/Arm", [("request", f"{QM}/srv/Arm_Request"),
+                       ("response", f"{QM}/srv/Arm_Response")]),
+        (f"/{QM}/action/Reach", [("goal", f"{QM}/action/Reach_Goal"),
+                                 ("result", f"{QM}/action/Reach_Result"),
+                                 ("feedback", f"{QM}/action/Reach_Feedback")]),
+        (f"{QM}/Navigate", [("goal", f"{QM}/action/Navigate_Goal"),
+                            ("result", f"{QM}/action/Navigate_Result"),
+                            ("feedback", f"{QM}/action/Navigate_Feedback")]),
+    ],
+)
+def test_interface_parts_of_a_message_a_service_and_an_action(
+    name: str, parts: list[tuple[str, str]]
+) -> None:
+    assert interfaces.interface_parts(name) == parts
+
+
+@pytest.mark.parametrize(
+    ("name", "error"),
+    [
+        (f"{QM}/action/Arm", "unknown action type"),  # a service is not an action
+        (f"{QM}/srv/Reach", "unknown service type"),
+        (f"{QM}/msg/Reach", "unknown message type"),
+        (f"{QM}/NoSuchThing", "unknown message, service or action type"),
+        (f"{QM}/thing/Reach", "unknown message, service or action type"),
+        ("Reach", "unknown message, service or action type"),
+    ],
+)
+def test_interface_parts_rejects_unknown_names_naming_them(name: str, error: str) -> None:
+    with pytest.raises(UnknownTypeError, match=f"{error} '{re.escape(name)}'"):
+        interfaces.interface_parts(name)
+
+
 def test_new_and_deserialize_reject_unknown_type_names() -> None:
     with pytest.raises(UnknownTypeError, match="NoSuch"):
         interfaces.new("px4_msgs/NoSuch")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+import interfaces
 from interfaces.errors import UnknownTypeError
 from quadmission.cli import (
     COMMANDS,
@@ -73,9 +74,34 @@ def test_interfaces_shows_each_fields_type_name_and_default(
         "std_msgs/msg/Header", "header", "geometry_msgs/msg/PoseStamped[]", "poses"]
 
 
+def test_interfaces_shows_an_actions_goal_result_and_feedback(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["interfaces", "quadmission_interfaces/action/Reach"]) == 0
+    sections = capsys.readouterr().out.split("---\n")
+    action = interfaces.get_action("quadmission_interfaces/action/Reach")
+    parts = (("goal", action.Goal), ("result", action.Result), ("feedback", action.Feedback))
+    assert len(sections) == len(parts), sections
+    for text, (part, cls) in zip(sections, parts, strict=True):
+        lines = text.splitlines()
+        assert lines[0] == f"# {part}: {interfaces.type_name(cls)}"
+        constants, fields = interfaces.describe(cls)
+        shown = [line.split()[1] for line in lines[1:] if line and "=" not in line]
+        assert shown == [f.name for f in fields], (part, lines)
+        assert [line.split()[1] for line in lines if "=" in line] == [
+            f"{c.name}={c.value}" for c in constants]
+    assert main(["interfaces", "quadmission_interfaces/PlanPath"]) == 0  # a service
+    shown = capsys.readouterr().out
+    assert shown.startswith("# request: quadmission_interfaces/srv/PlanPath_Request\n")
+    assert "---\n# response: quadmission_interfaces/srv/PlanPath_Response\n" in shown
+
+
 def test_unknown_type_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["interfaces", "px4_msgs/msg/NoSuchThing"]) == 2
     assert "unknown message type 'px4_msgs/msg/NoSuchThing'" in capsys.readouterr().err
+    assert main(["interfaces", "quadmission_interfaces/action/NoSuchThing"]) == 2
+    assert ("unknown action type 'quadmission_interfaces/action/NoSuchThing'"
+            in capsys.readouterr().err)
 
 
 def test_launch_runs_nodes_in_simulated_time(

@@ -11,7 +11,8 @@ a flight to go wrong). Ground truth is read only here, to judge the flight:
   the seed and the arena, except the ``host`` block (wall time, real-time factor, FCU
   scheduler overruns against host time);
 - ``path.png`` (:mod:`quadmission.reports.plots`), written whatever the outcome;
-- the verdict: ``landed, RMSE 0.05 m`` / ``CRASH: hit obstacle_2 at 18.9 s`` /
+- the verdict: ``landed, RMSE 0.05 m`` (the true path against the planned outline, see
+  :func:`~quadmission.evaluation.tracking.outline_tracking`) / ``CRASH: hit obstacle_2 at 18.9 s`` /
   ``FAILED: ...``; a square that does not fit is refused before any flight
   (:class:`~quadmission.errors.SquareDoesNotFit`, ``REFUSED: ...``).
 """
@@ -27,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 from quadmission.assembly.companion import start_companion
 from quadmission.assembly.services import attach_services
 from quadmission.errors import SquareDoesNotFit
-from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
+from quadmission.evaluation.tracking import SetpointRecorder, outline_tracking, rounded
 from quadmission.reports.plots import FlightPicture, save_path_figure
 from quadmission.reports.report import write_report
 from quadmission.scenarios.square.fit import CLEARANCE, SquarePlan, fit_square
@@ -82,7 +83,7 @@ def _rmse_line(rmse: dict[str, float | None]) -> str:
     if rmse["xy"] is None:
         return "no tracking RMSE: the square was not flown"
     values = "/".join(f"{rmse[axis]:.3f}" for axis in ("x", "y", "z", "xy"))
-    return f"tracking RMSE x/y/z/xy {values} m (setpoint vs ground truth, on the square)"
+    return f"tracking RMSE x/y/z/xy {values} m (ground truth vs the planned outline)"
 
 
 def _base_report(options: ScenarioOptions, arena: ArenaSpec) -> dict[str, Any]:
@@ -137,8 +138,8 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     square_end_s = min(started.get(PilotPhase.LAND, math.inf),
                        started.get(PilotPhase.FAILED, math.inf), end_s)
     window = (started.get(PilotPhase.SQUARE, math.inf), square_end_s)
-    stamps, setpoints = recorder.samples()
-    track = tracking(stamps, setpoints, truth, window)
+    stamps, setpoints = recorder.samples()  # drawn, not judged: they may cut corners
+    track = outline_tracking(truth, plan.outline(), plan.altitude, window)
     rmse = {axis: rounded(v) for axis, v in track.rmse().items()}  # as reported
 
     outcome = pilot.outcome
@@ -171,7 +172,9 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
         "ok": landed,
         "square": _plan_json(plan, speed),
         "tracking": {
-            "reference": "/fcu/setpoint during the square (first reach to land)",
+            "reference": "the planned outline: each true position during the square (first "
+                         "reach to land) against the nearest point of the square's edges at "
+                         "its altitude",
             "window_s": [rounded(window[0]), rounded(window[1])],
             "samples": len(track.t),
             "rmse_m": rmse,

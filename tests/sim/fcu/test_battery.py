@@ -136,6 +136,11 @@ def test_the_model_and_the_estimate_are_deterministic() -> None:
     assert _discharge() == _discharge()
 
 
+def test_the_config_file_matches_the_code_defaults() -> None:
+    assert load_parameters(BatteryParams, BATTERY_NODE_NAME) == BatteryParams(), (
+        "the code defaults and config/fcu_battery.yaml disagree")
+
+
 def test_the_config_file_loads_and_errors_name_the_key() -> None:
     params = load_parameters(BatteryParams, BATTERY_NODE_NAME)
     assert params.model.cell_count == 4

@@ -876,8 +876,9 @@ def test_random_command_sequences_keep_the_invariants(
 # -- parameters -----------------------------------------------------------------------------
 
 
-def test_the_config_file_loads() -> None:
+def test_the_config_file_loads_and_matches_the_code_defaults() -> None:
     params = load_parameters(CommanderParams, COMMANDER_NODE_NAME)
+    assert params == CommanderParams(), "the code defaults and fcu_commander.yaml disagree"
     assert params.offboard_loss_timeout_s == 1.0
     assert params.disarm_land_s == 2.0
     assert params.offboard_loss_action is OffboardLossAction.LAND

@@ -9,6 +9,7 @@ import pytest
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters
 from sim.fcu.firmware import FIRMWARE_NODE_NAME, FirmwareConfig, FirmwareParams
+from sim.fcu.land_detector import LAND_DETECTOR_NODE_NAME, LandDetectorParams
 from sim.fcu.sitl import build_sitl
 
 FIRMWARE = load_parameters(FirmwareParams, FIRMWARE_NODE_NAME)
@@ -19,8 +20,8 @@ def test_the_imu_rate_and_the_land_detector_come_from_config() -> None:
     assert sitl.imu.rate_hz == FIRMWARE.imu_rate_hz
     cfg = sitl.firmware.config
     assert cfg.land_detector is not None and cfg.control is not None
-    detector = sitl.firmware.land_detector.params
-    assert detector.descent_vz_threshold == cfg.land_detector.descent_vz_threshold
+    detector = sitl.firmware.land_detector
+    assert detector.params == load_parameters(LandDetectorParams, LAND_DETECTOR_NODE_NAME)
     # the thrust thresholds are the control's and the airframe's, not a second copy
     assert detector.thrust_min == cfg.control.thrust_min_fraction
     assert detector.thrust_hover == pytest.approx(cfg.quad.hover_thrust / cfg.quad.max_motor_thrust)

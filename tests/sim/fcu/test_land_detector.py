@@ -9,7 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from runtime.errors import ParameterError
-from runtime.parameters import config_path, load_parameters
+from runtime.parameters import (
+    config_path,
+    load_parameters,
+    parameter_fields,
+    parameters_from_mapping,
+)
 from sim.fcu.land_detector import (
     LAND_DETECTOR_NODE_NAME,
     Hysteresis,
@@ -21,7 +26,14 @@ from sim.fcu.land_detector import (
 
 MS = 1000
 TICK_US = 20 * MS  # PX4's land detector runs at 50 Hz
-PARAMS = LandDetectorParams()
+PARAMS = load_parameters(LandDetectorParams, LAND_DETECTOR_NODE_NAME)
+# PX4's MPC_THR_MIN and MPC_THR_HOVER defaults; the firmware passes its controller's and
+# airframe's (tests/sim/fcu/test_firmware.py)
+THRUST_MIN, THRUST_HOVER = 0.12, 0.5
+
+
+def _detector(params: LandDetectorParams = PARAMS) -> LandDetector:
+    return LandDetector(params, thrust_min=THRUST_MIN, thrust_hover=THRUST_HOVER)
 
 
 def test_hysteresis_switches_only_after_the_request_held() -> None:
@@ -61,7 +73,7 @@ def _descent_then_touchdown(
 
 
 def test_a_descent_to_the_ground_reaches_landed_after_the_hysteresis() -> None:
-    detector = LandDetector()
+    detector = _detector()
     outs, touchdown = _descent_then_touchdown(detector, 3_000_000, 2_000_000)
     flying = [o for o in outs if o.timestamp_us < touchdown]
     assert not any(o.landed or o.maybe_landed or o.ground_contact for o in flying[5:])
@@ -81,7 +93,7 @@ def test_a_descent_to_the_ground_reaches_landed_after_the_hysteresis() -> None:
 
 
 def test_the_stages_come_in_order_and_never_skip() -> None:
-    detector = LandDetector()
+    detector = _detector()
     outs, _ = _descent_then_touchdown(detector, 1_000_000, 2_000_000)
     for o in outs:
         assert not o.landed or o.maybe_landed
@@ -99,7 +111,7 @@ def test_hover_never_reports_landed(
     thrust: float, vz: float, vz_setpoint: float, climb_rate_control: bool
 ) -> None:
     """Hover thrust is far above the low-thrust threshold, whatever the velocity."""
-    detector = LandDetector()
+    detector = _detector()
     detector.update(LandDetectorInputs(0, armed=True, thrust=0.5, vz=-0.5))  # lifted off
     for k in range(1, 250):
         out = detector.update(
@@ -117,7 +129,7 @@ def test_hover_never_reports_landed(
 
 def test_slow_low_thrust_flight_without_commanded_descent_is_not_ground_contact() -> None:
     """Under climb-rate control, low thrust and no motion is not enough: PX4 wants a descent."""
-    detector = LandDetector()
+    detector = _detector()
     detector.update(LandDetectorInputs(0, armed=True, thrust=0.6, vz=-1.0))
     for k in range(1, 200):
         out = detector.update(
@@ -127,7 +139,7 @@ def test_slow_low_thrust_flight_without_commanded_descent_is_not_ground_contact(
 
 
 def test_disarmed_is_landed_and_takeoff_clears_it_at_once() -> None:
-    detector = LandDetector()
+    detector = _detector()
     out = detector.update(LandDetectorInputs(0, armed=False, thrust=0.0))
     assert out.landed and out.maybe_landed and out.ground_contact
     out = detector.update(LandDetectorInputs(TICK_US, armed=True, thrust=0.7, vz=-0.5))
@@ -135,7 +147,7 @@ def test_disarmed_is_landed_and_takeoff_clears_it_at_once() -> None:
 
 
 def test_freefall_after_its_trigger_time() -> None:
-    detector = LandDetector()
+    detector = _detector()
     detector.update(LandDetectorInputs(0, armed=True, thrust=0.5, vz=-0.5))
     outs = [
         detector.update(
@@ -149,17 +161,17 @@ def test_freefall_after_its_trigger_time() -> None:
 
 
 def test_parameters_are_checked() -> None:
-    with pytest.raises(ParameterError, match="thrust_hover"):
-        LandDetectorParams(thrust_min=0.5, thrust_hover=0.4)
+    with pytest.raises(ParameterError, match=r"thrust_hover: 0\.4 must be above thrust_min = 0\.5"):
+        LandDetector(PARAMS, thrust_min=0.5, thrust_hover=0.4)
     with pytest.raises(ParameterError, match=r"trigger_time_s.*\[0, 10\]"):
-        LandDetectorParams(trigger_time_s=-1.0)
+        replace(PARAMS, trigger_time_s=-1.0)
 
 
 @pytest.mark.parametrize(("widening", "still_in_contact"), [(2.5, True), (1.0, False)])
 def test_once_maybe_landed_the_vertical_speed_threshold_widens(
     widening: float, still_in_contact: bool
 ) -> None:
-    detector = LandDetector(replace(PARAMS, z_vel_widening=widening))
+    detector = _detector(replace(PARAMS, z_vel_widening=widening))
     outs, _ = _descent_then_touchdown(detector, descent_us=1000 * MS, ground_us=2000 * MS)
     assert outs[-1].landed
     # 0.5 m/s is above z_vel_max (0.25) but within 2.5 times it
@@ -174,3 +186,31 @@ def test_the_thresholds_come_from_the_config_file() -> None:
     for name in ("z_vel_widening", "rotation_widening", "low_thrust_fraction",
                  "minimal_thrust_fraction", "descent_vz_threshold", "trigger_time_s"):
         assert f"    {name}: {getattr(params, name)!r} " in text, name
+
+
+def test_the_config_file_is_the_only_source_of_the_values() -> None:
+    # no code defaults that could disagree with the YAML (descent_vz_threshold once did:
+    # 0.6 m/s in code, 0.15 m/s in the file the flights read)
+    with_default = [f.name for f in parameter_fields(LandDetectorParams) if not f.required]
+    assert with_default == [], f"code defaults beside fcu_land_detector.yaml: {with_default}"
+    with pytest.raises(ParameterError, match=r"fcu_land_detector\.descent_vz_threshold: missing"):
+        parameters_from_mapping(LandDetectorParams, LAND_DETECTOR_NODE_NAME, {
+            LAND_DETECTOR_NODE_NAME: {"ros__parameters": {
+                f.name: getattr(PARAMS, f.name) for f in parameter_fields(LandDetectorParams)
+                if f.name != "descent_vz_threshold"}}})
+
+
+def test_a_commanded_descent_above_the_configured_threshold_counts_as_landing() -> None:
+    """In climb-rate control, ground contact needs a commanded descent faster than
+    ``descent_vz_threshold`` (from the YAML)."""
+    def contact(vz_setpoint: float) -> bool:
+        detector = _detector()
+        detector.update(LandDetectorInputs(0, armed=True, thrust=0.6, vz=-1.0))  # airborne
+        outs = [detector.update(LandDetectorInputs(k * TICK_US, armed=True, thrust=0.13,
+                                                   vz_setpoint=vz_setpoint))
+                for k in range(1, 40)]
+        return outs[-1].ground_contact
+
+    threshold = PARAMS.descent_vz_threshold
+    assert contact(2 * threshold)
+    assert not contact(threshold), "at the threshold is not above it"
