@@ -1,0 +1,159 @@
+"""The FCU bridge's clock conversion through its topics, with a chosen clock offset.
+
+No simulator: a script plays the FCU side (``/fmu/out/timesync_status`` with the offset it
+reports, then one ``/fmu/out/vehicle_odometry``), so the companion clock can be put ahead
+of the FCU's or behind it. In both cases a sample's stamp on ``/fcu/odometry`` must be the
+companion time at which the FCU took it, and a setpoint's ``/fmu/in`` stamp the FCU time at
+which the companion sent it. The sample is taken ``AGE_NS`` before it is received, so the
+bridge's clamp to the receive time cannot hide an offset that is dropped or applied with
+the wrong sign.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pytest
+
+import interfaces
+from flight_control.bridge_node import BRIDGE_QOS, FcuBridgeNode
+from interfaces.px4.topics import FMU_IN, FMU_OUT
+from runtime import DeterministicExecutor, Node, Time, qos_profile_sensor_data
+
+START_S = 40.0  # companion time when the FCU reports its offset; later than any offset here
+AGE_NS = 40_000_000  # the sample was taken 40 ms before the bridge receives it
+NS_PER_US = 1000
+
+
+@dataclass
+class Loop:
+    """The bridge between a scripted FCU side and a reader of ``/fcu/odometry``."""
+
+    ex: DeterministicExecutor
+    bridge: FcuBridgeNode
+    fcu: Node
+    fcu_publishers: dict[str, Any] = field(default_factory=dict)
+    odometry: list[Any] = field(default_factory=list)
+    setpoints: list[Any] = field(default_factory=list)
+
+    def report_offset(self, companion_minus_fcu_us: int, round_trip_us: int = 800) -> None:
+        """The FCU's TimesyncStatus: its ``estimated_offset`` is FCU minus companion."""
+        topic = FMU_OUT["timesync_status"]
+        self.fcu_publishers[topic.name].publish(interfaces.new(
+            topic.type, estimated_offset=-companion_minus_fcu_us,
+            observed_offset=-companion_minus_fcu_us, round_trip_time=round_trip_us))
+        self.ex.spin_for(0.001)
+
+    def odometry_sampled_at(self, fcu_us: int) -> int:
+        """Send one VehicleOdometry taken at FCU time ``fcu_us``; the ``/fcu/odometry``
+        stamp [ns] it came out with."""
+        topic = FMU_OUT["vehicle_odometry"]
+        before = len(self.odometry)
+        self.fcu_publishers[topic.name].publish(interfaces.new(
+            topic.type, timestamp=max(fcu_us, 0), timestamp_sample=fcu_us,
+            q=np.array([1.0, 0.0, 0.0, 0.0], dtype=np.float32),
+            position=np.array([1.0, 2.0, -3.0], dtype=np.float32)))
+        self.ex.spin_for(0.001)
+        assert len(self.odometry) == before + 1, "the bridge did not republish the sample"
+        return int(Time.from_msg(self.odometry[-1].header.stamp).nanoseconds)
+
+
+def _loop() -> Loop:
+    ex = DeterministicExecutor()
+    bridge = FcuBridgeNode(context=ex.context,
+                           parameter_overrides={"timesync_source": "fcu_status"})
+    fcu = Node("scripted_fcu_side", context=ex.context)
+    loop = Loop(ex, bridge, fcu)
+    for short in ("timesync_status", "vehicle_odometry"):
+        topic = FMU_OUT[short]
+        loop.fcu_publishers[topic.name] = fcu.create_publisher(topic.type, topic.name,
+                                                               BRIDGE_QOS)
+    reader = Node("reader", context=ex.context)
+    reader.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", loop.odometry.append,
+                               qos_profile_sensor_data)
+    setpoint = FMU_IN["trajectory_setpoint"]
+    fcu.create_subscription(setpoint.type, setpoint.name, loop.setpoints.append, BRIDGE_QOS)
+    for node in (bridge, fcu, reader):
+        ex.add_node(node)
+    ex.spin_for(START_S)
+    return loop
+
+
+# companion ahead of the FCU (the FCU booted after the companion's clock started), and
+# behind it (the FCU's uptime is larger, as with the simulator's boot offset)
+OFFSETS_US = pytest.mark.parametrize(
+    "companion_minus_fcu_us", [7_250_000, -25_300_000], ids=["companion_ahead", "companion_behind"])
+
+
+@OFFSETS_US
+def test_an_fcu_sample_time_is_stamped_on_the_companion_clock(
+        companion_minus_fcu_us: int) -> None:
+    loop = _loop()
+    loop.report_offset(companion_minus_fcu_us)
+    assert loop.bridge.synced
+    taken = []
+    for age_ns in (3 * AGE_NS, AGE_NS):
+        taken_ns = loop.ex.now_ns() - age_ns  # companion time at which the FCU sampled
+        fcu_us = taken_ns // NS_PER_US - companion_minus_fcu_us  # that instant on the FCU
+        stamp_ns = loop.odometry_sampled_at(fcu_us)
+        assert stamp_ns == taken_ns, (
+            f"stamped {(stamp_ns - taken_ns) / 1e6:+.3f} ms from the sample time: the clock "
+            f"offset of {companion_minus_fcu_us / 1e6:+.2f} s is not applied as companion = "
+            "FCU + offset")
+        taken.append(taken_ns)
+    # /fcu/pose_at's history holds the samples at the same companion times
+    assert loop.bridge.history.span == tuple(taken)
+
+
+@OFFSETS_US
+def test_a_companion_time_is_sent_on_the_fcu_clock(companion_minus_fcu_us: int) -> None:
+    loop = _loop()
+    loop.report_offset(companion_minus_fcu_us)
+    nan = interfaces.new("geometry_msgs/msg/Vector3", x=math.nan, y=math.nan, z=math.nan)
+    pilot = Node("pilot", context=loop.ex.context)
+    pub = pilot.create_publisher("quadmission_interfaces/msg/FcuSetpoint", "/fcu/setpoint",
+                                 qos_profile_sensor_data)
+    loop.ex.add_node(pilot)
+    sent_ns = loop.ex.now_ns()
+    pub.publish(interfaces.new(
+        "quadmission_interfaces/msg/FcuSetpoint",
+        position=interfaces.new("geometry_msgs/msg/Point", x=1.0, y=2.0, z=3.0),
+        velocity=nan, acceleration=nan, yaw=0.0, yaw_rate=math.nan))
+    loop.ex.spin_for(0.001)
+    assert loop.setpoints, "no trajectory setpoint reached the FCU side"
+    assert int(loop.setpoints[-1].timestamp) == sent_ns // NS_PER_US - companion_minus_fcu_us
+
+
+def test_a_sample_stamped_after_its_arrival_is_stamped_at_the_arrival() -> None:
+    """An offset estimate a little off can put a sample in the future of the companion;
+    the stamp is then the receive time (a stamp never runs ahead of the clock)."""
+    loop = _loop()
+    offset_us = -25_300_000
+    loop.report_offset(offset_us)
+    now_ns = loop.ex.now_ns()
+    ahead_fcu_us = (now_ns + 5_000_000) // NS_PER_US - offset_us  # 5 ms in the future
+    assert loop.odometry_sampled_at(ahead_fcu_us) == now_ns
+
+
+def test_before_the_fcu_reports_an_offset_the_stamp_is_the_receive_time() -> None:
+    """Not synced yet (PX4's sync_stamp): the sample time is on an unknown clock."""
+    loop = _loop()
+    assert not loop.bridge.synced
+    now_ns = loop.ex.now_ns()
+    assert loop.odometry_sampled_at(now_ns // NS_PER_US - 2 * AGE_NS // NS_PER_US) == now_ns
+    # a report without a measured round trip is not a sync either
+    loop.report_offset(-25_300_000, round_trip_us=0)
+    assert not loop.bridge.synced
+    now_ns = loop.ex.now_ns()
+    assert loop.odometry_sampled_at(now_ns // NS_PER_US + 25_300_000 - 10_000) == now_ns
+
+
+def test_a_sample_without_a_time_is_stamped_at_its_arrival() -> None:
+    """``timestamp_sample`` 0: the FCU did not say when; synced or not, the receive time."""
+    loop = _loop()
+    loop.report_offset(7_250_000)
+    now_ns = loop.ex.now_ns()
+    assert loop.odometry_sampled_at(0) == now_ns
