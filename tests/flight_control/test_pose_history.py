@@ -39,6 +39,25 @@ def test_forgets_what_is_older_than_its_span_and_refuses_outside() -> None:
     assert exact is not None and exact.position[0] == pytest.approx(1.5)
 
 
+def test_answers_exactly_at_the_oldest_and_the_newest_sample_times() -> None:
+    """The kept span is closed at both ends: its first and last samples are answered as
+    they are, not refused and not interpolated with a neighbour."""
+    history = PoseHistory(span_ns=500_000_000)
+    for k in range(20):
+        history.add(_sample(k * 0.1, k * 0.1, k * 0.05))
+    span = history.span
+    assert span is not None
+    oldest_ns, newest_ns = span
+    oldest, newest = history.at(oldest_ns), history.at(newest_ns)
+    assert oldest is not None, "refused at the oldest kept time"
+    assert newest is not None, "refused at the newest kept time"
+    assert (oldest.t_ns, newest.t_ns) == (oldest_ns, newest_ns)
+    assert oldest.position[0] == pytest.approx(oldest_ns / 1e9)  # x = t in _sample
+    assert newest.position[0] == pytest.approx(newest_ns / 1e9)
+    assert float(quat_to_yaw(newest.q)) == pytest.approx(0.5 * newest_ns / 1e9)
+    assert history.at(oldest_ns - 1) is None and history.at(newest_ns + 1) is None
+
+
 def test_out_of_order_samples_are_ignored() -> None:
     history = PoseHistory(span_ns=10**9)
     history.add(_sample(0.2, 2.0, 0.0))
