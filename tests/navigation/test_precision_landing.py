@@ -101,6 +101,23 @@ def test_off_centre_it_reaches_position_plus_error_at_the_same_altitude():
     assert lander.phase is Phase.ALIGN
 
 
+@pytest.mark.parametrize("strategy", list(LandingStrategy))
+def test_the_step_truncates_the_error_to_centimetres_before_using_it(strategy):
+    """Seed 003: the filtered error is truncated to centimetres, then the descent check,
+    then the reach. The pad 0.0399 m east and 0.0299 m north: 5 cm away, outside the
+    4 cm align radius; truncated, (0.03, 0.02) is 3.6 cm, inside, so the vehicle steps
+    down, and the reach goes to the truncated offset, not the raw one."""
+    lander = _lander(strategy, min_fresh_frames=1)
+    at = (PAD[0] - 0.0399, PAD[1] - 0.0299, 1.5)
+    assert not aligned([0.0399, 0.0299], 0.0, P), "the raw error must be outside the radius"
+    cmd = _seen(lander, 0.1, at)
+    assert lander.error == pytest.approx([0.03, 0.02], abs=1e-12)
+    assert isinstance(cmd, ReachTo)
+    assert cmd.position == pytest.approx((at[0] + 0.03, at[1] + 0.02, 1.5 - P.descent_step),
+                                         abs=1e-12)
+    assert lander.phase is Phase.DESCEND
+
+
 def test_aligned_and_slow_it_steps_down():
     lander = _lander(min_fresh_frames=1)
     cmd = _seen(lander, 0.1, (5.01, 3.0, 1.5))
