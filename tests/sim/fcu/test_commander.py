@@ -346,6 +346,37 @@ def test_a_gap_in_the_heartbeat_restarts_the_stream() -> None:
     assert out.status.offboard_signal_established
 
 
+def _streamed_10_hz(commander: Commander, until_us: int) -> int:
+    """Heartbeats every 100 ms from 0 to ``until_us``, each received when sent; the last."""
+    for beat in range(0, until_us + 1, 100 * MS):
+        commander.step(CommanderInputs(now_us=beat, offboard_heartbeat_us=beat))
+    return until_us
+
+
+@pytest.mark.parametrize(("silence_us", "fresh"), [(500 * MS - 1, True), (500 * MS, False)])
+def test_the_signal_is_fresh_only_while_the_last_heartbeat_is_under_the_max_gap_old(
+    silence_us: int, fresh: bool
+) -> None:
+    """Established also means still fresh: the last heartbeat less than
+    1 / offboard_min_rate_hz (0.5 s) ago. Exactly 0.5 s of silence is stale."""
+    params = CommanderParams(offboard_min_rate_hz=2.0, offboard_min_stream_s=1.0)
+    commander = Commander(params)
+    last = _streamed_10_hz(commander, 1500 * MS)  # a 1.5 s stream: long enough
+    out = commander.step(
+        CommanderInputs(now_us=last + silence_us, offboard_heartbeat_us=last,
+                        commands=(arm(), set_offboard()))
+    )  # fmt: skip
+    assert out.status.offboard_signal_established is fresh
+    mode = out.acks[1]
+    if fresh:
+        assert mode.result is CommandResult.ACCEPTED
+        assert out.status.nav_state is NavigationState.OFFBOARD
+    else:
+        assert mode.result is CommandResult.TEMPORARILY_REJECTED
+        assert mode.result_param1 == DenyReason.OFFBOARD_SIGNAL_NOT_ESTABLISHED
+        assert out.status.nav_state is NavigationState.AUTO_LOITER
+
+
 # -- offboard loss --------------------------------------------------------------------------
 
 
@@ -365,6 +396,26 @@ def test_offboard_loss_holds_then_lands_after_the_configured_time() -> None:
     assert landing.status.failsafe
     assert 3 * S <= landing.status.timestamp_us - hold.status.timestamp_us <= 3 * S + TICK_US
     assert outs[-1].status.nav_state is NavigationState.AUTO_LAND
+
+
+def test_offboard_is_lost_only_after_more_than_com_of_loss_t_of_silence() -> None:
+    """Exactly offboard_loss_timeout_s (1 s) without a heartbeat is not yet a loss; one
+    microsecond more is: the hold failsafe starts on that tick."""
+    params = CommanderParams(offboard_loss_timeout_s=1.0)
+    commander = Commander(params)
+    last = _streamed_10_hz(commander, 1500 * MS)
+    commander.step(CommanderInputs(now_us=last, offboard_heartbeat_us=last,
+                                   commands=(arm(), set_offboard())))
+    assert commander.state.state is FlightState.OFFBOARD
+    at = commander.step(CommanderInputs(now_us=last + 1 * S, offboard_heartbeat_us=last,
+                                        landed=False))
+    assert not at.status.offboard_control_signal_lost, "1 s is not more than 1 s"
+    assert at.status.nav_state is NavigationState.OFFBOARD and not at.status.failsafe
+    past = commander.step(CommanderInputs(now_us=last + 1 * S + 1, offboard_heartbeat_us=last,
+                                          landed=False))
+    assert past.status.offboard_control_signal_lost
+    assert past.status.nav_state is NavigationState.AUTO_LOITER
+    assert past.status.failsafe_reason is FailsafeReason.OFFBOARD_LOSS
 
 
 def test_offboard_back_during_the_hold_resumes_offboard() -> None:
