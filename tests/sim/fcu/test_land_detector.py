@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import pytest
@@ -90,6 +91,57 @@ def test_a_descent_to_the_ground_reaches_landed_after_the_hysteresis() -> None:
     assert stage <= landed - maybe <= stage + TICK_US
     assert 1_000_000 <= landed - touchdown <= 1_000_000 + 3 * TICK_US, "LNDMC_TRIG_TIME = 1 s"
     assert outs[-1].landed and outs[-1].at_rest
+
+
+def _touchdown_sliding(
+    vx: float, vy: float, v_xy_valid: bool = True, ground_us: int = 2_000_000
+) -> list[LandDetectedData]:
+    """A commanded descent, then on the ground with everything saying landed (idle thrust,
+    no vertical speed, no rotation) but a horizontal velocity (vx, vy) [m/s, NED]."""
+    detector = LandDetector()
+    _, touchdown = _descent_then_touchdown(detector, 1_000_000, 0)
+    return [
+        detector.update(LandDetectorInputs(now, armed=True, thrust=0.13, vx=vx, vy=vy, vz=0.02,
+                                           v_xy_valid=v_xy_valid, vz_setpoint=0.7))
+        for now in range(touchdown, touchdown + ground_us, TICK_US)
+    ]
+
+
+def test_horizontal_movement_alone_keeps_it_from_landing() -> None:
+    """Each axis under LNDMC_XY_VEL_MAX (1.5 m/s) but 1.2 m/s north and east is 1.7 m/s
+    over the ground: sliding, not landed, however long it lasts."""
+    assert max(1.2, 1.2) < PARAMS.xy_vel_max < math.hypot(1.2, 1.2)
+    outs = _touchdown_sliding(1.2, 1.2)
+    assert all(o.horizontal_movement for o in outs)
+    assert not any(o.ground_contact or o.maybe_landed or o.landed for o in outs)
+    assert not any(o.vertical_movement or o.rotational_movement for o in outs), \
+        "only the horizontal condition may be what stops it"
+
+
+@pytest.mark.parametrize(
+    ("vx", "vy", "v_xy_valid"),
+    [(1.5, 0.0, True), (0.0, -1.5, True), (1.2, 1.2, False)],
+    ids=["at_the_limit_north", "at_the_limit_west", "velocity_invalid"],
+)
+def test_up_to_the_horizontal_limit_or_without_a_velocity_it_lands(
+    vx: float, vy: float, v_xy_valid: bool
+) -> None:
+    """The limit itself is allowed (``|v_xy| <= xy_vel_max``), and without a valid
+    horizontal velocity there is no horizontal movement (PX4)."""
+    outs = _touchdown_sliding(vx, vy, v_xy_valid)
+    assert not any(o.horizontal_movement for o in outs)
+    assert outs[-1].landed
+
+
+def test_sliding_after_landing_clears_landed_at_once() -> None:
+    detector = LandDetector()
+    outs, _ = _descent_then_touchdown(detector, 1_000_000, 2_000_000)
+    assert outs[-1].landed
+    out = detector.update(LandDetectorInputs(outs[-1].timestamp_us + TICK_US, armed=True,
+                                             thrust=0.13, vx=2.0, vz=0.02, vz_setpoint=0.7))
+    assert out.horizontal_movement
+    assert not out.ground_contact and not out.maybe_landed and not out.landed
+    assert not out.at_rest
 
 
 def test_the_stages_come_in_order_and_never_skip() -> None:
