@@ -89,7 +89,8 @@ docs:
 ## and fails below MUTATE_MIN_KILL %. Not part of `make test` (CPU-heavy: minutes per module).
 ## MUTATE_PATHS: modules or folders to mutate; each one's tests mirror it under tests/
 ## (tests/sim/fcu/test_control*.py), or name them: path.py=tests/x.py,tests/y.py; path.py:f,g
-## keeps the functions or classes f and g. Tests marked slow are left out.
+## keeps the functions or classes f and g (C.m: the method m of class C). Tests marked slow
+## are left out.
 ## MUTATE_ARGS=--survivors re-tests only what the last run did not kill.
 MUTATE_PATHS    ?= sim/fcu/commander.py \
   sim/fcu/control.py:mix_with_desaturation,Mixer,_mixer_columns,_frd_flu \

@@ -7,10 +7,11 @@ Usage (from the repository root; ``make mutate`` passes the Makefile's variables
 
 Each PATH is a module (``sim/fcu/control.py``) or a package folder
 (``flight_control/behaviours/``) to mutate; ``:NAME,NAME`` keeps only those functions and
-classes of a module (``sim/fcu/control.py:mix_with_desaturation,_desaturate``). Its tests
-mirror the layout, as everywhere in this repository: ``tests/sim/fcu/test_control*.py`` for
-a module, ``tests/<folder>/`` for a folder; ``PATH=tests/a.py,tests/b.py`` names them
-instead. Only those tests run (mutmut
+classes of a module (``sim/fcu/control.py:mix_with_desaturation,_desaturate``), a
+``Class.method`` name one method (``flight_control/bridge_node.py:FcuBridgeNode.to_fcu_us``).
+Its tests mirror the layout, as everywhere in this repository:
+``tests/sim/fcu/test_control*.py`` for a module, ``tests/<folder>/`` for a folder;
+``PATH=tests/a.py,tests/b.py`` names them instead. Only those tests run (mutmut
 then runs, per mutant, only the tests that call the mutated function), which keeps a run
 short. The static settings (what is copied into ``./mutants``, pytest options) live in
 ``[tool.mutmut]`` of pyproject.toml; this script adds the modules and their tests, runs
@@ -54,11 +55,13 @@ class Target:
         ``module.xǁClassǁmethod__mutmut_1``)."""
         if not self.names:
             return [f"{self.module}.*"]
-        return [
-            pattern
-            for name in self.names
-            for pattern in (f"{self.module}.x_{name}__mutmut_*", f"{self.module}.xǁ{name}ǁ*")
-        ]
+        return [pattern for name in self.names for pattern in self._name_globs(name)]
+
+    def _name_globs(self, name: str) -> tuple[str, ...]:
+        cls, dot, method = name.partition(".")
+        if dot:  # one method of a class
+            return (f"{self.module}.xǁ{cls}ǁ{method}__mutmut_*",)
+        return (f"{self.module}.x_{name}__mutmut_*", f"{self.module}.xǁ{name}ǁ*")
 
     def selects(self, mutant_name: str) -> bool:
         return any(fnmatch.fnmatchcase(mutant_name, g) for g in self.globs())
