@@ -28,6 +28,62 @@ def test_interpolates_between_samples() -> None:
     assert float(quat_to_yaw(mid.q)) == pytest.approx(math.pi / 4)
 
 
+def test_interpolates_position_velocity_and_time_between_two_later_samples() -> None:
+    """Away from t = 0 and with a changing velocity: 1.05 s is a quarter of the way from
+    the sample at 1.0 s to the one at 1.2 s."""
+    history = PoseHistory(span_ns=10**9)
+    history.add(PoseSample(1_000_000_000, np.array([1.0, 4.0, 2.0]),
+                           np.asarray(quat_from_yaw(0.2)), np.array([1.0, -2.0, 0.5])))
+    history.add(PoseSample(1_200_000_000, np.array([3.0, 2.0, 2.4]),
+                           np.asarray(quat_from_yaw(0.6)), np.array([3.0, 2.0, -0.5])))
+    pose = history.at(1_050_000_000)
+    assert pose is not None
+    assert pose.t_ns == 1_050_000_000
+    assert pose.position == pytest.approx([1.5, 3.5, 2.1])
+    assert pose.velocity == pytest.approx([1.5, -1.0, 0.25])
+    assert float(quat_to_yaw(pose.q)) == pytest.approx(0.3)
+
+
+def test_at_a_sample_time_the_answer_is_that_sample_exactly() -> None:
+    """No interpolation round-off at a sample time, in the middle of the history too."""
+    history = PoseHistory(span_ns=10**9)
+    xs = [0.3, 0.7, 0.1, 0.5, 0.2]  # 0.7 + 1.0 * (0.1 - 0.7) is not 0.1 in floating point
+    samples = [_sample(0.1 * k, x, 0.3 * k) for k, x in enumerate(xs)]
+    for sample in samples:
+        history.add(sample)
+    for sample in samples:
+        pose = history.at(sample.t_ns)
+        assert pose is not None and pose.t_ns == sample.t_ns
+        assert np.array_equal(pose.position, sample.position)
+        assert np.array_equal(pose.q, sample.q)
+        assert np.array_equal(pose.velocity, sample.velocity)
+
+
+def test_a_second_sample_at_the_newest_time_is_ignored() -> None:
+    history = PoseHistory(span_ns=10**9)
+    history.add(_sample(0.2, 2.0, 0.0))
+    history.add(_sample(0.2, 5.0, 0.0))
+    assert len(history) == 1
+    again = history.at(200_000_000)
+    assert again is not None and again.position[0] == 2.0
+
+
+def test_the_span_must_be_positive() -> None:
+    with pytest.raises(ValueError, match="span_ns: 0 must be > 0"):
+        PoseHistory(span_ns=0)
+    one_ns = PoseHistory(span_ns=1)
+    one_ns.add(_sample(0.0, 0.0, 0.0))
+    assert one_ns.span == (0, 0)
+
+
+def test_slerp_between_nearly_equal_orientations_goes_part_of_the_way() -> None:
+    """Yaw 0.02 rad apart (the normalised-linear branch): a quarter of the way is 0.005."""
+    q0, q1 = np.asarray(quat_from_yaw(0.1)), np.asarray(quat_from_yaw(0.12))
+    assert float(np.dot(q0, q1)) > 0.9995
+    assert float(quat_to_yaw(slerp(q0, q1, 0.25))) == pytest.approx(0.105, abs=1e-6)
+    assert float(quat_to_yaw(slerp(q0, q1, 1.0))) == pytest.approx(0.12, abs=1e-12)
+
+
 def test_forgets_what_is_older_than_its_span_and_refuses_outside() -> None:
     history = PoseHistory(span_ns=500_000_000)
     for k in range(20):
