@@ -219,3 +219,243 @@ def test_bad_parameters_name_the_key():
         LandingParams(filter_gain=0.0)
     with pytest.raises(ValueError, match="search_altitude"):
         LandingParams(search_altitude=0.5, min_altitude=0.8)
+
+
+# -- edges of each rule (found by mutation testing: each test fails on a changed comparison,
+# -- a dropped term or a skipped reset in navigation/precision_landing.py) ----------------
+
+_BAD_AND_GOOD = {
+    # key: (values out of range, values at the edge of the range)
+    "max_tilt": ([0.0, math.pi / 2], [1e-6, math.pi / 2 - 1e-6]),
+    "filter_gain": ([0.0, 1.0 + 1e-9], [1e-6, 1.0]),
+    "resolution": ([-1e-9, 1.0], [0.0, 0.999]),
+    "align_radius": ([0.0], [1e-9]),
+    "max_align_speed": ([0.0], [1e-9]),
+    "descent_step": ([0.0], [1e-9]),
+    "min_altitude": ([0.0], [1e-9]),
+    "search_spacing": ([0.0], [1e-9]),
+    "search_rings": ([-1], [0]),
+    "search_timeout_s": ([0.0], [1e-9]),
+    "lost_timeout_s": ([0.0], [1e-9]),
+    "retries": ([-1], [0]),
+    "timeout_s": ([0.0], [1e-9]),
+    "outlier_distance": ([0.0], [1e-9]),
+    "height_tolerance": ([0.0], [1e-9]),
+    "max_rejections": ([0], [1]),
+    "min_fresh_frames": ([0], [1]),
+}
+
+
+@pytest.mark.parametrize("key", sorted(_BAD_AND_GOOD))
+def test_each_parameter_is_refused_just_outside_its_range_and_taken_at_its_edge(key):
+    bad, good = _BAD_AND_GOOD[key]
+    for value in bad:
+        with pytest.raises(ValueError, match=rf"out of range: {key} \("):
+            LandingParams(**{key: value})
+    for value in good:
+        assert getattr(LandingParams(**{key: value}), key) == value
+
+
+def test_the_search_altitude_may_equal_the_minimum_and_the_error_names_every_bad_key():
+    assert LandingParams(search_altitude=0.8, min_altitude=0.8).search_altitude == 0.8
+    with pytest.raises(ValueError) as error:
+        LandingParams(align_radius=0.0, retries=-1, search_altitude=0.7, min_altitude=0.8)
+    assert str(error.value) == ("LandingParams: out of range: align_radius, search_altitude, "
+                                "retries (search_altitude must be >= min_altitude)")
+
+
+def test_the_gates_take_their_limits_themselves():
+    assert attitude_ok(0.05, -0.05, 0.05), "a tilt of exactly max_tilt is level enough"
+    assert attitude_ok(-0.05, 0.05, 0.05)
+    assert not aligned([0.01, 0.0], P.max_align_speed, P), "exactly max_align_speed is fast"
+
+
+def test_helpers_take_column_vectors_and_give_float_arrays():
+    """A marker offset may come as a (2, 1) column (OpenCV's tvec); integers are metres."""
+    assert body_to_map(np.array([[1.0], [0.0]]), math.pi / 2) == pytest.approx([0.0, 1.0])
+    assert body_to_map(np.array([[1.0], [0.0]]), 0.0).shape == (2,)
+    first = low_pass(None, [1, 2], 0.5)
+    assert first.dtype == np.float64 and first.tolist() == [1.0, 2.0]
+    assert low_pass(np.array([1.0, 2.0]), [2, 4], 0.5).tolist() == [1.5, 3.0]
+    points = search_pattern(np.array([[1], [2]]), 0.5, 1)
+    assert all(p.shape == (2,) and p.dtype == np.float64 for p in points)
+
+
+def test_the_search_spiral_goes_round_anticlockwise_ring_by_ring():
+    points = search_pattern((1.0, 2.0), 0.5, 2)
+    expected = [(1.0, 2.0)] + [
+        (1.0 + dx * r, 2.0 + dy * r)
+        for r in (0.5, 1.0)
+        for dx, dy in ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1))
+    ]
+    assert np.array(points) == pytest.approx(np.array(expected))
+
+
+RAISED_PAD = (5.0, 3.0, 0.5)  # a pad on a 0.5 m platform
+
+
+def test_on_a_raised_pad_heights_count_from_the_pad():
+    lander = PrecisionLander(LandingParams(min_fresh_frames=1, height_tolerance=0.25),
+                             RAISED_PAD, LandingStrategy.CAPTURE, start_s=0.0)
+    lander.start((5.0, 3.0, 2.0))
+    assert lander.reference_altitude == pytest.approx(1.5)
+    at = (5.0, 3.0, 1.5)  # 1.0 m above the pad
+    pose = Pose(at, 0.0)
+    # a PnP height exactly height_tolerance off is still believed; a bit more is not
+    cmd = lander.on_frame(0.1, Measurement((0.0, 0.0), 1.25), pose, at, 0.0, False)
+    assert isinstance(cmd, ReachTo)
+    assert cmd.position[2] == pytest.approx(0.5 + 1.5 - lander.params.descent_step)
+    assert lander.on_frame(0.2, Measurement((0.0, 0.0), 1.26), pose, at, 0.0, False) \
+        == Wait("outlier dropped")
+
+
+def test_the_step_reaching_exactly_min_altitude_still_descends_by_reach():
+    lander = _lander(min_fresh_frames=1, min_altitude=0.75, descent_step=0.25)
+    lander.reference_altitude = 1.0
+    cmd = _seen(lander, 0.1, (5.0, 3.0, 1.0))
+    assert cmd == ReachTo((5.0, 3.0, 0.75)) and lander.phase is Phase.DESCEND
+    assert isinstance(_seen(lander, 0.2, (5.0, 3.0, 0.75)), LandNow)
+
+
+def test_capture_needs_min_fresh_frames_after_each_move():
+    lander = _lander()  # min_fresh_frames 2
+    at = (4.9, 3.0, 1.5)
+    assert _seen(lander, 0.1, at) == Wait("a move is being flown"), "one fresh frame"
+    assert isinstance(_seen(lander, 0.2, at), ReachTo), "two fresh frames"
+    assert _seen(lander, 0.3, at, busy=True) == Wait("a move is being flown")
+    assert _seen(lander, 0.4, at) == Wait("a move is being flown"), "counting starts over"
+    assert isinstance(_seen(lander, 0.5, at), ReachTo)
+
+
+def test_the_seed_strategy_waits_too_while_a_move_is_flown():
+    lander = _lander(LandingStrategy.SEED)
+    assert _seen(lander, 0.1, (4.8, 3.0, 1.5), busy=True) == Wait("a move is being flown")
+
+
+def test_capture_filters_consecutive_pad_estimates():
+    lander = _lander(min_fresh_frames=1)
+    pose_at = (4.5, 3.0, 1.5)
+    pose = Pose(pose_at, 0.0)
+    lander.on_frame(0.1, Measurement((0.5, 0.0), 1.5), pose, pose_at, 0.0, True)  # (5.0, 3.0)
+    lander.on_frame(0.2, Measurement((0.7, 0.0), 1.5), pose, pose_at, 0.0, True)  # (5.2, 3.0)
+    assert lander.filtered == pytest.approx([5.1, 3.0]), "halfway (filter_gain 0.5)"
+
+
+def test_an_estimate_exactly_outlier_distance_away_is_taken():
+    lander = _lander(min_fresh_frames=1)
+    pose_at = (4.5, 3.0, 1.5)
+    pose = Pose(pose_at, 0.0)
+    lander.on_frame(0.1, Measurement((0.5, 0.0), 1.5), pose, pose_at, 0.0, True)  # (5.0, 3.0)
+    lander.on_frame(0.2, Measurement((0.75, 0.0), 1.5), pose, pose_at, 0.0, True)  # 0.25 m
+    assert lander.filtered == pytest.approx([5.125, 3.0])
+
+
+def test_after_max_rejections_outliers_in_a_row_the_filter_restarts_from_the_data():
+    """The first fix was a misread: the pad is 0.5 m further east. Five frames are dropped,
+    the sixth (max_rejections) restarts the filter there; a good frame resets the count."""
+    lander = _lander(min_fresh_frames=1)
+    pose_at = (4.5, 3.0, 1.5)
+    pose = Pose(pose_at, 0.0)
+
+    def frame(t, offset_x):
+        return lander.on_frame(t, Measurement((offset_x, 0.0), 1.5), pose, pose_at, 0.0, True)
+
+    frame(0.0, 0.5)  # filtered (5.0, 3.0)
+    for k in range(P.max_rejections - 1):
+        assert frame(0.1 + 0.1 * k, 1.0) == Wait("outlier dropped")
+    assert lander.filtered == pytest.approx([5.0, 3.0])
+    frame(1.0, 1.0)
+    assert lander.filtered == pytest.approx([5.5, 3.0]), "restarted from the data"
+    for k in range(P.max_rejections - 1):  # a new run of outliers counts from zero again
+        assert frame(1.1 + 0.1 * k, 0.0) == Wait("outlier dropped")
+    assert lander.filtered == pytest.approx([5.5, 3.0])
+
+
+def test_each_timeout_is_strict_and_counts_from_the_start_time():
+    """A landing started at t = 100 s: the limits are measured from then, and a time
+    exactly at a limit is still within it."""
+    params = LandingParams(min_fresh_frames=1, lost_timeout_s=2.0, search_timeout_s=30.0,
+                           timeout_s=120.0, retries=0)
+    nothing = Pose((4.0, 3.0, 1.5), 0.0)
+
+    def lander_at_100():
+        lander = PrecisionLander(params, PAD, LandingStrategy.CAPTURE, start_s=100.0)
+        lander.start(nothing.position)
+        return lander
+
+    def blind(lander, t, busy=False):
+        return lander.on_frame(t, None, nothing, nothing.position, 0.0, busy)
+
+    # looking where it is until lost_timeout_s, then searching
+    lander = lander_at_100()
+    assert blind(lander, 101.5) == Wait("looking for the marker where we are")
+    assert isinstance(blind(lander, 102.0), ReachTo), "exactly lost_timeout_s: search"
+    # the search gives up after search_timeout_s, not at it
+    assert isinstance(blind(lander, 130.0), ReachTo)
+    cmd = blind(lander, 130.5)
+    assert isinstance(cmd, Fail) and cmd.failure is Failure.NOT_FOUND
+    assert "30 s" in cmd.message
+    # the whole landing: timeout_s
+    lander = lander_at_100()
+    assert isinstance(_seen(lander, 220.0, (4.9, 3.0, 1.5)), ReachTo)
+    cmd = _seen(lander, 220.5, (4.9, 3.0, 1.5))
+    assert isinstance(cmd, Fail) and cmd.failure is Failure.TIMEOUT and "120 s" in cmd.message
+    # lost: more than lost_timeout_s since the marker was last seen
+    lander = lander_at_100()
+    assert isinstance(_seen(lander, 100.5, (5.0, 3.0, 1.5)), ReachTo)  # aligned: a step down
+    assert blind(lander, 102.5) == Wait("marker not in this frame"), "exactly 2 s: not lost"
+    cmd = blind(lander, 102.6)
+    assert isinstance(cmd, Fail) and cmd.failure is Failure.LOST
+    assert "2 s" in cmd.message and f"{1.5 - P.descent_step:.2f} m" in cmd.message
+
+
+def test_a_tilted_frame_waits_for_the_attitude_gate():
+    lander = _lander(min_fresh_frames=1)
+    assert _seen(lander, 0.1, (4.5, 3.0, 1.5), roll=0.2) == Wait("attitude gate: not level")
+
+
+def test_while_searching_a_running_move_is_waited_for():
+    lander = _lander(min_fresh_frames=1)
+    nothing = Pose((4.0, 3.0, 1.5), 0.0)
+    t = P.lost_timeout_s + 0.1
+    assert lander.on_frame(t, None, nothing, nothing.position, 0.0, True) == Wait("searching")
+
+
+def test_lost_with_a_retry_while_a_move_is_flown_waits_then_searches_afresh():
+    lander = _lander(min_fresh_frames=1, retries=1)
+    _seen(lander, 0.1, (5.0, 3.0, 1.5))
+    pose = Pose((5.0, 3.0, 1.2), 0.0)
+    t = 0.2 + P.lost_timeout_s
+    assert lander.on_frame(t, None, pose, pose.position, 0.0, True) == Wait("searching")
+    assert lander.phase is Phase.SEARCH and lander.filtered is None
+    # seen again: the filter starts from this measurement, not from before the loss
+    cmd = _seen(lander, t + 0.1, (4.8, 3.0, 1.5))
+    assert isinstance(cmd, ReachTo) and lander.filtered == pytest.approx([5.0, 3.0])
+
+
+def test_the_seed_strategy_searches_only_over_the_pad_and_never_retries():
+    lander = _lander(LandingStrategy.SEED, min_fresh_frames=1, retries=2)
+    assert lander.retries_left == 0
+    nothing = Pose((4.0, 3.0, 1.5), 0.0)
+    t = P.lost_timeout_s + 0.1
+    first = lander.on_frame(t, None, nothing, nothing.position, 0.0, False)
+    assert isinstance(first, ReachTo) and first.position[:2] == pytest.approx(PAD[:2])
+    assert lander.on_frame(t + 0.1, None, nothing, nothing.position, 0.0, False) \
+        == Wait("at the pad's position, waiting for the marker")
+    _seen(lander, t + 0.2, (4.9, 3.0, 1.5))
+    cmd = lander.on_frame(t + 0.3 + P.lost_timeout_s, None, nothing, nothing.position, 0.0,
+                          False)
+    assert isinstance(cmd, Fail) and cmd.failure is Failure.LOST
+
+
+def test_capture_goes_round_the_whole_spiral_then_starts_again():
+    lander = _lander(min_fresh_frames=1, search_rings=1, search_spacing=0.5)
+    nothing = Pose((4.0, 3.0, 1.5), 0.0)
+    t = P.lost_timeout_s + 0.1
+    targets = []
+    for k in range(11):  # the centre, 8 points of one ring, then the centre and east again
+        cmd = lander.on_frame(t + 0.1 * k, None, nothing, nothing.position, 0.0, False)
+        assert isinstance(cmd, ReachTo)
+        targets.append(cmd.position[:2])
+    spiral = search_pattern(PAD[:2], 0.5, 1)
+    assert np.array(targets) == pytest.approx(np.array(spiral + spiral[:2]))
