@@ -19,9 +19,15 @@ import numpy as np
 import pytest
 
 import interfaces
-from flight_control.bridge_node import BRIDGE_QOS, FcuBridgeNode
+from flight_control.bridge_node import ACK_QOS, BRIDGE_QOS, FcuBridgeNode
 from interfaces.px4.topics import FMU_IN, FMU_OUT
-from runtime import DeterministicExecutor, Node, Time, qos_profile_sensor_data
+from runtime import (
+    DeterministicExecutor,
+    Node,
+    Time,
+    qos_profile_default,
+    qos_profile_sensor_data,
+)
 
 START_S = 40.0  # companion time when the FCU reports its offset; later than any offset here
 AGE_NS = 40_000_000  # the sample was taken 40 ms before the bridge receives it
@@ -37,6 +43,7 @@ class Loop:
     fcu: Node
     fcu_publishers: dict[str, Any] = field(default_factory=dict)
     odometry: list[Any] = field(default_factory=list)
+    acks: list[Any] = field(default_factory=list)
     setpoints: list[Any] = field(default_factory=list)
 
     def report_offset(self, companion_minus_fcu_us: int, round_trip_us: int = 800) -> None:
@@ -71,9 +78,13 @@ def _loop() -> Loop:
         topic = FMU_OUT[short]
         loop.fcu_publishers[topic.name] = fcu.create_publisher(topic.type, topic.name,
                                                                BRIDGE_QOS)
+    ack = FMU_OUT["vehicle_command_ack"]
+    loop.fcu_publishers[ack.name] = fcu.create_publisher(ack.type, ack.name, ACK_QOS)
     reader = Node("reader", context=ex.context)
     reader.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", loop.odometry.append,
                                qos_profile_sensor_data)
+    reader.create_subscription("quadmission_interfaces/msg/FcuCommandAck", "/fcu/command_ack",
+                               loop.acks.append, qos_profile_default)
     setpoint = FMU_IN["trajectory_setpoint"]
     fcu.create_subscription(setpoint.type, setpoint.name, loop.setpoints.append, BRIDGE_QOS)
     for node in (bridge, fcu, reader):
@@ -106,6 +117,22 @@ def test_an_fcu_sample_time_is_stamped_on_the_companion_clock(
         taken.append(taken_ns)
     # /fcu/pose_at's history holds the samples at the same companion times
     assert loop.bridge.history.span == tuple(taken)
+
+
+@OFFSETS_US
+def test_an_fcu_event_time_is_stamped_on_the_companion_clock(
+        companion_minus_fcu_us: int) -> None:
+    """The other /fmu/out messages (acks here; IMU, battery, status alike) carry one time,
+    ``timestamp``: converted the same way."""
+    loop = _loop()
+    loop.report_offset(companion_minus_fcu_us)
+    sent_ns = loop.ex.now_ns() - AGE_NS
+    topic = FMU_OUT["vehicle_command_ack"]
+    loop.fcu_publishers[topic.name].publish(interfaces.new(
+        topic.type, timestamp=sent_ns // NS_PER_US - companion_minus_fcu_us, command=400))
+    loop.ex.spin_for(0.001)
+    assert [int(a.command) for a in loop.acks] == [400]
+    assert Time.from_msg(loop.acks[0].header.stamp).nanoseconds == sent_ns
 
 
 @OFFSETS_US
@@ -157,3 +184,5 @@ def test_a_sample_without_a_time_is_stamped_at_its_arrival() -> None:
     loop.report_offset(7_250_000)
     now_ns = loop.ex.now_ns()
     assert loop.odometry_sampled_at(0) == now_ns
+    # the FCU clock's first microsecond is a time like any other (7.25 s on ours)
+    assert loop.odometry_sampled_at(1) == (1 + 7_250_000) * NS_PER_US
