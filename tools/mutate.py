@@ -153,8 +153,9 @@ def refresh_copies(root: Path, source_paths: list[Path], targets: list[Target]) 
     mutmut copies a source file into ./mutants only when no copy is there yet, so a module
     edited (or deleted) since the last run would otherwise be imported in its old form.
     The mutated modules themselves mutmut regenerates when they change; but a plain copy
-    of a module to mutate now (left by a run that did not mutate it, so without a
-    ``.meta``) is newer than its source, and mutmut would skip it: it is dropped too.
+    of a module to mutate now (left by a run that did not mutate it, over an earlier
+    mutated copy or not) is newer than its source, and mutmut would skip it: it is
+    dropped too.
     """
     mutated = {t.path for t in targets if t.path.endswith(".py")}
     folders = [t.path + "/" for t in targets if not t.path.endswith(".py")]
@@ -164,9 +165,13 @@ def refresh_copies(root: Path, source_paths: list[Path], targets: list[Target]) 
             if not copy.is_file() or rel.endswith(".meta") or "__pycache__" in rel:
                 continue
             if rel in mutated or any(rel.startswith(f) for f in folders):
-                if rel.endswith(".py") and not Path(f"{copy}.meta").exists():
-                    # copied plain by an earlier run that did not mutate it: newer than
-                    # its source, mutmut would take it as mutated already ("unmodified")
+                source = root / rel
+                if rel.endswith(".py") and source.is_file() and (
+                    not Path(f"{copy}.meta").exists() or source.read_bytes() == copy.read_bytes()
+                ):
+                    # copied plain by a run that did not mutate it (a mutated copy always
+                    # differs from its source): newer than the source, mutmut would take it
+                    # as mutated already ("unmodified") and generate nothing
                     copy.unlink()
                 continue
             source = root / rel
