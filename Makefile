@@ -99,7 +99,10 @@ MUTATE_PATHS    ?= sim/fcu/commander.py \
   flight_control/behaviours/ \
   flight_control/command_protocol.py \
   navigation/precision_land_policy.py \
-  perception/scan_policy.py
+  perception/scan_policy.py \
+  flight_control/pose_history.py \
+  flight_control/bridge_node.py:FcuBridgeNode.to_companion_ns,FcuBridgeNode.to_fcu_us,FcuBridgeNode._stamp=tests/flight_control/test_bridge_node_clocks.py \
+  navigation/precision_landing.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 MUTATE_ARGS     ?=
