@@ -98,7 +98,7 @@ def _touchdown_sliding(
 ) -> list[LandDetectedData]:
     """A commanded descent, then on the ground with everything saying landed (idle thrust,
     no vertical speed, no rotation) but a horizontal velocity (vx, vy) [m/s, NED]."""
-    detector = LandDetector()
+    detector = _detector()
     _, touchdown = _descent_then_touchdown(detector, 1_000_000, 0)
     return [
         detector.update(LandDetectorInputs(now, armed=True, thrust=0.13, vx=vx, vy=vy, vz=0.02,
@@ -134,7 +134,7 @@ def test_up_to_the_horizontal_limit_or_without_a_velocity_it_lands(
 
 
 def test_sliding_after_landing_clears_landed_at_once() -> None:
-    detector = LandDetector()
+    detector = _detector()
     outs, _ = _descent_then_touchdown(detector, 1_000_000, 2_000_000)
     assert outs[-1].landed
     out = detector.update(LandDetectorInputs(outs[-1].timestamp_us + TICK_US, armed=True,
