@@ -254,7 +254,9 @@ def _square_seeds(d: Json) -> list[str]:
         ["landed / refused / crashed or failed",
          f"{d['landed']} / {d['refused']} / {d['crashed_or_failed']} of {len(runs)}",
          "land or refuse"],
-        ["xy tracking RMSE", span([r["xy_rmse_m"] for r in runs], 3, "m"),
+        ["xy tracking RMSE, against " + " / ".join(sorted(
+            {r.get("rmse_reference", "the setpoints").split(":")[0] for r in runs})),
+         span([r["xy_rmse_m"] for r in runs], 3, "m"),
          f"target {d['target_xy_rmse_m']} m (worst/target "
          f"{num(d['worst_xy_rmse_m'] / d['target_xy_rmse_m'])})"],
         ["square side", span([r["side_m"] for r in runs], 2, "m"), "4 m at most"],
