@@ -1,0 +1,722 @@
+"""The navigator's decisions (seed 003, sec. 3.3.2), as policies that tick (pure: numpy).
+
+A policy is built for one goal. The node calls ``step(inputs)`` with where the vehicle is,
+the time, whether the goal's cancel was asked, the markers seen and the answer to the
+policy's last command; the policy answers with its next command (plan, sleep, send a reach
+or a turn, poll or cancel it, publish progress) and, at the end, :class:`Finish`. The node
+only carries commands out and converts messages (:mod:`navigation.navigator_node`).
+
+Following a path (:class:`NavigatePolicy`; every explore leg too): plan from where the
+vehicle is to the goal (``plan_attempts`` tries, ``replan_period_s`` apart), then follow
+the waypoints with reaches (the reach sphere shrunk at sharp corners so the flown chord
+cuts a corner by at most ``corner_cut``: :mod:`navigation.following`). Before a leg that
+turns by more than ``turn_first_angle`` it stops at the corner and turns to face the leg,
+so the forward depth camera maps what is ahead; then it looks before it goes: it plans
+again on a map that holds a depth cloud captured after the turn (the path's stamp is the
+map's; it waits up to ``map_wait_s`` for one) and switches if the path changed. The camera
+saw the obstacles beside the old leg only side-on, or not at all: a corner planned round as
+unknown (free) space is often in the way once seen. Every ``replan_period_s`` it plans
+again from here; when the leg being flown is no longer clear (the planner cannot go
+straight to its end) or the new path's length differs from what is left of the current one
+by more than ``replan_tolerance`` (the live map changed the path's cost), it switches.
+When the leg is blocked and no new path is found (the goal may turn out to be inside a
+block whose faces the camera had not seen), it stops, plans again ``plan_attempts`` times,
+then gives up with no path. A failed reach is re-planned from where the vehicle is, up to
+``max_reach_failures``.
+
+Exploring (:class:`ExplorePolicy`): the predefined exploration path of the arena and start
+pad (with loop closures) or, when there is none or the goal gives an area, boustrophedon
+lanes spaced by the down camera's footprint (:func:`explore_waypoints`); each leg is
+followed as above; a waypoint with no path is skipped or, with
+``replace_blocked_lane_ends``, replaced by the nearest point toward its lane's other end
+that has one. It stops as soon as a wanted marker is seen (the vehicle then holds where it
+is) or the time budget is used up. While none is seen, it sweeps again, up to
+``explore_sweeps`` times: lanes across the area, then along it, in turn. A robot moves
+while the lanes are flown, and one sweep can miss it (random arena 5's robot stayed
+1.5-2.3 m beside each lane as the vehicle passed); a sweep across the first crosses its
+track the other way.
+
+Surveying (:class:`SurveyPolicy`): quarter turns after takeoff, so the depth camera maps
+all around.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Generator, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any, TypeVar
+
+import numpy as np
+import numpy.typing as npt
+
+from flight_control.frames import wrap_pi
+from navigation.astar import path_length
+from navigation.coverage import CoverageGrid, coverage_lanes, footprint_half_size, lane_spacing
+from navigation.following import corner_radius, turn_angle
+
+FloatArray = npt.NDArray[np.float64]
+POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
+LANE_STEP_M = 0.5  # m, an unreachable explore waypoint is tried this much nearer its lane
+LANE_DETOUR = 1.2  # a replacement's path is at most this times the straight line (+ a step)
+FACE_LEG_MIN_M = 0.3  # m, a waypoint nearer than this (horizontally) keeps the heading
+
+
+def _pick(cls: Any, params: object) -> Any:
+    return cls(**{f.name: getattr(params, f.name) for f in dataclasses.fields(cls)})
+
+
+@dataclass(frozen=True)
+class FollowTuning:
+    """How paths are followed (``config/navigator.yaml``; units and ranges in
+    :class:`navigation.params.NavigatorParams`)."""
+
+    plan_attempts: int
+    replan_period_s: float  # s
+    replan_tolerance: float  # m
+    map_wait_s: float  # s
+    turn_first_angle: float  # rad
+    waypoint_radius: float  # m
+    corner_cut: float  # m
+    goal_radius: float  # m
+    cruise_speed: float  # m/s
+    max_reach_failures: int
+
+    @classmethod
+    def of(cls, params: object) -> FollowTuning:
+        """The fields of ``params`` (a :class:`~navigation.params.NavigatorParams`)."""
+        return _pick(cls, params)
+
+
+@dataclass(frozen=True)
+class ExploreTuning:
+    """How areas are explored (``config/navigator.yaml``)."""
+
+    explore_sweeps: int
+    replace_blocked_lane_ends: bool
+    coverage_cell: float  # m
+    down_camera_fovy_deg: float  # deg
+    down_camera_aspect: float
+    lane_overlap: float
+    wall_margin: float  # m
+    arena: str
+    start_pad: int
+
+    @classmethod
+    def of(cls, params: object) -> ExploreTuning:
+        """The fields of ``params`` (a :class:`~navigation.params.NavigatorParams`)."""
+        return _pick(cls, params)
+
+
+class Outcome(Enum):
+    """How a policy ended."""
+
+    REACHED = "reached"  # navigate: at the goal (and facing its yaw); survey: turns done
+    NO_PATH = "no_path"
+    FLIGHT_ERROR = "flight_error"  # a flight-control goal failed or was rejected
+    CANCELED = "canceled"  # the goal's cancel was asked
+    STOPPED = "stopped"  # explore's stop condition (a marker, the time budget) mid-leg
+    MARKER_FOUND = "marker_found"
+    TIME_BUDGET = "time_budget"
+    COVERED = "covered"
+
+
+# -- commands (policy -> node) -------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """Ask ``/navigation/plan_path`` from ``start`` to ``goal`` [m]; answer :class:`Planned`."""
+
+    start: FloatArray
+    goal: FloatArray
+
+
+@dataclass(frozen=True)
+class Sleep:
+    """Wait ``seconds``; no answer."""
+
+    seconds: float
+
+
+@dataclass(frozen=True, eq=False)
+class SendReach:
+    """Send a ``/flight_control/reach`` goal; answer :class:`Sent`."""
+
+    target: FloatArray  # m
+    yaw: float  # rad
+    radius: float  # m
+    speed: float  # m/s
+    stop_at_target: bool
+
+
+@dataclass(frozen=True)
+class SendTurn:
+    """Send a ``/flight_control/turn`` goal; answer :class:`Sent`."""
+
+    yaw: float  # rad
+    relative: bool = False
+
+
+@dataclass(frozen=True)
+class PollAction:
+    """Whether the flight-control goal sent last has ended; answer :class:`ActionState`."""
+
+
+@dataclass(frozen=True)
+class CancelAction:
+    """Cancel the flight-control goal sent last and wait for the cancel; no answer."""
+
+
+@dataclass(frozen=True, eq=False)
+class NavigateProgress:
+    """Publish navigate feedback: the path, the waypoint flown to, the distance left [m]."""
+
+    path: FloatArray
+    waypoint: int
+    distance_left: float
+
+
+@dataclass(frozen=True, eq=False)
+class ExploreProgress:
+    """Publish explore feedback."""
+
+    coverage: float  # 0..1
+    markers_found: tuple[int, ...]
+    waypoint: FloatArray  # the explore waypoint flown to [m]
+
+
+@dataclass(frozen=True)
+class Log:
+    """Log a line; no answer."""
+
+    text: str
+
+
+@dataclass(frozen=True)
+class Finish:
+    """The goal's end. ``coverage`` and ``markers_found`` are explore's."""
+
+    outcome: Outcome
+    message: str
+    coverage: float = 0.0
+    markers_found: tuple[int, ...] = ()
+
+
+Command = (Plan | Sleep | SendReach | SendTurn | PollAction | CancelAction | NavigateProgress
+           | ExploreProgress | Log | Finish)
+
+
+# -- answers (node -> policy) --------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Planned:
+    """The planner's answer: the path (None: failed), its message, the stamp [ns] of the map
+    it was planned on, and whether the failure is one that blocks a leg (the goal is in an
+    obstacle or cut off from the start; not: the start is too close to an obstacle)."""
+
+    path: FloatArray | None
+    message: str
+    stamp_ns: int = 0
+    blocks_leg: bool = False
+
+
+@dataclass(frozen=True)
+class Sent:
+    """Whether the flight-control goal was accepted; the rejection's message if not."""
+
+    accepted: bool
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class ActionState:
+    """The flight-control goal: still running (``done`` False) or its result."""
+
+    done: bool
+    success: bool = False
+    message: str = ""
+
+
+Answer = Planned | Sent | ActionState
+
+
+@dataclass(frozen=True, eq=False)
+class Inputs:
+    """What the policy is told at one step: the time [ns], where the vehicle is [m, ENU],
+    its heading [rad], whether the goal's cancel was asked, marker id -> last capture stamp
+    [ns], and the answer to the last command (None for commands with no answer)."""
+
+    now_ns: int
+    position: FloatArray
+    yaw: float = 0.0
+    cancel_requested: bool = False
+    markers: Mapping[int, int] = field(default_factory=dict)
+    answer: Answer | None = None
+
+
+class PolicyError(RuntimeError):
+    """The node answered a command with the wrong kind of answer."""
+
+
+A = TypeVar("A", Planned, Sent, ActionState)
+T = TypeVar("T")
+Script = Generator[Command, "Answer | None", T]
+
+
+def _expect(answer: Answer | None, kind: type[A]) -> A:
+    if not isinstance(answer, kind):
+        raise PolicyError(f"expected a {kind.__name__} answer, got {answer!r}")
+    return answer
+
+
+def explore_waypoints(tuning: ExploreTuning, explore_paths: Mapping[str, Mapping[int, Any]],
+                      field_min: npt.ArrayLike, field_max: npt.ArrayLike, area: FloatArray,
+                      altitude: float, here: npt.ArrayLike, sweep: int = 0
+                      ) -> tuple[FloatArray, str]:
+    """The explore path (N, 3) for an area ((M, 2) polygon; empty = the field) and where
+    it came from. Sweep 0 is the predefined path (when the field has one) or lanes along
+    the area's longer side; later sweeps are lanes, across the area (along its shorter
+    side) on odd sweeps, each from the corner nearest ``here``."""
+    t = tuning
+    across = sweep % 2 == 1
+    how = "coverage lanes across" if across else "coverage lanes over"
+    spacing = lane_spacing(altitude, t.down_camera_fovy_deg, t.down_camera_aspect,
+                           t.lane_overlap)
+    start = np.asarray(here, dtype=np.float64)[:2]
+    if len(area) == 0:
+        predefined = explore_paths.get(t.arena, {}).get(t.start_pad)
+        if predefined is not None and sweep == 0:
+            xy, source = predefined, f"explore path of {t.arena} pad {t.start_pad}"
+        else:
+            lo = np.asarray(field_min, dtype=np.float64)[:2] + t.wall_margin
+            hi = np.asarray(field_max, dtype=np.float64)[:2] - t.wall_margin
+            xy = coverage_lanes(lo, hi, spacing, start, across=across)
+            source = f"{how} the field"
+    else:
+        xy = coverage_lanes(area.min(axis=0), area.max(axis=0), spacing, start, across=across)
+        source = f"{how} the area"
+    return np.column_stack([xy, np.full(len(xy), altitude)]), source
+
+
+@dataclass(frozen=True)
+class _Flown:
+    outcome: Outcome
+    message: str
+
+
+class _Policy:
+    """A script (a generator of commands) fed one :class:`Inputs` per step."""
+
+    def __init__(self, follow: FollowTuning) -> None:
+        self.follow = follow
+        self.result: Finish | None = None
+        self.why = ""  # why the last flight-control goal did not succeed
+        self._inputs: Inputs | None = None
+        self._script = self._main()
+        self._started = False
+
+    def step(self, inputs: Inputs) -> Command:
+        """The next command, given what the last one answered; :class:`Finish` at the end
+        (and from then on)."""
+        if self.result is not None:
+            return self.result
+        self._inputs = inputs
+        try:
+            if not self._started:
+                self._started = True
+                return next(self._script)
+            return self._script.send(inputs.answer)
+        except StopIteration as end:
+            self.result = end.value
+            return end.value
+
+    def _main(self) -> Script[Finish]:
+        raise NotImplementedError
+        yield  # pragma: no cover
+
+    # -- what the last step said ----------------------------------------------------------
+    @property
+    def _now(self) -> Inputs:
+        assert self._inputs is not None
+        return self._inputs
+
+    @property
+    def here(self) -> FloatArray:
+        return self._now.position
+
+    def _stop(self) -> bool:
+        """The caller's stop condition (explore's marker or time budget): none here."""
+        return False
+
+    # -- sub-scripts ------------------------------------------------------------------------
+    def _plan(self, start: FloatArray, goal: FloatArray) -> Script[Planned]:
+        return _expect((yield Plan(start, goal)), Planned)
+
+    def _run(self, command: SendReach | SendTurn, stoppable: bool) -> Script[bool | None]:
+        """Run a flight-control goal to its end: whether it succeeded (``self.why`` says
+        why not); None when the goal's cancel was asked or, if ``stoppable``, the stop
+        condition held (the flight goal is canceled)."""
+        sent = _expect((yield command), Sent)
+        if not sent.accepted:
+            self.why = f"rejected: {sent.message}"
+            return False
+        while True:
+            state = _expect((yield PollAction()), ActionState)
+            if state.done:
+                self.why = state.message
+                return state.success
+            if self._now.cancel_requested or (stoppable and self._stop()):
+                yield CancelAction()
+                self.why = "canceled" if self._now.cancel_requested else "stopped"
+                return None
+            yield Sleep(POLL_S)
+
+    def _hold(self) -> Script[None]:
+        """Stop where the vehicle is (a reach to here)."""
+        f = self.follow
+        yield from self._run(SendReach(self.here, self._now.yaw, f.goal_radius, f.cruise_speed,
+                                       True), False)
+
+    def _progress(self, path: FloatArray, i: int) -> Command:
+        return NavigateProgress(path, i, self._left(path, i))
+
+    def _left(self, path: FloatArray, i: int) -> float:
+        """What is left of ``path`` [m] from here, flying to waypoint ``i``."""
+        return float(np.linalg.norm(path[i] - self.here)) + path_length(path[i:])
+
+    def _fly(self, goal: FloatArray, *, radius: float, speed: float) -> Script[_Flown]:
+        """Plan to ``goal`` and follow the path, re-planning as the module docstring says."""
+        f = self.follow
+        path: FloatArray | None = None
+        message = ""
+        for _ in range(f.plan_attempts):
+            planned = yield from self._plan(self.here, goal)
+            path, message = planned.path, planned.message
+            if path is not None:
+                break
+            yield Sleep(f.replan_period_s)
+        if path is None:
+            return _Flown(Outcome.NO_PATH, message)
+        failures = 0
+        i = 1
+        while i < len(path):
+            wp = path[i]
+            last = i == len(path) - 1
+            here, yaw = self.here, self._now.yaw
+            heading = math.atan2(wp[1] - here[1], wp[0] - here[0])
+            if float(np.hypot(*(wp[:2] - here[:2]))) < FACE_LEG_MIN_M:
+                heading = yaw
+            if abs(wrap_pi(heading - yaw)) > f.turn_first_angle:
+                turned = yield from self._run(SendTurn(heading), True)
+                if turned is None:
+                    return _Flown(Outcome.CANCELED if self.why == "canceled"
+                                  else Outcome.STOPPED, self.why)
+                new, blocked = yield from self._look_again(path, i, goal)
+                if new is None and blocked:
+                    new, message = yield from self._plan_again(goal)
+                    if new is None:
+                        return _Flown(Outcome.NO_PATH, message)
+                if new is not None:
+                    path, i = new, 1
+                    continue
+            # a sharp corner next: stop there (the vehicle turns in place before that leg)
+            corner = not last and turn_angle(path, i) > f.turn_first_angle
+            radius_i = radius if last else corner_radius(path, i, f.waypoint_radius,
+                                                         f.corner_cut)
+            sent = _expect((yield SendReach(wp, heading, radius_i, speed, last or corner)), Sent)
+            if not sent.accepted:
+                return _Flown(Outcome.FLIGHT_ERROR, f"reach rejected: {sent.message}")
+            period_ns = int(f.replan_period_s * 1e9)
+            next_plan_ns = self._now.now_ns + period_ns
+            switched = False
+            while True:
+                state = _expect((yield PollAction()), ActionState)
+                if state.done:
+                    break
+                if self._now.cancel_requested or self._stop():
+                    yield CancelAction()
+                    return _Flown(Outcome.CANCELED if self._now.cancel_requested
+                                  else Outcome.STOPPED, "stopped on the way")
+                yield self._progress(path, i)
+                if self._now.now_ns >= next_plan_ns:
+                    next_plan_ns = self._now.now_ns + period_ns
+                    planned = yield from self._plan(self.here, goal)
+                    new, blocked = yield from self._changed_path(path, i, planned.path)
+                    if new is not None or blocked:
+                        yield CancelAction()
+                    if new is None and blocked:
+                        new, message = yield from self._plan_again(goal)
+                        if new is None:
+                            return _Flown(Outcome.NO_PATH, message)
+                    if new is not None:
+                        path, i, switched = new, 1, True
+                        break
+                yield Sleep(POLL_S)
+            if switched:
+                continue
+            if state.success:
+                i += 1
+                continue
+            failures += 1
+            if failures > f.max_reach_failures:
+                return _Flown(Outcome.FLIGHT_ERROR, f"reach failed: {state.message}")
+            planned = yield from self._plan(self.here, goal)
+            if planned.path is None:
+                return _Flown(Outcome.NO_PATH, planned.message)
+            path, i = planned.path, 1
+        return _Flown(Outcome.REACHED, "reached")
+
+    def _leg_blocked(self, path: FloatArray, i: int) -> Script[bool]:
+        """Whether leg ``i`` of ``path`` is no longer clear from here: the planner cannot go
+        straight to its end, or says the end is in an obstacle or cut off from here. Not
+        when it cannot plan from here at all (the start too close to an obstacle: the
+        vehicle is flying out of it), which says nothing of the leg."""
+        planned = yield from self._plan(self.here, path[i])
+        if planned.path is not None:
+            return len(planned.path) > 2
+        return planned.blocks_leg
+
+    def _changed_path(self, path: FloatArray, i: int, new: FloatArray | None
+                      ) -> Script[tuple[FloatArray | None, bool]]:
+        """(the path to switch to or None, whether leg ``i`` is blocked). ``new`` (a plan
+        from here to the goal) is switched to when leg ``i`` of the current path is blocked
+        or what is left of it differs from ``new`` in length by more than
+        ``replan_tolerance``. A blocked leg with no new path is the caller's to stop on:
+        flying on into what the map now shows is how random arena 1 crashed (its
+        exploration goal turned out to be inside a block, the re-plan failed, and the old
+        path was kept)."""
+        blocked = yield from self._leg_blocked(path, i)
+        if new is None:
+            return None, blocked
+        if blocked or abs(path_length(new) - self._left(path, i)) > self.follow.replan_tolerance:
+            return new, blocked
+        return None, False
+
+    def _look_again(self, path: FloatArray, i: int, goal: FloatArray
+                    ) -> Script[tuple[FloatArray | None, bool]]:
+        """After a turn: plan again on a map holding a depth cloud captured after it (up to
+        ``map_wait_s``); :meth:`_changed_path`'s answer on that plan."""
+        since_ns = self._now.now_ns
+        deadline_ns = since_ns + int(self.follow.map_wait_s * 1e9)
+        while True:
+            planned = yield from self._plan(self.here, goal)
+            if planned.stamp_ns >= since_ns or self._now.now_ns >= deadline_ns:
+                break
+            if self._now.cancel_requested or self._stop():
+                return None, False
+            yield Sleep(POLL_S)
+        return (yield from self._changed_path(path, i, planned.path))
+
+    def _plan_again(self, goal: FloatArray) -> Script[tuple[FloatArray | None, str]]:
+        """The path ahead is blocked and the re-plan found none: hold here and try
+        ``plan_attempts`` times, ``replan_period_s`` apart (the map settles as the camera
+        looks); (path or None, the last planner message)."""
+        yield from self._hold()
+        path: FloatArray | None = None
+        message = ""
+        for _ in range(self.follow.plan_attempts):
+            if self._now.cancel_requested or self._stop():
+                break
+            planned = yield from self._plan(self.here, goal)
+            path, message = planned.path, planned.message
+            if path is not None:
+                break
+            yield Sleep(self.follow.replan_period_s)
+        return path, f"the path ahead is blocked and no other path was found: {message}"
+
+
+class NavigatePolicy(_Policy):
+    """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading)."""
+
+    def __init__(self, follow: FollowTuning, goal: npt.ArrayLike, *, radius: float,
+                 speed: float, yaw: float = math.nan) -> None:
+        self.goal = np.asarray(goal, dtype=np.float64).reshape(3)
+        self.radius, self.speed, self.yaw = radius, speed, yaw
+        super().__init__(follow)
+
+    def _main(self) -> Script[Finish]:
+        if not np.all(np.isfinite(self.goal)):
+            return Finish(Outcome.NO_PATH, "goal is not finite")
+        fly = yield from self._fly(self.goal, radius=self.radius, speed=self.speed)
+        if fly.outcome is Outcome.REACHED and math.isfinite(self.yaw):
+            ok = yield from self._run(SendTurn(self.yaw), False)
+            if not ok:
+                return Finish(Outcome.CANCELED if ok is None else Outcome.FLIGHT_ERROR,
+                              f"final turn: {self.why}")
+        return Finish(fly.outcome, fly.message)
+
+
+class SurveyPolicy(_Policy):
+    """``turns`` quarter turns to the left, where the vehicle is."""
+
+    def __init__(self, follow: FollowTuning, turns: int) -> None:
+        self.turns = turns
+        super().__init__(follow)
+
+    def _main(self) -> Script[Finish]:
+        for q in range(self.turns):
+            ok = yield from self._run(SendTurn(math.pi / 2.0, relative=True), False)
+            if not ok:
+                return Finish(Outcome.CANCELED if ok is None else Outcome.FLIGHT_ERROR,
+                              f"survey turn {q + 1}: {self.why}")
+        return Finish(Outcome.REACHED, f"{self.turns} survey turns")
+
+
+class ExplorePolicy(_Policy):
+    """Explore ``area`` ((M, 2) polygon [m]; empty: the field) at ``altitude`` [m] until a
+    marker of ``wanted`` is seen (none: one sweep), or ``budget_ns`` (0: none) has passed
+    since ``start_ns``; ``explore_paths``: arena -> start pad -> (N, 2) waypoints."""
+
+    def __init__(self, follow: FollowTuning, explore: ExploreTuning, *, area: npt.ArrayLike,
+                 altitude: float, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
+                 explore_paths: Mapping[str, Mapping[int, Any]], start_ns: int,
+                 wanted: frozenset[int] = frozenset(), budget_ns: int = 0) -> None:
+        self.explore = explore
+        self.area = np.asarray(area, dtype=np.float64).reshape(-1, 2)
+        self.altitude = altitude
+        self.field_min = np.asarray(field_min, dtype=np.float64)
+        self.field_max = np.asarray(field_max, dtype=np.float64)
+        self.explore_paths = explore_paths
+        self.start_ns, self.wanted, self.budget_ns = start_ns, wanted, budget_ns
+        lo = self.area.min(axis=0) if len(self.area) else self.field_min[:2]
+        hi = self.area.max(axis=0) if len(self.area) else self.field_max[:2]
+        self.grid = CoverageGrid(lo, hi, explore.coverage_cell)
+        self.half = footprint_half_size(altitude, explore.down_camera_fovy_deg,
+                                        explore.down_camera_aspect)
+        self.budget_used = False
+        self._waypoint = np.zeros(3)
+        super().__init__(follow)
+
+    def seen(self) -> tuple[int, ...]:
+        """The markers seen since the start, by id."""
+        return tuple(sorted(i for i, t in self._now.markers.items() if t >= self.start_ns))
+
+    def _stop(self) -> bool:
+        """Mark what the down camera sees from here; whether a wanted marker is seen or the
+        time budget is used up."""
+        here, alt = self.here, self.altitude
+        self.grid.mark(here[:2], (self.half[0] * here[2] / alt, self.half[1] * here[2] / alt)
+                       if alt > 0 else self.half, self._now.yaw)
+        if self.wanted & set(self.seen()):
+            return True
+        if self.budget_ns and self._now.now_ns - self.start_ns >= self.budget_ns:
+            self.budget_used = True
+            return True
+        return False
+
+    def _progress(self, path: FloatArray, i: int) -> Command:
+        return ExploreProgress(self.grid.fraction, self.seen(), self._waypoint)
+
+    def _waypoints(self, sweep: int) -> tuple[FloatArray, str]:
+        return explore_waypoints(self.explore, self.explore_paths, self.field_min,
+                                 self.field_max, self.area, self.altitude, self.here, sweep)
+
+    def _main(self) -> Script[Finish]:
+        f, e = self.follow, self.explore
+        waypoints, source = self._waypoints(0)
+        skipped = flown = 0
+        outcome: Finish | None = None
+        stopped = False
+        sweeps = e.explore_sweeps if self.wanted else 1
+        for sweep in range(sweeps):
+            if sweep:
+                waypoints, source = self._waypoints(sweep)
+            yield Log(f"explore sweep {sweep + 1}/{sweeps}: {len(waypoints)} waypoints "
+                      f"({source})")
+            for k, wp in enumerate(waypoints):
+                self._waypoint = wp
+                if self._stop():
+                    stopped = True
+                    break
+                fly = yield from self._fly(wp, radius=f.waypoint_radius, speed=f.cruise_speed)
+                if fly.outcome is Outcome.NO_PATH and e.replace_blocked_lane_ends:
+                    # the lane's end is in an obstacle: fly the lane as far as it goes
+                    partner = k ^ 1 if source.startswith("coverage lanes") else k - 1
+                    nearer = ((yield from self._reachable_toward(wp, waypoints[partner]))
+                              if 0 <= partner < len(waypoints) else None)
+                    if nearer is not None:
+                        fly = yield from self._fly(nearer, radius=f.waypoint_radius,
+                                                   speed=f.cruise_speed)
+                if fly.outcome is Outcome.NO_PATH:
+                    skipped += 1
+                    continue
+                if fly.outcome is Outcome.CANCELED:
+                    outcome = Finish(Outcome.CANCELED, "canceled")
+                    break
+                if fly.outcome is Outcome.FLIGHT_ERROR:
+                    outcome = Finish(Outcome.FLIGHT_ERROR,
+                                     f"sweep {sweep + 1}, waypoint {k + 1}: {fly.message}")
+                    break
+                if fly.outcome is Outcome.STOPPED:
+                    stopped = True
+                    break
+                flown += 1
+            if stopped or outcome is not None or self._stop():
+                break
+        found = self.seen()
+        if outcome is None:
+            hit = sorted(self.wanted & set(found))
+            if hit:
+                outcome = Finish(Outcome.MARKER_FOUND, f"marker {hit[0]} found ({source})")
+                yield from self._hold()
+            elif self.budget_used:
+                outcome = Finish(Outcome.TIME_BUDGET, "time budget used up")
+                yield from self._hold()
+            else:
+                outcome = Finish(Outcome.COVERED,
+                                 f"{flown}/{flown + skipped} waypoints flown in {sweeps} "
+                                 f"sweep{'s' * (sweeps > 1)} (last: {source}), {skipped} "
+                                 "skipped without a path")
+        return dataclasses.replace(outcome, coverage=self.grid.fraction, markers_found=found)
+
+    def _reachable_toward(self, wp: FloatArray, partner: FloatArray
+                          ) -> Script[FloatArray | None]:
+        """The point nearest ``wp`` on the segment to ``partner`` (its lane's other end, or
+        the path's previous waypoint), in ``LANE_STEP_M`` steps, that the planner reaches
+        from here along the lane: by a path at most ``LANE_DETOUR`` times the straight
+        line (plus one step), not round the far side of what blocks it. None when none is.
+        A lane whose end is inside an obstacle is then still flown up to it: random arena
+        6's robot drove between two lanes whose west ends were in blocks; skipping the
+        ends skipped the lanes, and a reachable point behind the block made the path cut
+        across the field instead of along the lane."""
+        length = float(np.linalg.norm(partner - wp))
+        here = self.here
+        for d in np.arange(LANE_STEP_M, length, LANE_STEP_M):
+            point = wp + (partner - wp) * (d / length)
+            planned = yield from self._plan(here, point)
+            straight = float(np.linalg.norm(point - here))
+            if planned.path is not None and (
+                    path_length(planned.path) <= LANE_DETOUR * straight + LANE_STEP_M):
+                return point
+        return None
+
+
+__all__ = [
+    "LANE_DETOUR",
+    "LANE_STEP_M",
+    "POLL_S",
+    "ActionState",
+    "Answer",
+    "CancelAction",
+    "Command",
+    "ExplorePolicy",
+    "ExploreProgress",
+    "ExploreTuning",
+    "Finish",
+    "FollowTuning",
+    "Inputs",
+    "Log",
+    "NavigatePolicy",
+    "NavigateProgress",
+    "Outcome",
+    "Plan",
+    "Planned",
+    "PolicyError",
+    "PollAction",
+    "SendReach",
+    "SendTurn",
+    "Sent",
+    "Sleep",
+    "SurveyPolicy",
+    "explore_waypoints",
+]
