@@ -230,7 +230,7 @@ class NavigatorNode(Node):
             fb.path = path_msg(progress.path, self.now().to_msg())
             handle.publish_feedback(fb)
 
-        policy = NavigatePolicy(self.follow, [goal.goal.x, goal.goal.y, goal.goal.z],
+        policy = NavigatePolicy(self.follow, np.array([goal.goal.x, goal.goal.y, goal.goal.z]),
                                 radius=goal.reach_radius or self.params.goal_radius,
                                 speed=goal.speed or self.params.cruise_speed, yaw=goal.yaw)
         end = await self._drive(policy, handle, feedback)

@@ -270,26 +270,27 @@ def _expect(answer: Answer | None, kind: type[A]) -> A:
 
 
 def explore_waypoints(tuning: ExploreTuning, explore_paths: Mapping[str, Mapping[int, Any]],
-                      field_min: npt.ArrayLike, field_max: npt.ArrayLike, area: FloatArray,
-                      altitude: float, here: npt.ArrayLike, sweep: int = 0
+                      field_min: FloatArray, field_max: FloatArray, area: FloatArray,
+                      altitude: float, here: FloatArray, sweep: int = 0
                       ) -> tuple[FloatArray, str]:
-    """The explore path (N, 3) for an area ((M, 2) polygon; empty = the field) and where
-    it came from. Sweep 0 is the predefined path (when the field has one) or lanes along
-    the area's longer side; later sweeps are lanes, across the area (along its shorter
-    side) on odd sweeps, each from the corner nearest ``here``."""
+    """The explore path (N, 3) for an area ((M, 2) polygon; empty = the field [m] between
+    ``field_min`` and ``field_max``) and where it came from. Sweep 0 is the predefined path
+    (when the field has one) or lanes along the area's longer side; later sweeps are lanes,
+    across the area (along its shorter side) on odd sweeps, each from the corner nearest
+    ``here``."""
     t = tuning
     across = sweep % 2 == 1
     how = "coverage lanes across" if across else "coverage lanes over"
     spacing = lane_spacing(altitude, t.down_camera_fovy_deg, t.down_camera_aspect,
                            t.lane_overlap)
-    start = np.asarray(here, dtype=np.float64)[:2]
+    start = here[:2]
     if len(area) == 0:
         predefined = explore_paths.get(t.arena, {}).get(t.start_pad)
         if predefined is not None and sweep == 0:
             xy, source = predefined, f"explore path of {t.arena} pad {t.start_pad}"
         else:
-            lo = np.asarray(field_min, dtype=np.float64)[:2] + t.wall_margin
-            hi = np.asarray(field_max, dtype=np.float64)[:2] - t.wall_margin
+            lo = field_min[:2] + t.wall_margin
+            hi = field_max[:2] - t.wall_margin
             xy = coverage_lanes(lo, hi, spacing, start, across=across)
             source = f"{how} the field"
     else:
@@ -310,10 +311,9 @@ class _Policy:
     def __init__(self, follow: FollowTuning) -> None:
         self.follow = follow
         self.result: Finish | None = None
-        self.why = ""  # why the last flight-control goal did not succeed
-        self._inputs: Inputs | None = None
+        self.why: str  # why the last flight-control goal did not succeed (set by _run)
+        self._inputs: Inputs  # the last step's (set by step)
         self._script = self._main()
-        self._started = False
 
     def step(self, inputs: Inputs) -> Command:
         """The next command, given what the last one answered; :class:`Finish` at the end
@@ -322,10 +322,7 @@ class _Policy:
             return self.result
         self._inputs = inputs
         try:
-            if not self._started:
-                self._started = True
-                return next(self._script)
-            return self._script.send(inputs.answer)
+            return self._script.send(inputs.answer)  # the first answer is None: it starts
         except StopIteration as end:
             self.result = end.value
             return end.value
@@ -337,7 +334,6 @@ class _Policy:
     # -- what the last step said ----------------------------------------------------------
     @property
     def _now(self) -> Inputs:
-        assert self._inputs is not None
         return self._inputs
 
     @property
@@ -528,9 +524,9 @@ class _Policy:
 class NavigatePolicy(_Policy):
     """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading)."""
 
-    def __init__(self, follow: FollowTuning, goal: npt.ArrayLike, *, radius: float,
+    def __init__(self, follow: FollowTuning, goal: FloatArray, *, radius: float,
                  speed: float, yaw: float = math.nan) -> None:
-        self.goal = np.asarray(goal, dtype=np.float64).reshape(3)
+        self.goal = goal
         self.radius, self.speed, self.yaw = radius, speed, yaw
         super().__init__(follow)
 
@@ -567,15 +563,13 @@ class ExplorePolicy(_Policy):
     marker of ``wanted`` is seen (none: one sweep), or ``budget_ns`` (0: none) has passed
     since ``start_ns``; ``explore_paths``: arena -> start pad -> (N, 2) waypoints."""
 
-    def __init__(self, follow: FollowTuning, explore: ExploreTuning, *, area: npt.ArrayLike,
-                 altitude: float, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
+    def __init__(self, follow: FollowTuning, explore: ExploreTuning, *, area: FloatArray,
+                 altitude: float, field_min: FloatArray, field_max: FloatArray,
                  explore_paths: Mapping[str, Mapping[int, Any]], start_ns: int,
                  wanted: frozenset[int] = frozenset(), budget_ns: int = 0) -> None:
         self.explore = explore
-        self.area = np.asarray(area, dtype=np.float64).reshape(-1, 2)
-        self.altitude = altitude
-        self.field_min = np.asarray(field_min, dtype=np.float64)
-        self.field_max = np.asarray(field_max, dtype=np.float64)
+        self.area, self.altitude = area, altitude
+        self.field_min, self.field_max = field_min, field_max
         self.explore_paths = explore_paths
         self.start_ns, self.wanted, self.budget_ns = start_ns, wanted, budget_ns
         lo = self.area.min(axis=0) if len(self.area) else self.field_min[:2]
@@ -584,7 +578,7 @@ class ExplorePolicy(_Policy):
         self.half = footprint_half_size(altitude, explore.down_camera_fovy_deg,
                                         explore.down_camera_aspect)
         self.budget_used = False
-        self._waypoint = np.zeros(3)
+        self._waypoint: FloatArray  # the explore waypoint flown to (set by _main)
         super().__init__(follow)
 
     def seen(self) -> tuple[int, ...]:

@@ -225,9 +225,24 @@ def test_a_turn_first_angle_of_pi_never_turns_first() -> None:
 
 
 def test_a_waypoint_right_above_keeps_the_heading() -> None:
-    world = World(navigate(np.array([0.1, 0.0, 3.0])), straight, yaw=2.0)
+    world = World(navigate(np.array([2.1, 2.0, 3.0])), straight, here=np.array([2.0, 2.0, Z]),
+                  yaw=2.0)
     assert world.run().outcome is Outcome.REACHED
     assert world.of(SendTurn) == [] and world.of(SendReach)[0].yaw == 2.0
+
+
+def test_a_waypoint_0_3_m_away_is_faced() -> None:
+    world = World(navigate(np.array([0.3, 0.0, Z])), straight, yaw=2.0)
+    assert world.run().outcome is Outcome.REACHED
+    assert world.of(SendTurn) == [SendTurn(0.0)]
+
+
+def test_a_leg_faced_exactly_is_not_turned_to_and_a_straight_waypoint_is_no_corner() -> None:
+    follow = FollowTuning(**{**FOLLOW.__dict__, "turn_first_angle": 0.0})
+    world = World(navigate(GOAL, follow), first_then_straight(p((0, 0), (2, 0), (4, 0))))
+    assert world.run().outcome is Outcome.REACHED
+    assert world.of(SendTurn) == []
+    assert not world.of(SendReach)[0].stop_at_target
 
 
 def test_plan_failures_are_retried_then_the_goal_ends_with_no_path() -> None:
@@ -312,6 +327,7 @@ def test_progress_says_the_waypoint_and_what_is_left_of_the_path() -> None:
     step.position = np.array([1.0, 0.0, Z])
     progress = step(ActionState(False))
     assert isinstance(progress, NavigateProgress) and progress.waypoint == 1
+    assert np.array_equal(progress.path, p((0, 0), (2, 0.5), (4, 0)))
     assert progress.distance_left == pytest.approx(math.hypot(1.0, 0.5) + math.hypot(2.0, 0.5))
 
 
@@ -329,6 +345,13 @@ def test_no_replan_before_the_period_then_one_each_period() -> None:
         assert isinstance(step(), PollAction)
     assert step.now_ns == round(FOLLOW.replan_period_s * 1e9)
     assert polls == round(FOLLOW.replan_period_s / POLL_S)
+    assert isinstance(step(ok(np.array([HERE, GOAL]))), Plan)  # the same path: the leg check
+    assert step(ok(np.array([HERE, GOAL]))) == Sleep(POLL_S)
+    step.wait(POLL_S)
+    assert isinstance(step(), PollAction)
+    replanned_ns = step.now_ns - round(POLL_S * 1e9)
+    poll_until_replan(step)  # the next one a whole period after the last
+    assert step.now_ns == replanned_ns + round(FOLLOW.replan_period_s * 1e9)
 
 
 # -- re-planning while a leg is flown ------------------------------------------------------
@@ -380,6 +403,17 @@ def test_a_clear_leg_switches_when_the_new_length_differs_by_more_than_the_toler
         assert command == Sleep(POLL_S)
 
 
+def test_a_length_difference_of_exactly_the_tolerance_keeps_the_path() -> None:
+    follow = FollowTuning(**{**FOLLOW.__dict__, "replan_tolerance": 1.0})
+    step = Stepper(navigate(GOAL, follow))
+    fly_leg(step, np.array([HERE, GOAL]))  # 4 m
+    poll_until_replan(step)
+    new = p((0, 0), (2, 1.5), (4, 0))  # 2.5 m + 2.5 m
+    assert path_length(new) - 4.0 == 1.0
+    assert isinstance(step(ok(new)), Plan)
+    assert step(ok(np.array([HERE, GOAL]))) == Sleep(POLL_S)
+
+
 def test_a_leg_check_failure_that_blocks_the_leg_switches_and_one_that_does_not_flies_on(
         ) -> None:
     for blocks_leg, expected in ((True, CancelAction), (False, Sleep)):
@@ -422,6 +456,7 @@ def test_a_blocked_leg_with_no_new_path_holds_then_plans_again_then_gives_up() -
     for attempt in range(FOLLOW.plan_attempts):
         command = step(ActionState(True, True, "held") if attempt == 0 else None)
         assert isinstance(command, Plan), attempt
+        assert np.array_equal(command.start, step.position) and np.array_equal(command.goal, GOAL)
         assert step(failed(f"NoPathFound {attempt}")) == Sleep(FOLLOW.replan_period_s)
     assert step() == Finish(Outcome.NO_PATH, "the path ahead is blocked and no other path "
                                              "was found: NoPathFound 2")
@@ -526,6 +561,15 @@ def test_a_goal_found_blocked_after_the_turn_holds_and_gives_up_with_no_path() -
     assert isinstance(step(Planned(None, "NoPathFound", step.now_ns, True)), Plan)
     hold = step(failed("GoalOccupied"))
     assert isinstance(hold, SendReach) and np.array_equal(hold.target, HERE)
+    assert isinstance(step(Sent(True)), PollAction)
+    again = step(ActionState(True, True, "held"))
+    assert isinstance(again, Plan) and np.array_equal(again.goal, NORTH[1])
+    for _ in range(FOLLOW.plan_attempts - 1):
+        assert isinstance(step(failed("NoPathFound: cut off")), Sleep)
+        assert isinstance(step(), Plan)
+    assert isinstance(step(failed("NoPathFound: cut off")), Sleep)
+    assert step() == Finish(Outcome.NO_PATH, "the path ahead is blocked and no other path was "
+                                             "found: NoPathFound: cut off")
 
 
 def test_a_failed_turn_still_looks_again_before_the_leg() -> None:
@@ -645,6 +689,8 @@ def test_one_sweep_without_wanted_markers_flies_every_lane_end_and_covers_the_ar
     assert end.message == (f"{len(expected)}/{len(expected)} waypoints flown in 1 sweep "
                            "(last: coverage lanes over the area), 0 skipped without a path")
     assert [r.target.tolist() for r in world.of(SendReach)] == expected.tolist()
+    assert {(r.radius, r.speed) for r in world.of(SendReach)} == {
+        (FOLLOW.waypoint_radius, FOLLOW.cruise_speed)}
     assert end.coverage > 0.9 and end.markers_found == ()
     assert world.of(Log) == [Log(f"explore sweep 1/1: {len(expected)} waypoints "
                                  "(coverage lanes over the area)")]
@@ -662,6 +708,13 @@ def test_while_the_wanted_marker_is_unseen_it_sweeps_again_across_then_along() -
     assert end.message.startswith(f"{flown}/{flown} waypoints")
 
 
+def test_two_sweeps_are_counted_in_the_message() -> None:
+    tuning = ExploreTuning(**{**EXPLORE.__dict__, "explore_sweeps": 2})
+    world = World(explore(tuning, wanted=frozenset({19})), straight,
+                  here=np.array([1.0, 1.0, Z]))
+    assert " in 2 sweeps (last: coverage lanes across the area)" in world.run().message
+
+
 def test_a_wanted_marker_seen_on_the_way_stops_the_leg_and_holds() -> None:
     def marker_after_3_s(world: World) -> None:
         if world.now_ns >= 3_000_000_000:
@@ -676,6 +729,7 @@ def test_a_wanted_marker_seen_on_the_way_stops_the_leg_and_holds() -> None:
     hold = world.of(SendReach)[-1]
     assert isinstance(world.log[world.log.index(hold) - 1], CancelAction)  # the leg, on the way
     assert world.times[world.log.index(hold)] == 3_000_000_000
+    assert CancelAction() not in world.log[world.log.index(hold):]  # held to the end
     assert hold.radius == FOLLOW.goal_radius and hold.stop_at_target
     assert np.array_equal(hold.target, world.position)
     assert 0.0 < end.coverage < 1.0
@@ -706,6 +760,15 @@ def test_the_time_budget_stops_exploring_and_holds() -> None:
     assert hold.stop_at_target and world.times[world.log.index(hold)] == 2_000_000_000
 
 
+def test_the_time_budget_counts_from_the_start() -> None:
+    world = World(explore(wanted=frozenset({19}), budget_ns=2_000_000_000, start_ns=1),
+                  straight, polls=10, here=np.array([1.0, 1.0, Z]))
+    world.now_ns = 1
+    assert world.run().outcome is Outcome.TIME_BUDGET
+    hold = world.of(SendReach)[-1]
+    assert world.times[world.log.index(hold)] == 2_000_000_001
+
+
 def test_a_budget_used_up_by_the_last_lane_of_a_sweep_ends_the_sweeps() -> None:
     n = len(lanes(np.array([1.0, 1.0, Z])))
 
@@ -719,15 +782,15 @@ def test_a_budget_used_up_by_the_last_lane_of_a_sweep_ends_the_sweeps() -> None:
     assert world.reached == n + 1  # the lane ends and the hold
 
 
-def test_a_waypoint_with_no_path_is_skipped() -> None:
+def test_waypoints_with_no_path_are_skipped() -> None:
     here = np.array([1.0, 1.0, Z])
     expected = lanes(here)
-    world = World(explore(), lambda s, g, w: failed() if np.array_equal(g, expected[1])
+    world = World(explore(), lambda s, g, w: failed() if g[0] == 4.0
                   else ok(np.array([s, g])), here=here)
     end = world.run()
     n = len(expected)
-    assert end.message.startswith(f"{n - 1}/{n} waypoints flown")
-    assert end.message.endswith("1 skipped without a path")
+    assert end.message.startswith(f"{n - 3}/{n} waypoints flown")  # 3 lane ends at x = 4 m
+    assert end.message.endswith("3 skipped without a path")
 
 
 def test_a_lane_end_with_no_path_is_replaced_by_the_nearest_reachable_point_on_the_lane(
@@ -818,11 +881,12 @@ def test_a_first_waypoint_with_no_path_and_no_previous_one_is_skipped() -> None:
 
 
 def test_a_flight_error_ends_exploring_and_names_the_sweep_and_waypoint() -> None:
-    world = World(explore(), straight, here=np.array([1.0, 1.0, Z]))
+    world = World(explore(wanted=frozenset({19})), straight, here=np.array([1.0, 1.0, Z]))
     world.fail = lambda command: "lost offboard" if len(world.of(SendReach)) >= 3 else None
     end = world.run()
     assert end.outcome is Outcome.FLIGHT_ERROR
     assert end.message == "sweep 1, waypoint 3: reach failed: lost offboard"
+    assert len(world.of(Log)) == 1  # no other sweep
     assert world.of(SendReach)[-1].target.tolist() != world.position.tolist()
 
 
@@ -854,7 +918,8 @@ def seen_from(height: float, altitude: float = Z) -> float:
     paths = {"a": {2: np.array([[3.0, 2.0]])}}
     tuning = ExploreTuning(**{**EXPLORE.__dict__, "arena": "a", "start_pad": 2})
     policy = ExplorePolicy(FOLLOW, tuning, area=np.empty((0, 2)), altitude=altitude,
-                           field_min=(1.0, 1.0, 0.0), field_max=(4.0, 2.5, 4.0),
+                           field_min=np.array([1.0, 1.0, 0.0]),
+                           field_max=np.array([4.0, 2.5, 4.0]),
                            explore_paths=paths, start_ns=0)
     step = Stepper(policy, here=np.array([1.0, 1.0, height]))
     assert isinstance(step(), Log)
@@ -870,6 +935,10 @@ def test_the_footprint_seen_grows_with_the_height_flown() -> None:
     assert seen_from(Z / 2) == pytest.approx(4 / 72)  # half the size: 2 x 2 cells
     # the footprint is the one from the height flown, whatever the altitude asked
     assert seen_from(Z, altitude=2 * Z) == pytest.approx(15 / 72)
+
+
+def test_the_footprint_from_a_low_altitude_scales_too() -> None:
+    assert seen_from(0.4, altitude=0.8) == pytest.approx(seen_from(0.4))
 
 
 def test_an_explore_at_zero_altitude_sees_no_more_than_a_point() -> None:
@@ -893,8 +962,32 @@ def test_explore_waypoints_over_the_field_keep_off_the_walls() -> None:
     assert source == "coverage lanes over the field"
     assert points[:, 0].min() == 1.0 and points[:, 0].max() == 19.0
     assert points[:, 1].min() == 1.0 and points[:, 1].max() == 13.0
-    _, source = explore_waypoints(EXPLORE, {}, *FIELD, np.empty((0, 2)), Z, HERE, sweep=1)
-    assert source == "coverage lanes across the field"
+    far, _ = explore_waypoints(EXPLORE, {}, *FIELD, np.empty((0, 2)), Z,
+                               np.array([20.0, 14.0, Z]))
+    assert far[0, :2].tolist() == [19.0, 13.0]  # from the corner nearest the vehicle
+    for sweep in (1, 3):
+        across, source = explore_waypoints(EXPLORE, {}, *FIELD, np.empty((0, 2)), Z, HERE,
+                                           sweep=sweep)
+        assert source == "coverage lanes across the field"
+        assert np.allclose(np.diff(across[:, 0])[::2], 0.0)  # lanes along y, the short side
+
+
+def test_explore_waypoints_across_an_area_run_along_its_short_side() -> None:
+    across, source = explore_waypoints(EXPLORE, {}, *FIELD, AREA, Z, HERE, sweep=1)
+    assert source == "coverage lanes across the area"
+    assert np.allclose(np.diff(across[:, 0])[::2], 0.0)
+    along, _ = explore_waypoints(EXPLORE, {}, *FIELD, AREA, Z, HERE, sweep=2)
+    assert np.allclose(np.diff(along[:, 1])[::2], 0.0)
+
+
+def test_an_explore_of_the_field_flies_lanes_inside_its_walls() -> None:
+    here = np.array([1.0, 1.0, Z])
+    step = Stepper(explore(area=np.empty((0, 2))), here=here)
+    expected, _ = explore_waypoints(EXPLORE, {}, *FIELD, np.empty((0, 2)), Z, here)
+    assert step() == Log(f"explore sweep 1/1: {len(expected)} waypoints (coverage lanes over "
+                         "the field)")
+    first = step()
+    assert isinstance(first, Plan) and np.array_equal(first.goal, expected[0])
 
 
 def test_explore_waypoints_take_the_predefined_path_on_the_first_sweep_only() -> None:
