@@ -102,7 +102,8 @@ MUTATE_PATHS    ?= sim/fcu/commander.py \
   perception/scan_policy.py \
   flight_control/pose_history.py \
   flight_control/bridge_node.py:FcuBridgeNode.to_companion_ns,FcuBridgeNode.to_fcu_us,FcuBridgeNode._stamp=tests/flight_control/test_bridge_node_clocks.py \
-  navigation/precision_landing.py
+  navigation/precision_landing.py \
+  navigation/navigator_policy.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 MUTATE_ARGS     ?=

@@ -251,7 +251,7 @@ class NavigatorNode(Node):
         if not r.success:
             return self._finish(handle, TAKEOFF, int(r.result), False, f"takeoff: {r.message}",
                                 position=r.position)
-        end = await self._drive(SurveyPolicy(self.follow, self.params.survey_turns), handle)
+        end = await self._drive(SurveyPolicy(self.params.survey_turns), handle)
         code = {Outcome.REACHED: R.RESULT_OK, Outcome.CANCELED: R.RESULT_CANCELED,
                 Outcome.FLIGHT_ERROR: R.RESULT_TIMEOUT}[end.outcome]
         message = (f"at {altitude:.2f} m, {end.message}" if end.outcome is Outcome.REACHED

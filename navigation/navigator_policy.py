@@ -308,8 +308,7 @@ class _Flown:
 class _Policy:
     """A script (a generator of commands) fed one :class:`Inputs` per step."""
 
-    def __init__(self, follow: FollowTuning) -> None:
-        self.follow = follow
+    def __init__(self) -> None:
         self.result: Finish | None = None
         self.why: str  # why the last flight-control goal did not succeed (set by _run)
         self._inputs: Inputs  # the last step's (set by step)
@@ -366,6 +365,15 @@ class _Policy:
                 self.why = "canceled" if self._now.cancel_requested else "stopped"
                 return None
             yield Sleep(POLL_S)
+
+
+
+class _Follower(_Policy):
+    """A policy that follows planned paths (``follow``: how)."""
+
+    def __init__(self, follow: FollowTuning) -> None:
+        self.follow = follow
+        super().__init__()
 
     def _hold(self) -> Script[None]:
         """Stop where the vehicle is (a reach to here)."""
@@ -521,7 +529,7 @@ class _Policy:
         return path, f"the path ahead is blocked and no other path was found: {message}"
 
 
-class NavigatePolicy(_Policy):
+class NavigatePolicy(_Follower):
     """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading)."""
 
     def __init__(self, follow: FollowTuning, goal: FloatArray, *, radius: float,
@@ -545,9 +553,9 @@ class NavigatePolicy(_Policy):
 class SurveyPolicy(_Policy):
     """``turns`` quarter turns to the left, where the vehicle is."""
 
-    def __init__(self, follow: FollowTuning, turns: int) -> None:
+    def __init__(self, turns: int) -> None:
         self.turns = turns
-        super().__init__(follow)
+        super().__init__()
 
     def _main(self) -> Script[Finish]:
         for q in range(self.turns):
@@ -558,7 +566,7 @@ class SurveyPolicy(_Policy):
         return Finish(Outcome.REACHED, f"{self.turns} survey turns")
 
 
-class ExplorePolicy(_Policy):
+class ExplorePolicy(_Follower):
     """Explore ``area`` ((M, 2) polygon [m]; empty: the field) at ``altitude`` [m] until a
     marker of ``wanted`` is seen (none: one sweep), or ``budget_ns`` (0: none) has passed
     since ``start_ns``; ``explore_paths``: arena -> start pad -> (N, 2) waypoints."""

@@ -633,22 +633,22 @@ def test_a_goal_not_reached_is_not_turned_at() -> None:
 
 # -- survey turns --------------------------------------------------------------------------
 def test_survey_turns_a_quarter_each_then_reports_the_count() -> None:
-    world = World(SurveyPolicy(FOLLOW, 4), straight)
+    world = World(SurveyPolicy(4), straight)
     assert world.run() == Finish(Outcome.REACHED, "4 survey turns")
     assert world.of(SendTurn) == [SendTurn(math.pi / 2, relative=True)] * 4
     assert world.yaw == pytest.approx(2 * math.pi)
 
 
 def test_a_failed_survey_turn_ends_the_survey_and_says_which() -> None:
-    world = World(SurveyPolicy(FOLLOW, 4), straight)
+    world = World(SurveyPolicy(4), straight)
     world.fail = lambda command: "timeout" if len(world.of(SendTurn)) == 2 else None
     assert world.run() == Finish(Outcome.FLIGHT_ERROR, "survey turn 2: timeout")
     assert len(world.of(SendTurn)) == 2
-    step = Stepper(SurveyPolicy(FOLLOW, 1))
+    step = Stepper(SurveyPolicy(1))
     assert isinstance(step(), SendTurn)
     assert step(Sent(False, "busy")) == Finish(Outcome.FLIGHT_ERROR,
                                                "survey turn 1: rejected: busy")
-    step = Stepper(SurveyPolicy(FOLLOW, 1))
+    step = Stepper(SurveyPolicy(1))
     step()
     step.cancel = True
     assert isinstance(step(Sent(True)), PollAction)
@@ -657,7 +657,7 @@ def test_a_failed_survey_turn_ends_the_survey_and_says_which() -> None:
 
 
 def test_a_turn_still_running_is_polled_every_poll_period() -> None:
-    step = Stepper(SurveyPolicy(FOLLOW, 1))
+    step = Stepper(SurveyPolicy(1))
     step()
     assert isinstance(step(Sent(True)), PollAction)
     assert step(ActionState(False)) == Sleep(POLL_S)
@@ -691,7 +691,7 @@ def test_one_sweep_without_wanted_markers_flies_every_lane_end_and_covers_the_ar
     assert [r.target.tolist() for r in world.of(SendReach)] == expected.tolist()
     assert {(r.radius, r.speed) for r in world.of(SendReach)} == {
         (FOLLOW.waypoint_radius, FOLLOW.cruise_speed)}
-    assert end.coverage > 0.9 and end.markers_found == ()
+    assert end.coverage == 1.0 and end.markers_found == ()
     assert world.of(Log) == [Log(f"explore sweep 1/1: {len(expected)} waypoints "
                                  "(coverage lanes over the area)")]
 
@@ -743,6 +743,23 @@ def test_markers_seen_before_the_start_do_not_count() -> None:
     assert end.outcome is Outcome.COVERED and end.markers_found == (12,)
 
 
+def test_a_stop_on_the_way_is_final_even_if_the_marker_turns_out_older_than_the_start(
+        ) -> None:
+    """A detection captured before the start may arrive late and replace the marker's
+    stamp: exploring still ends where it stopped (no other sweep)."""
+    def marker_then_an_older_capture(world: World) -> None:
+        if world.now_ns >= 3_000_000_000 and 19 not in world.markers:
+            world.markers = {19: world.now_ns}
+        elif CancelAction() in world.log:
+            world.markers = {19: -1}
+
+    world = World(explore(wanted=frozenset({19})), straight, polls=50,
+                  during=marker_then_an_older_capture, here=np.array([1.0, 1.0, Z]))
+    end = world.run()
+    assert len(world.of(Log)) == 1 and end.outcome is Outcome.COVERED
+    assert world.log.count(CancelAction()) == 1
+
+
 def test_a_marker_seen_between_legs_stops_before_the_next_one() -> None:
     world = World(explore(wanted=frozenset({19})), straight, here=np.array([1.0, 1.0, Z]))
     world.fail = lambda command: world.markers.update({19: world.now_ns})  # type: ignore[func-returns-value]
@@ -761,12 +778,13 @@ def test_the_time_budget_stops_exploring_and_holds() -> None:
 
 
 def test_the_time_budget_counts_from_the_start() -> None:
-    world = World(explore(wanted=frozenset({19}), budget_ns=2_000_000_000, start_ns=1),
-                  straight, polls=10, here=np.array([1.0, 1.0, Z]))
-    world.now_ns = 1
+    world = World(explore(wanted=frozenset({19}), budget_ns=2_000_000_000,
+                          start_ns=1_000_000_000), straight, polls=10,
+                  here=np.array([1.0, 1.0, Z]))
+    world.now_ns = 1_000_000_000
     assert world.run().outcome is Outcome.TIME_BUDGET
     hold = world.of(SendReach)[-1]
-    assert world.times[world.log.index(hold)] == 2_000_000_001
+    assert world.times[world.log.index(hold)] == 3_000_000_000
 
 
 def test_a_budget_used_up_by_the_last_lane_of_a_sweep_ends_the_sweeps() -> None:
@@ -807,6 +825,9 @@ def test_a_lane_end_with_no_path_is_replaced_by_the_nearest_reachable_point_on_t
     end = world.run()
     assert "0 skipped" in end.message
     targets = [r.target for r in world.of(SendReach)]
+    replacement = world.of(SendReach)[1]
+    assert (replacement.radius, replacement.speed) == (FOLLOW.waypoint_radius,
+                                                       FOLLOW.cruise_speed)
     assert np.allclose(targets[1], expected[1] + (expected[0] - expected[1])
                        * (1.5 / np.linalg.norm(expected[0] - expected[1])))
     # tried toward the lane's other end, LANE_STEP_M after LANE_STEP_M, then flown
@@ -913,15 +934,16 @@ def test_explore_progress_names_the_waypoint_the_coverage_and_the_markers() -> N
     assert coverage == sorted(coverage) and 0.0 < coverage[0] < coverage[-1]
 
 
-def seen_from(height: float, altitude: float = Z) -> float:
-    """The coverage after the first stop check, from ``height`` at the area's corner."""
+def seen_from(height: float, altitude: float = Z, corner: tuple[float, float] = (1.0, 1.0)
+              ) -> float:
+    """The coverage after the first stop check, from ``height`` at the area's ``corner``."""
     paths = {"a": {2: np.array([[3.0, 2.0]])}}
     tuning = ExploreTuning(**{**EXPLORE.__dict__, "arena": "a", "start_pad": 2})
     policy = ExplorePolicy(FOLLOW, tuning, area=np.empty((0, 2)), altitude=altitude,
                            field_min=np.array([1.0, 1.0, 0.0]),
                            field_max=np.array([4.0, 2.5, 4.0]),
                            explore_paths=paths, start_ns=0)
-    step = Stepper(policy, here=np.array([1.0, 1.0, height]))
+    step = Stepper(policy, here=np.array([*corner, height]))
     assert isinstance(step(), Log)
     assert isinstance(step(), Plan)
     return policy.grid.fraction
@@ -941,8 +963,9 @@ def test_the_footprint_from_a_low_altitude_scales_too() -> None:
     assert seen_from(0.4, altitude=0.8) == pytest.approx(seen_from(0.4))
 
 
-def test_an_explore_at_zero_altitude_sees_no_more_than_a_point() -> None:
-    assert seen_from(0.0, altitude=0.0) <= 1 / 72
+def test_an_explore_at_zero_altitude_sees_only_the_cell_under_it() -> None:
+    assert seen_from(0.0, altitude=0.0) == 0.0
+    assert seen_from(0.0, altitude=0.0, corner=(1.125, 1.125)) == 1 / 72  # a cell's centre
 
 
 # -- the explore path ----------------------------------------------------------------------
