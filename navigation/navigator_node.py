@@ -1,19 +1,15 @@
 """The navigator (seed 003, sec. 3.3.2): takeoff, explore and navigate as actions.
 
 It flies only through the flight-control actions (``/flight_control/takeoff``, ``reach``,
-``turn``) and plans only through ``/navigation/plan_path``. What to do next is decided by
-the policies of :mod:`navigation.navigator_policy` (following a path, re-planning when a
-leg is blocked, exploring in sweeps, surveying after takeoff; read its docstring); this
-node feeds them the vehicle's pose, the time, the markers seen and the answers of the
-planner and the flight-control actions, and carries out their commands:
-
-- ``/navigation/navigate``: plan to the goal and follow the path (:class:`NavigatePolicy`).
-- ``/navigation/explore``: the predefined exploration path of the arena and start pad
-  (``explore_paths_file``) or coverage lanes, in sweeps, until one of ``stop_marker_ids``
-  is on ``/perception/markers`` (:class:`ExplorePolicy`).
-- ``/navigation/takeoff``: ``/flight_control/takeoff`` to the cruise altitude, then
-  ``survey_turns`` quarter turns so the depth camera maps all around
-  (:class:`SurveyPolicy`).
+``turn``) and plans only through ``/navigation/plan_path``. The decisions are the pure
+policies' of :mod:`navigation.navigator_policy` (read its docstring): ``/navigation/navigate``
+follows a planned path and re-plans when a leg is blocked (:class:`NavigatePolicy`),
+``/navigation/explore`` flies the arena's explore path or coverage lanes in sweeps until a
+``stop_marker_ids`` marker is on ``/perception/markers`` (:class:`ExplorePolicy`), and
+``/navigation/takeoff`` climbs with ``/flight_control/takeoff``, then makes
+``survey_turns`` quarter turns (:class:`SurveyPolicy`). This node feeds a policy the pose,
+the time, the markers and the answers of the planner and the flight actions, and carries
+out its commands.
 
 Parameters: ``config/navigator.yaml`` (+ ``arena``, ``start_pad`` and the field from the app).
 """
@@ -165,10 +161,7 @@ class NavigatorNode(Node):
                 case Sleep(seconds=seconds):
                     await self.sleep(seconds)
                 case SendReach() | SendTurn():
-                    client, goal = ((self.reach, self._reach_goal(command))
-                                    if isinstance(command, SendReach) else
-                                    (self.turn, interfaces.new(TURN.Goal, yaw=command.yaw,
-                                                               relative=command.relative)))
+                    client, goal = self._flight_goal(command)
                     fc = await client.send_goal_async(goal)
                     if fc.accepted:
                         result = fc.get_result_async()
@@ -196,15 +189,18 @@ class NavigatorNode(Node):
                        str(response.message), Time.from_msg(response.path.header.stamp).nanoseconds,
                        int(response.result) in _LEG_BLOCKED)
 
-    @staticmethod
-    def _reach_goal(command: SendReach) -> Any:
+    def _flight_goal(self, command: SendReach | SendTurn) -> tuple[ActionClient, Any]:
+        """The flight-control action and its goal for ``command``."""
+        if isinstance(command, SendTurn):
+            return self.turn, interfaces.new(TURN.Goal, yaw=command.yaw,
+                                             relative=command.relative)
         goal = interfaces.new(REACH.Goal, radius=command.radius, speed=command.speed,
                               stop_at_target=command.stop_at_target)
         goal.target.position = _point(*command.target)
-        yaw = command.yaw
         goal.target.orientation = interfaces.new("geometry_msgs/msg/Quaternion", x=0.0, y=0.0,
-                                                 z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
-        return goal
+                                                 z=math.sin(command.yaw / 2.0),
+                                                 w=math.cos(command.yaw / 2.0))
+        return self.reach, goal
 
     def _finish(self, handle: ServerGoalHandle, action: Any, code: int, success: bool,
                 message: str, **fields: Any) -> Any:
