@@ -24,30 +24,25 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 import interfaces
-from flight_control.frames import FloatArray, frd_to_flu_f, quat_to_xyzw
+from flight_control import fcu_messages
+from flight_control.fcu_messages import all_finite, nan_to_num
+from flight_control.params import BridgeParams
 from flight_control.pose_history import PoseHistory, PoseSample
 from flight_control.px4_messages import (
     odometry_enu,
     offboard_control_mode,
     trajectory_setpoint,
+    vehicle_command,
     vision_odometry,
 )
 from flight_control.timesync import ReportedOffset, make_estimator
-from interfaces.px4 import (
-    COMPANION_COMPONENT_ID,
-    FCU_COMPONENT_ID,
-    FCU_SYSTEM_ID,
-    FMU_IN,
-    FMU_OUT,
-    ArmingState,
-)
+from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
 from interfaces.px4.topics import XRCE_SESSION
 from runtime import (
@@ -57,11 +52,9 @@ from runtime import (
     ReliabilityPolicy,
     Subscription,
     Time,
-    param,
     qos_profile_default,
     qos_profile_sensor_data,
 )
-from runtime.clock import NS_PER_S
 
 #: Seed 000's QoS for the bridge topics, both directions: best effort, keep last 1,
 #: transient local (a late subscriber still gets the last sample). It matches PX4's
@@ -73,56 +66,6 @@ LAZY_QOS = replace(BRIDGE_QOS, durability=DurabilityPolicy.VOLATILE)
 #: Acks are events, not state: a queue deep enough that two in one instant both arrive.
 ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
-MAP_FRAME = "map"
-BODY_FRAME = "base_link"
-
-# /fcu/odometry's classes, built directly at 100 Hz (every field given; validated when
-# published), as rclpy code would build them
-_ODOMETRY: Any = interfaces.get_message("nav_msgs/msg/Odometry")
-_HEADER: Any = interfaces.get_message("std_msgs/msg/Header")
-_TIME: Any = interfaces.get_message("builtin_interfaces/msg/Time")
-_POSE_COV: Any = interfaces.get_message("geometry_msgs/msg/PoseWithCovariance")
-_POSE: Any = interfaces.get_message("geometry_msgs/msg/Pose")
-_POINT: Any = interfaces.get_message("geometry_msgs/msg/Point")
-_QUATERNION: Any = interfaces.get_message("geometry_msgs/msg/Quaternion")
-_TWIST_COV: Any = interfaces.get_message("geometry_msgs/msg/TwistWithCovariance")
-_TWIST: Any = interfaces.get_message("geometry_msgs/msg/Twist")
-_VECTOR3: Any = interfaces.get_message("geometry_msgs/msg/Vector3")
-
-
-@dataclass(frozen=True)
-class BridgeParams:
-    timesync_rate_hz: float = param(unit="Hz", range=(0.5, 500.0),
-                                    description="Timesync exchanges per second")
-    timesync_estimator: str = param(choices=("px4", "kalman"),
-                                    description="seed 000 / PX4 filter, or ours")
-    timesync_source: str = param(
-        choices=("exchange", "fcu_status"),
-        description="our Timesync exchange (filtered by timesync_estimator), or the "
-                    "offset the FCU reports on /fmu/out/timesync_status (PX4 v1.17)")
-    pose_history_s: float = param(unit="s", range=(0.1, 60.0),
-                                  description="odometry kept for /fcu/pose_at")
-    connection_timeout_s: float = param(unit="s", range=(0.05, 10.0),
-                                        description="FCU silent this long: disconnected")
-    status_rate_hz: float = param(unit="Hz", range=(0.5, 100.0),
-                                  description="/fcu/status republish rate")
-
-
-def _vec3(msg_type: str, v: Sequence[float]) -> Any:
-    x, y, z = v
-    return interfaces.new(msg_type, x=x, y=y, z=z)
-
-
-def _all_finite(values: Sequence[float]) -> bool:
-    """``np.isfinite(values).all()`` for a few Python floats."""
-    return all(map(math.isfinite, values))
-
-
-def _nan_to_num(values: FloatArray) -> FloatArray:
-    """``np.nan_to_num(values)`` for a float64 array; the array itself when it is finite
-    already (the common case, without numpy's per-call cost)."""
-    return values if _all_finite(values.tolist()) else np.nan_to_num(values)
-
 
 class FcuBridgeNode(Node):
     """See the module docstring; parameters in ``config/fcu_bridge.yaml``."""
@@ -243,40 +186,17 @@ class FcuBridgeNode(Node):
             self.history = PoseHistory(self.history.span_ns)
         if not self.timesync_pub.get_subscription_count():
             return  # diagnostics nobody reads are not built
-        self.timesync_pub.publish(interfaces.new(
-            "quadmission_interfaces/msg/TimesyncDiagnostics",
-            header=interfaces.new("std_msgs/msg/Header", stamp=self.now().to_msg()),
-            offset_observed_us=est.observed_offset_us, offset_estimated_us=est.offset_us,
-            skew_estimated_us=est.skew_ppm, rtt_us=est.rtt_us, samples=est.samples,
-            high_deviation_count=est.high_deviation_total, high_rtt_count=est.high_rtt_total,
-            resets=est.resets, converged=est.converged))
+        self.timesync_pub.publish(fcu_messages.timesync_diagnostics(est, self.now().to_msg()))
 
     # -- FCU -> companion -----------------------------------------------------------------
     def _on_odometry(self, msg: Any) -> None:
         stamp_ns = self.to_companion_ns(int(msg.timestamp_sample))
         odo = odometry_enu(msg)
-        if _all_finite(odo.position) and _all_finite(odo.q):
+        if all_finite(odo.position) and all_finite(odo.q):
             self.history.add(PoseSample(stamp_ns, np.array(odo.position), np.array(odo.q),
-                                        _nan_to_num(np.array(odo.velocity))))
-        if not self.odometry_pub.get_subscription_count():
-            return  # the history above answers /fcu/pose_at; nobody reads the topic
-        w, x, y, z = odo.q
-        px, py, pz = odo.position
-        vx, vy, vz = odo.body_velocity
-        rx, ry, rz = odo.angular_velocity
-        sec, nanosec = divmod(stamp_ns, NS_PER_S)
-        self.odometry_pub.publish(_ODOMETRY(
-            header=_HEADER(stamp=_TIME(sec=sec, nanosec=nanosec), frame_id=MAP_FRAME),
-            child_frame_id=BODY_FRAME,
-            pose=_POSE_COV(
-                pose=_POSE(position=_POINT(x=px, y=py, z=pz),
-                           orientation=_QUATERNION(x=x, y=y, z=z, w=w)),
-                covariance=_nan_to_num(odo.pose_covariance)),
-            twist=_TWIST_COV(
-                twist=_TWIST(linear=_VECTOR3(x=vx, y=vy, z=vz),
-                             angular=_VECTOR3(x=rx, y=ry, z=rz)),
-                covariance=_nan_to_num(odo.twist_covariance)),
-        ))
+                                        nan_to_num(np.array(odo.velocity))))
+        if self.odometry_pub.get_subscription_count():  # else only /fcu/pose_at reads it
+            self.odometry_pub.publish(fcu_messages.odometry(odo, stamp_ns))
 
     def _follow_imu_readers(self) -> None:
         """Read /fmu/out/sensor_combined only while /fcu/imu has readers (checked with the
@@ -294,27 +214,12 @@ class FcuBridgeNode(Node):
             self._imu_in = None
 
     def _on_imu(self, msg: Any) -> None:
-        gyro = frd_to_flu_f(msg.gyro_rad.tolist())
-        accel = frd_to_flu_f(msg.accelerometer_m_s2.tolist())
-        self.imu_pub.publish(interfaces.new(
-            "sensor_msgs/msg/Imu",
-            header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp)),
-                                  frame_id=BODY_FRAME),
-            orientation_covariance=np.array([-1.0] + [0.0] * 8),  # no orientation here
-            angular_velocity=_vec3("geometry_msgs/msg/Vector3", gyro),
-            linear_acceleration=_vec3("geometry_msgs/msg/Vector3", accel)))
+        self.imu_pub.publish(fcu_messages.imu(msg, self._stamp(int(msg.timestamp))))
 
     def _on_battery(self, msg: Any) -> None:
         self._status.battery_warning = int(msg.warning)
         self._status.battery_remaining = float(msg.remaining)
-        self.battery_pub.publish(interfaces.new(
-            "sensor_msgs/msg/BatteryState",
-            header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp))),
-            voltage=float(msg.voltage_v), current=-float(msg.current_a),
-            charge=math.nan, capacity=float(msg.capacity) / 1000.0,
-            design_capacity=float(msg.capacity) / 1000.0, percentage=float(msg.remaining),
-            power_supply_status=2, power_supply_health=1, power_supply_technology=3,
-            present=bool(msg.connected)))
+        self.battery_pub.publish(fcu_messages.battery(msg, self._stamp(int(msg.timestamp))))
 
     def _on_vehicle_status(self, msg: Any) -> None:
         s = self._status
@@ -336,11 +241,7 @@ class FcuBridgeNode(Node):
         self._status.position_valid = bool(msg.xy_valid and msg.z_valid)
 
     def _on_ack(self, msg: Any) -> None:
-        self.ack_pub.publish(interfaces.new(
-            "quadmission_interfaces/msg/FcuCommandAck",
-            header=interfaces.new("std_msgs/msg/Header", stamp=self._stamp(int(msg.timestamp))),
-            command=int(msg.command), result=int(msg.result),
-            result_param1=int(msg.result_param1)))
+        self.ack_pub.publish(fcu_messages.command_ack(msg, self._stamp(int(msg.timestamp))))
 
     def _publish_status(self) -> None:
         self._follow_imu_readers()
@@ -363,14 +264,10 @@ class FcuBridgeNode(Node):
         self.setpoint_out.publish(setpoint)
 
     def _on_command(self, msg: Any) -> None:
-        self.command_out.publish(interfaces.new(
-            "px4_msgs/msg/VehicleCommand", timestamp=self.to_fcu_us(self.now().nanoseconds),
-            command=int(msg.command), param1=float(msg.param1), param2=float(msg.param2),
-            param3=float(msg.param3), param4=float(msg.param4), param5=float(msg.param5),
-            param6=float(msg.param6), param7=float(msg.param7), target_system=FCU_SYSTEM_ID,
-            target_component=FCU_COMPONENT_ID, source_system=FCU_SYSTEM_ID,
-            source_component=COMPANION_COMPONENT_ID,
-            from_external=True))
+        self.command_out.publish(vehicle_command(
+            int(msg.command), [msg.param1, msg.param2, msg.param3, msg.param4, msg.param5,
+                               msg.param6, msg.param7],
+            timestamp_us=self.to_fcu_us(self.now().nanoseconds)))
 
     def _on_vision(self, msg: Any) -> None:
         if not self.synced:  # a sample time on the wrong clock would be fused at the
@@ -393,15 +290,6 @@ class FcuBridgeNode(Node):
                 f"{t_ns / 1e9:.3f} s is outside the kept history "
                 f"[{span[0] / 1e9:.3f}, {span[1] / 1e9:.3f}] s")
             return response
-        x, y, z, w = quat_to_xyzw(sample.q)
         response.success = True
-        response.odometry = interfaces.new(
-            "nav_msgs/msg/Odometry",
-            header=interfaces.new("std_msgs/msg/Header", stamp=request.stamp, frame_id=MAP_FRAME),
-            child_frame_id=BODY_FRAME,
-            pose=interfaces.new("geometry_msgs/msg/PoseWithCovariance", pose=interfaces.new(
-                "geometry_msgs/msg/Pose",
-                position=_vec3("geometry_msgs/msg/Point", sample.position.tolist()),
-                orientation=interfaces.new("geometry_msgs/msg/Quaternion", x=float(x),
-                                           y=float(y), z=float(z), w=float(w)))))
+        response.odometry = fcu_messages.pose_odometry(sample, request.stamp)
         return response

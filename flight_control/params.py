@@ -118,3 +118,23 @@ class FieldParams:
 
 
 __all__ = ["FIELD_SOURCE", "FieldParams", "FlightControlParams"]
+
+
+@dataclass(frozen=True)
+class BridgeParams:
+    """The FCU bridge's parameters (``config/fcu_bridge.yaml``)."""
+
+    timesync_rate_hz: float = param(unit="Hz", range=(0.5, 500.0),
+                                    description="Timesync exchanges per second")
+    timesync_estimator: str = param(choices=("px4", "kalman"),
+                                    description="seed 000 / PX4 filter, or ours")
+    timesync_source: str = param(
+        choices=("exchange", "fcu_status"),
+        description="our Timesync exchange (filtered by timesync_estimator), or the "
+                    "offset the FCU reports on /fmu/out/timesync_status (PX4 v1.17)")
+    pose_history_s: float = param(unit="s", range=(0.1, 60.0),
+                                  description="odometry kept for /fcu/pose_at")
+    connection_timeout_s: float = param(unit="s", range=(0.05, 10.0),
+                                        description="FCU silent this long: disconnected")
+    status_rate_hz: float = param(unit="Hz", range=(0.5, 100.0),
+                                  description="/fcu/status republish rate")

@@ -7,7 +7,8 @@
   the companion publishes on ``/fcu/odometry``.
 - :func:`trajectory_setpoint` builds the ``/fmu/in/trajectory_setpoint`` message (NED) from
   an ENU reference, and :func:`offboard_control_mode` the heartbeat that says which of its
-  terms PX4 should track. NaN means "not controlled" on both sides and stays NaN.
+  terms PX4 should track; :func:`vehicle_command` a command from the companion. NaN
+  means "not controlled" on both sides and stays NaN.
 
 Variances follow the axes: ENU x is NED y, so the x and y position variances swap. The
 attitude variances are about the body axes; FLU and FRD share the roll axis and flip the
@@ -18,6 +19,7 @@ message API only.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,10 +42,17 @@ from flight_control.frames import (
     yaw_enu_to_ned,
     yaw_rate_enu_to_ned,
 )
-from interfaces.px4 import ODOMETRY_QUALITY_BEST, PoseFrame, VelocityFrame
+from interfaces.px4 import (
+    COMPANION_COMPONENT_ID,
+    FCU_COMPONENT_ID,
+    FCU_SYSTEM_ID,
+    ODOMETRY_QUALITY_BEST,
+    PoseFrame,
+    VelocityFrame,
+)
 
 __all__ = ["OdometryEnu", "odometry_enu", "offboard_control_mode", "trajectory_setpoint",
-           "vision_odometry"]
+           "vehicle_command", "vision_odometry"]
 
 # a row-major 6x6's diagonal is every 7th of its 36 values: x, y, z, roll, pitch, yaw
 _POSITION_DIAG = slice(0, 21, 7)  # x, y, z
@@ -136,6 +145,18 @@ def offboard_control_mode(setpoint: Any, *, timestamp_us: int) -> Any:
         "px4_msgs/msg/OffboardControlMode", timestamp=int(timestamp_us),
         position=_any_finite(setpoint.position), velocity=_any_finite(setpoint.velocity),
         acceleration=_any_finite(setpoint.acceleration))
+
+
+def vehicle_command(command: int, params: Sequence[float], *, timestamp_us: int) -> Any:
+    """``/fmu/in/vehicle_command`` (px4_msgs/VehicleCommand): ``command`` with its seven
+    parameters, from the companion to the FCU (MAVLink ids of :mod:`interfaces.px4`)."""
+    p1, p2, p3, p4, p5, p6, p7 = map(float, params)
+    return interfaces.new(
+        "px4_msgs/msg/VehicleCommand", timestamp=timestamp_us, command=command,
+        param1=p1, param2=p2, param3=p3, param4=p4, param5=p5, param6=p6, param7=p7,
+        target_system=FCU_SYSTEM_ID, target_component=FCU_COMPONENT_ID,
+        source_system=FCU_SYSTEM_ID, source_component=COMPANION_COMPONENT_ID,
+        from_external=True)
 
 
 def _any_finite(values: Any) -> bool:
