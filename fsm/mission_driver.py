@@ -256,6 +256,8 @@ class Sleep:
 
 Job = SendGoal | CallArm | Probe | Sleep
 JOBS = (SendGoal, CallArm, Probe, Sleep)
+#: The answer each job command waits for.
+ANSWER: dict[type, type] = {SendGoal: GoalDone, CallArm: ArmDone, Probe: Probed, Sleep: Woke}
 
 
 @dataclass(frozen=True)
@@ -340,7 +342,8 @@ class Driver:
         self.position: Vec3 | None = None
         self.modules = {topic: _Module() for topic in params.health_topics}
         self.job = 0  # the job in hand; every request and cancel opens a new one
-        self._then: Callable[[Any], None] | None = None  # what the job's answer goes to
+        #: the job's command waiting for its answer, and where the answer goes
+        self._asked: tuple[Job, Callable[[Any], None]] | None = None
         self._waited = 0.0  # s, the job's polling so far
         self._collecting = False
         self._started_ns: int | None = None
@@ -409,8 +412,11 @@ class Driver:
 
     # -- inputs ----------------------------------------------------------------------------
     def _answer(self, reply: Reply) -> None:
-        if reply.job == self.job and self._then is not None:
-            then, self._then = self._then, None
+        if self._asked is None:
+            return
+        command, then = self._asked
+        if reply.job == self.job and isinstance(reply, ANSWER[type(command)]):
+            self._asked = None
             then(reply)
 
     def _command(self, c: OperatorCommand | UnknownCommand) -> None:
@@ -515,7 +521,7 @@ class Driver:
 
     # -- the jobs' answers ---------------------------------------------------------------------
     def _ask(self, command: Job, then: Callable[[R], None]) -> None:
-        self._then = then
+        self._asked = (command, then)
         self._out.append(command)
 
     def _probed(self, reply: Probed) -> None:
@@ -617,10 +623,10 @@ def _percent(fraction: float) -> str:
 
 
 __all__ = [
-    "JOBS", "Action", "ArmDone", "CallArm", "CancelGoal", "Command", "Driver", "DriverParams",
-    "ExploreGoal", "Goal", "GoalDone", "Health", "Input", "Job", "LandGoal", "NavigateGoal",
-    "NoPicture", "OperatorCommand", "Order", "Outcome", "Position", "PrecisionLandGoal",
-    "Probe", "Probed", "PublishEvent", "PublishState", "ReachGoal", "Reply", "RobotSeen",
-    "SendGoal", "SendPictures", "Sleep", "Snapshot", "StateChanged", "TakeoffGoal", "Tick",
-    "UnknownCommand", "VehicleStatus", "Woke",
+    "ANSWER", "JOBS", "Action", "ArmDone", "CallArm", "CancelGoal", "Command", "Driver",
+    "DriverParams", "ExploreGoal", "Goal", "GoalDone", "Health", "Input", "Job", "LandGoal",
+    "NavigateGoal", "NoPicture", "OperatorCommand", "Order", "Outcome", "Position",
+    "PrecisionLandGoal", "Probe", "Probed", "PublishEvent", "PublishState", "ReachGoal",
+    "Reply", "RobotSeen", "SendGoal", "SendPictures", "Sleep", "Snapshot", "StateChanged",
+    "TakeoffGoal", "Tick", "UnknownCommand", "VehicleStatus", "Woke",
 ]
