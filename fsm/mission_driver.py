@@ -335,7 +335,7 @@ class Driver:
         self.params = params
         self.now_ns = now_ns
         self.mission = Mission(config, self)
-        self.timeline: list[tuple[float, str]] = [(now_ns / 1e9, self.mission.state)]
+        self.timeline: list[tuple[float, str]] = [(self.now_ns / 1e9, self.mission.state)]
         self.events: list[tuple[float, MissionEvent]] = []
         self.pictures: list[object] = []  # of the target robot, while collecting
         self.status: VehicleStatus | None = None
@@ -344,7 +344,7 @@ class Driver:
         self.job = 0  # the job in hand; every request and cancel opens a new one
         #: the job's command waiting for its answer, and where the answer goes
         self._asked: tuple[Job, Callable[[Any], None]] | None = None
-        self._waited = 0.0  # s, the job's polling so far
+        self._waited: float  # s, the job's polling so far (set when it starts)
         self._collecting = False
         self._started_ns: int | None = None
         self._entered_ns = 0
@@ -441,11 +441,9 @@ class Driver:
 
     def _watchdog(self) -> None:
         m = self.mission
-        if not (m.finished or m.state in ("idle", "preflight")):
+        if m.state != "preflight":  # on the ground before, or over: the machine ignores them
             for cause, detail in self.alerts():
                 m.error(cause, detail)
-                if m.finished:
-                    break
         if m.state == "mission.await_sequence":
             waited = (self.now_ns - self._entered_ns) / 1e9
             if waited > self.params.sequence_timeout_s:
@@ -453,12 +451,11 @@ class Driver:
 
     # -- the machine's requests (MissionDriver) ----------------------------------------------
     def check_health(self) -> None:
-        self.job += 1
         self._waited = 0.0
-        self._ask(Probe(self.job), self._probed)
+        self._ask(Probe(self._new_job()), self._probed)
 
     def takeoff(self) -> None:
-        self.job += 1
+        self._new_job()
         s, altitude = self.status, self.params.cruise_altitude
         if s is not None and s.armed and not s.landed and self.position is not None:
             # resumed in the air: climb where we are (the take-off action needs the ground)
@@ -471,33 +468,29 @@ class Driver:
             self._ask(CallArm(self.job, self.params.arm_attempts), self._armed)
 
     def explore(self, target_robot: int) -> None:
-        self.job += 1
         self.pictures.clear()
         self._collecting = True
         goal = ExploreGoal(self.params.cruise_altitude, (target_robot,),
                            self.params.explore_budget_s)
-        self._ask(SendGoal(self.job, Action.EXPLORE, goal), partial(self._explored, target_robot))
+        self._ask(SendGoal(self._new_job(), Action.EXPLORE, goal),
+                  partial(self._explored, target_robot))
 
     def send_pictures(self) -> None:
-        self.job += 1
         self._collecting = True
         self._waited = 0.0
-        self._ask(Sleep(self.job, self.params.report_hover_s), self._look_for_pictures)
+        self._ask(Sleep(self._new_job(), self.params.report_hover_s), self._hovered)
 
     def navigate(self, target: Vec2) -> None:
-        self.job += 1
         goal = NavigateGoal((target[0], target[1], self.params.cruise_altitude))
-        self._ask(SendGoal(self.job, Action.NAVIGATE, goal), self._navigated)
+        self._ask(SendGoal(self._new_job(), Action.NAVIGATE, goal), self._navigated)
 
     def precision_land(self, pad: int, position: Vec2, search_radius: float) -> None:
-        self.job += 1
-        self._ask(SendGoal(self.job, Action.PRECISION_LAND,
+        self._ask(SendGoal(self._new_job(), Action.PRECISION_LAND,
                            PrecisionLandGoal(pad, position, search_radius)),
                   partial(self._precision_landed, pad))
 
     def land(self) -> None:
-        self.job += 1
-        self._ask(SendGoal(self.job, Action.LAND, LandGoal(self.params.land_speed, True)),
+        self._ask(SendGoal(self._new_job(), Action.LAND, LandGoal(self.params.land_speed, True)),
                   self._landed)
 
     def hold(self) -> None:
@@ -505,7 +498,7 @@ class Driver:
         setpoint (the seed's stop leaves the vehicle as it is for the pilot)."""
 
     def cancel(self) -> None:
-        self.job += 1
+        self._new_job()  # the one in hand is over
         self._out.append(CancelGoal())
 
     def state_changed(self, state: str) -> None:
@@ -520,6 +513,10 @@ class Driver:
         self._out.append(PublishEvent(event, self.mission.state))
 
     # -- the jobs' answers ---------------------------------------------------------------------
+    def _new_job(self) -> int:
+        self.job += 1
+        return self.job
+
     def _ask(self, command: Job, then: Callable[[R], None]) -> None:
         self._asked = (command, then)
         self._out.append(command)
@@ -536,12 +533,11 @@ class Driver:
         elif not self.status.position_valid:
             missing.append("no valid position estimate")
         timeout = self.params.preflight_timeout_s
-        if not missing:
-            self.mission.preflight_result(True)
-        elif self._waited >= timeout:
-            self.mission.preflight_result(False, f"after {timeout:g} s: " + "; ".join(missing))
-        else:
+        if missing and self._waited < timeout:
             self._ask(Sleep(self.job, PROBE_PERIOD_S), self._probe_again)
+        else:
+            self.mission.preflight_result(not missing,
+                                          f"after {timeout:g} s: " + "; ".join(missing))
 
     def _probe_again(self, _: Woke) -> None:
         self._waited += PROBE_PERIOD_S
@@ -575,7 +571,14 @@ class Driver:
         else:
             self.mission.action_failed(f"explore: {reply.message}")
 
-    def _look_for_pictures(self, woke: Woke) -> None:
+    def _hovered(self, _: Woke) -> None:
+        self._look_for_pictures()
+
+    def _polled(self, _: Woke) -> None:
+        self._waited += PICTURE_POLL_S
+        self._look_for_pictures()
+
+    def _look_for_pictures(self) -> None:
         if not self.pictures and self._waited < self.params.picture_timeout_s:
             self._ask(Sleep(self.job, PICTURE_POLL_S), self._polled)
             return
@@ -586,14 +589,10 @@ class Driver:
                 EventKind.ERROR, f"no picture of robot {target} from perception after "
                 f"{self.params.report_hover_s + self._waited:.0f} s: its ID and our position "
                 "sent", Severity.WARN, marker_id=target))
-            x, y, _ = self.position if self.position is not None else (math.nan, math.nan, 0.0)
+            x, y = self.position[:2] if self.position is not None else (math.nan, math.nan)
             self.pictures.append(NoPicture(target, x, y))
         self._out.append(SendPictures(tuple(self.pictures)))
         self.mission.pictures_sent()
-
-    def _polled(self, woke: Woke) -> None:
-        self._waited += PICTURE_POLL_S
-        self._look_for_pictures(woke)
 
     def _navigated(self, reply: GoalDone) -> None:
         if reply.outcome is Outcome.SUCCEEDED:

@@ -196,7 +196,8 @@ def test_the_contest_tick_by_tick_from_start_to_the_last_pad() -> None:
     # the operator's sequence: fly pad to pad
     out = rig.feed(OperatorCommand(Order.SEQUENCE, pads=(2, 3), points=(10, 20)), 5.0)
     assert rig.state == "mission.pad.navigate"
-    assert of(out, SendGoal)[0].goal == NavigateGoal((3.0, 7.5, 1.5))
+    assert of(out, SendGoal) == [SendGoal(rig.job.job, Action.NAVIGATE,
+                                          NavigateGoal((3.0, 7.5, 1.5)))]
     out = rig.done(after_s=10.0)
     assert rig.state == "mission.pad.land"
     assert of(out, SendGoal)[0] == SendGoal(rig.job.job, Action.PRECISION_LAND,
@@ -249,6 +250,7 @@ def test_the_state_snapshot_follows_the_mission() -> None:
     rig = Rig(start_ns=1_000_000_000)
     s = rig.driver.snapshot(rig.t_ns)
     assert (s.state, s.phase, s.previous_phase) == ("idle", Phase.IDLE, Phase.IDLE)
+    assert s.stop_reason == "" and s.pads_landed == () and s.score == 0
     assert s.elapsed_ns is None and s.phase_start_ns == 0 and s.robot_marker_id == 0
     rig = flying_pads()
     started_ns = next(t for t, state in rig.driver.timeline if state == "preflight")
@@ -405,6 +407,7 @@ def test_an_explore_failure_holds() -> None:
 def test_pictures_are_those_of_the_target_since_the_exploration_the_latest_kept() -> None:
     rig = Rig()
     rig.feed(RobotSeen(19, "before"))  # not exploring yet: not kept
+    assert rig.driver.pictures == []
     rig = exploring()
     for picture in ("a", "b", "c"):
         rig.feed(RobotSeen(19, picture))
@@ -474,7 +477,7 @@ def test_the_operator_silent_past_the_sequence_timeout_returns_home() -> None:
     rig.tick(after_s=PARAMS.sequence_timeout_s)  # at the timeout: still waiting
     assert rig.state == "mission.await_sequence"
     assert rig.t_ns - entered == 120_000_000_000
-    out = rig.tick(after_s=0.1)
+    out = rig.tick(after_s=50e-9)  # from the first nanoseconds past it
     assert rig.state == "returning.navigate"
     stop = rig.driver.mission.stop
     assert stop is not None and stop.cause is ErrorCause.SEQUENCE_TIMEOUT
@@ -512,6 +515,17 @@ def test_a_pad_not_seen_is_searched_for_then_skipped_and_after_the_last_home() -
     assert rig.state == "completed"  # the sequence is over
 
 
+def test_a_failed_landing_where_the_vehicle_is_holds() -> None:
+    rig = exploring()
+    rig.feed(replace(FLYING, battery_warning=2, battery_remaining=0.05))
+    rig.tick()
+    assert rig.state == "landing_now"
+    rig.done(Outcome.FAILED, "no touchdown detected")
+    stop = rig.driver.mission.stop
+    assert rig.state == "stopped" and stop is not None
+    assert (stop.cause, stop.detail) == (ErrorCause.FLIGHT_ERROR, "land: no touchdown detected")
+
+
 def test_a_precision_landing_failure_names_the_pad() -> None:
     rig = flying_pads()
     rig.done()
@@ -530,11 +544,12 @@ def test_a_failed_navigation_holds_and_cancels_what_runs() -> None:
     assert stop is not None and stop.reaction is Reaction.HOLD
     assert stop.detail == "navigate: blocked"
     assert not of(out, JOBS)
+    assert rig.done() == []  # a second answer: nothing waits for it any more
 
 
 @pytest.mark.parametrize(("status", "cause", "state", "detail"), [
-    (replace(FLYING, battery_warning=1, battery_remaining=0.2), ErrorCause.BATTERY_LOW,
-     "returning.navigate", "battery low (20 %)"),
+    (replace(FLYING, battery_warning=1, battery_remaining=0.6), ErrorCause.BATTERY_LOW,
+     "returning.navigate", "battery low (60 %)"),
     (replace(FLYING, battery_warning=2, battery_remaining=math.nan),
      ErrorCause.BATTERY_CRITICAL, "landing_now", "battery critical (unknown)"),
     (replace(FLYING, battery_warning=3, battery_remaining=0.01),
@@ -576,11 +591,11 @@ def test_a_module_silent_past_its_timeout_holds() -> None:
     rig.report_health()
     rig.feed(Tick(), PARAMS.silence_timeout_s)  # at the timeout: still alive
     assert rig.state == "mission.explore"
-    rig.feed(Tick(), 0.1)
+    rig.feed(Tick(), 2e-9)  # from the first nanoseconds past it
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None
     assert (stop.cause, stop.detail) == (ErrorCause.MODULE_SILENT,
-                                         "/flight_control/health: no report for 3.1 s")
+                                         "/flight_control/health: no report for 3.0 s")
 
 
 def test_a_module_that_never_reported_is_silent() -> None:
@@ -699,6 +714,7 @@ def test_elapsed_counts_from_an_accepted_start_only() -> None:
 
 # -- jobs ----------------------------------------------------------------------------------
 def test_an_answer_counts_once_and_only_for_the_job_in_hand() -> None:
+    assert Rig().feed(Woke(0)) == []  # nothing asked yet
     rig = started()
     probe = rig.job
     assert rig.driver.current(probe.job)
