@@ -1,25 +1,20 @@
-"""The mission node: :class:`~fsm.mission_driver.Driver` (the mission machine and its
-policy) wired to the stack's interfaces. It converts messages into the driver's inputs,
-carries out its commands and feeds the answers back; every decision is the driver's.
+"""The mission node: :class:`~fsm.mission_driver.Driver` (the mission machine and the
+policy that drives it) wired to the stack's interfaces. It converts messages into the
+driver's inputs, carries out its commands and feeds the answers back; the decisions
+(what follows a result, the alerts, the timeouts, the error policy) are the driver's.
 
 - actions: ``/navigation/takeoff`` from the start pad (it maps around after the climb),
   ``/flight_control/takeoff`` from the sequence's pads, ``/flight_control/land`` (with
   ``/flight_control/arm``), ``/flight_control/reach`` (a take-off resumed in the air),
-  ``/navigation/explore``, ``navigate`` and ``precision_land``; a new goal replaces the
-  previous one, whose goal is canceled (cancel reaches the active child), and a result
-  that comes back after its state was left is dropped;
-- ``/mission/command`` (MissionCommand): START, PAUSE, RESUME, ABORT, RETURN_HOME and
-  SEQUENCE, each answered on ``/mission/events`` (accepted or rejected, with the reason);
-- ``/mission/state`` (MissionState: the nested state, the pad in hand, the score so far)
-  on every change and at ``state_rate_hz``; ``/mission/events`` (MissionEvent);
-- ``/mission/robot`` (RobotFound, the pictures of ``/perception/robot_found``);
-- alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` (position estimate invalid ->
-  localisation lost; the battery warnings), each of ``health_topics`` (ERROR -> module
-  error; no report for ``silence_timeout_s`` -> module silent), the sequence timeout.
+  ``/navigation/explore``, ``navigate`` and ``precision_land``; a goal whose job ended
+  is canceled (cancel reaches the active child) and its late result dropped;
+- ``/mission/command`` (MissionCommand), answered on ``/mission/events`` (MissionEvent);
+- ``/mission/state`` (MissionState) on every change and at ``state_rate_hz``;
+- ``/mission/robot`` (RobotFound): the pictures of the target robot;
+- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status``, ``/fcu/odometry``
+  and each of ``health_topics``; preflight also needs every action of ``action_servers``.
 
-Preflight asks every module: each action in ``action_servers`` must be ready and each
-health topic must report OK within ``preflight_timeout_s``. ``timeline`` and ``events``
-keep what happened, with the companion time, for reports.
+``timeline`` and ``events`` keep what happened, with the companion time, for reports.
 """
 
 from __future__ import annotations
@@ -41,6 +36,7 @@ from runtime import (
     Node,
     ParameterError,
     QoSProfile,
+    Time,
     qos_profile_default,
     qos_profile_latched,
     qos_profile_sensor_data,
@@ -92,10 +88,7 @@ OUTCOMES: dict[d.Action, dict[int, d.Outcome]] = {
     d.Action.PRECISION_LAND: {LAND_RESULT.RESULT_MARKER_NOT_FOUND: d.Outcome.NOT_FOUND,
                               LAND_RESULT.RESULT_MARKER_LOST: d.Outcome.NOT_FOUND},
 }
-ORDERS = {COMMAND.COMMAND_START: d.Order.START, COMMAND.COMMAND_PAUSE: d.Order.PAUSE,
-          COMMAND.COMMAND_RESUME: d.Order.RESUME, COMMAND.COMMAND_ABORT: d.Order.ABORT,
-          COMMAND.COMMAND_RETURN_HOME: d.Order.RETURN_HOME,
-          COMMAND.COMMAND_SEQUENCE: d.Order.SEQUENCE}
+ORDERS = {getattr(COMMAND, f"COMMAND_{order.name}"): order for order in d.Order}
 
 
 class MissionNode(Node):
@@ -103,17 +96,19 @@ class MissionNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("mission", **kwargs)
-        self.params = self.declare_params(MissionParams)
+        self.params = p = self.declare_params(MissionParams)
         try:
             pads = self.declare_params(PadsParams)
         except ParameterError as exc:
             raise ParameterError(f"{exc}; {FIELD_SOURCE}") from None
-        p = self.params
         self.driver = d.Driver(MissionConfig(
             target_robot=p.target_robot, start_pad=pads.start_pad, pads=pads.positions(),
             search_radius_near=p.search_radius_near, search_radius_wide=p.search_radius_wide),
             d.DriverParams(**{f.name: getattr(p, f.name) for f in fields(d.DriverParams)}),
             self.now().nanoseconds)
+        self.mission: Mission = self.driver.mission
+        self.timeline: list[tuple[float, str]] = self.driver.timeline
+        self.events: list[tuple[float, MissionEvent]] = self.driver.events
         self._active: tuple[ActionClient, ClientGoalHandle] | None = None
 
         self.arm_client = arm_client(self)
@@ -136,27 +131,12 @@ class MissionNode(Node):
         self.create_timer(1.0 / p.watchdog_rate_hz, self._watchdog)
         self.publish_state()
 
-    @property
-    def mission(self) -> Mission:
-        return self.driver.mission
-
-    @property
-    def timeline(self) -> list[tuple[float, str]]:
-        return self.driver.timeline
-
-    @property
-    def events(self) -> list[tuple[float, MissionEvent]]:
-        return self.driver.events
-
     # -- messages in -----------------------------------------------------------------------
     def _on_command(self, msg: Any) -> None:
-        order = ORDERS.get(int(msg.command))
-        if order is None:
-            self._feed(d.UnknownCommand(int(msg.command)))
-            return
-        seq = msg.sequence
-        self._feed(d.OperatorCommand(order, str(msg.reason), tuple(int(p) for p in seq.pad_ids),
-                                     tuple(int(p) for p in seq.pad_points)))
+        order, seq = ORDERS.get(int(msg.command)), msg.sequence
+        self._feed(d.UnknownCommand(int(msg.command)) if order is None else d.OperatorCommand(
+            order, str(msg.reason), tuple(int(p) for p in seq.pad_ids),
+            tuple(int(p) for p in seq.pad_points)))
 
     def _on_robot(self, msg: Any) -> None:
         self._feed(d.RobotSeen(int(msg.marker_id), msg))
@@ -246,12 +226,10 @@ class MissionNode(Node):
                           float(getattr(result, "lateral_error", math.nan)))
 
     def _cancel_goal(self) -> None:
-        if self._active is not None:
-            client, handle = self._active
-            self._active = None
-            if handle.status not in (GoalStatus.SUCCEEDED, GoalStatus.CANCELED,
-                                     GoalStatus.ABORTED):
-                client.cancel_goal_async(handle)
+        active, self._active = self._active, None
+        if active is not None and active[1].status not in (
+                GoalStatus.SUCCEEDED, GoalStatus.CANCELED, GoalStatus.ABORTED):
+            active[0].cancel_goal_async(active[1])
 
     def state_changed(self, state: str) -> None:
         """The machine entered ``state`` (a hook for a launch watching the mission)."""
@@ -270,11 +248,9 @@ class MissionNode(Node):
                              pads_landed=list(s.pads_landed), target_pad_id=s.target_pad_id,
                              pads_skipped=list(s.pads_skipped), score=s.score,
                              stop_reason=s.stop_reason)
-        msg.phase_start = _time_msg(s.phase_start_ns)
+        msg.phase_start = Time(s.phase_start_ns).to_msg()
         if s.elapsed_ns is not None:
-            msg.elapsed = interfaces.new("builtin_interfaces/msg/Duration",
-                                         sec=s.elapsed_ns // 1_000_000_000,
-                                         nanosec=s.elapsed_ns % 1_000_000_000)
+            msg.elapsed = Duration(s.elapsed_ns).to_msg()
         self.state_pub.publish(msg)
 
     def _publish_event(self, event: MissionEvent, state: str) -> None:
@@ -325,9 +301,5 @@ def _point(x: float, y: float, z: float) -> Any:
 def _header(stamp: Any) -> Any:
     return interfaces.new("std_msgs/msg/Header", stamp=stamp, frame_id="map")
 
-
-def _time_msg(ns: int) -> Any:
-    return interfaces.new("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000,
-                          nanosec=ns % 1_000_000_000)
 
 __all__ = ["COMMAND_TOPIC", "EVENTS_TOPIC", "ROBOT_TOPIC", "STATE_TOPIC", "MissionNode"]
