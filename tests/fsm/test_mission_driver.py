@@ -6,12 +6,15 @@ mid-mission, and pads skipped with their reason."""
 
 from __future__ import annotations
 
+import ast
 import math
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import pytest
 
+from fsm import mission_driver
 from fsm.mission_driver import (
     JOBS,
     PICTURE_POLL_S,
@@ -743,3 +746,14 @@ def test_hold_opens_no_job() -> None:
     job = rig.driver.job
     rig.driver.hold()
     assert rig.driver.job == job
+
+
+def test_the_driver_is_pure_the_machine_and_the_standard_library_only() -> None:
+    tree = ast.parse(Path(mission_driver.__file__).read_text(encoding="utf-8"))
+    imported = {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    project = {"interfaces", "runtime", "sim", "flight_control", "perception", "navigation",
+               "fsm", "ground_station", "quadmission"}
+    assert {m for m in imported if m.split(".")[0] in project} == {"fsm.mission_machine",
+                                                                   "fsm.mission_table"}
+    assert not {m for m in imported if m.split(".")[0] in ("mujoco", "rclpy", "rosbags")}
