@@ -349,7 +349,7 @@ class Driver:
         self._started_ns: int | None = None
         self._entered_ns = 0
         self._phase = self._previous_phase = phase_of(self.mission.state)
-        self._out: list[Command] = []
+        self._out: list[Command]  # the commands of the step under way (set by step)
 
     def step(self, event: Input, now_ns: int) -> list[Command]:
         """Take one input at ``now_ns`` (int nanoseconds, companion clock); the commands
