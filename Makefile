@@ -98,7 +98,8 @@ MUTATE_PATHS    ?= sim/fcu/commander.py \
   flight_control/behaviours/ \
   flight_control/command_protocol.py \
   navigation/precision_land_policy.py \
-  perception/scan_policy.py
+  perception/scan_policy.py \
+  fsm/mission_driver.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 MUTATE_ARGS     ?=
