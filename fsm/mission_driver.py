@@ -1,0 +1,631 @@
+"""The mission node's policy: it drives :class:`~fsm.mission_machine.Mission` one input at a
+time and answers with commands (STYLE 16: policies tick, nodes wait).
+
+:class:`Driver` is the machine's :class:`~fsm.mission_machine.MissionDriver`. Each request
+of the machine (the preflight check, take off, explore, send the pictures, navigate,
+precision-land, land) opens a *job*: a command for the node to carry out and answer, the
+answer tagged with the job:
+
+- :class:`SendGoal` (an action goal) -> :class:`GoalDone` (the result as an :class:`Outcome`);
+- :class:`CallArm` (the arm service, ``attempts`` times) -> :class:`ArmDone`;
+- :class:`Probe` (which action servers are not ready) -> :class:`Probed`;
+- :class:`Sleep` -> :class:`Woke`.
+
+The answer becomes the machine's input (``took_off``, ``robot_found``, ``unreachable``,
+``marker_not_found``, ``action_failed``...) or the job's next command. A new request, or a
+cancel (the machine left the state), ends the job in hand: a late answer is dropped, so a
+result never reaches a state it does not belong to (:meth:`Driver.current` tells the node).
+
+The other inputs: the operator's commands (:class:`OperatorCommand`,
+:class:`UnknownCommand`), each answered on the events and followed by the state;
+:class:`RobotSeen` (the target's pictures are kept, the latest ``max_pictures``, from the
+start of the exploration to the end of the report: the exploration stops past the robot,
+which may be out of view by then); :class:`VehicleStatus`, :class:`Position`,
+:class:`Health`, and the watchdog's :class:`Tick`: in flight, the alerts (localisation
+lost, module error or silent, battery low or critical) go through the error policy
+(:data:`~fsm.mission_table.ERROR_POLICY`), and ``mission.await_sequence`` ends after
+``sequence_timeout_s``.
+
+The report of the robot: hover ``report_hover_s``, then wait up to ``picture_timeout_s``
+more for a first picture, then :class:`SendPictures` (without any, a :class:`NoPicture`:
+the robot's ID and the vehicle's position, with a warning). Other outputs:
+:class:`PublishEvent`, :class:`StateChanged`, :class:`PublishState` (a :class:`Snapshot`
+taken when it happened) and :class:`CancelGoal`. ``timeline`` and ``events`` keep what
+happened, with the companion time, for reports.
+
+Pure module: the standard library and the mission machine.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+from functools import partial
+from typing import Any, TypeVar
+
+from fsm.mission_machine import (
+    EventKind,
+    Mission,
+    MissionConfig,
+    MissionEvent,
+    Severity,
+    Vec2,
+)
+from fsm.mission_table import ErrorCause, Phase, phase_of
+
+Vec3 = tuple[float, float, float]
+PROBE_PERIOD_S = 0.1  # preflight: the modules are asked again this often
+PICTURE_POLL_S = 0.1  # after the hover: a first picture is looked for this often
+
+
+@dataclass(frozen=True)
+class DriverParams:
+    """What the driver reads of the mission node's parameters (units and ranges:
+    :class:`fsm.params.MissionParams`)."""
+
+    cruise_altitude: float
+    explore_budget_s: float
+    health_topics: tuple[str, ...]
+    preflight_timeout_s: float
+    silence_timeout_s: float
+    sequence_timeout_s: float
+    report_hover_s: float
+    picture_timeout_s: float
+    max_pictures: int
+    battery_low_warning: int
+    battery_critical_warning: int
+    land_speed: float
+    arm_attempts: int
+
+
+class Action(Enum):
+    """The actions the mission sends goals to (the names of ``action_servers``)."""
+
+    SURVEY_TAKEOFF = "survey_takeoff"  # from the start pad: climb, then turn round (mapping)
+    TAKEOFF = "takeoff"
+    LAND = "land"
+    REACH = "reach"
+    EXPLORE = "explore"
+    NAVIGATE = "navigate"
+    PRECISION_LAND = "precision_land"
+
+
+class Outcome(Enum):
+    """An action's result as the mission reads it."""
+
+    SUCCEEDED = "succeeded"  # explore: stopped on the target robot
+    ENDED = "ended"  # explore: area covered or time budget used up, robot not seen
+    NO_PATH = "no_path"  # navigate: no path to the goal
+    NOT_FOUND = "not_found"  # precision land: the marker not seen, or lost
+    FAILED = "failed"  # anything else, a rejected goal included
+
+
+class Order(Enum):
+    """The operator's commands (``MissionCommand.COMMAND_*``)."""
+
+    START = "start"
+    PAUSE = "pause"
+    RESUME = "resume"
+    ABORT = "abort"
+    RETURN_HOME = "return_home"
+    SEQUENCE = "sequence"
+
+
+# -- goals ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TakeoffGoal:
+    altitude: float  # m above the take-off point
+
+
+@dataclass(frozen=True)
+class ReachGoal:
+    position: Vec3  # m, map frame; stop there
+
+
+@dataclass(frozen=True)
+class ExploreGoal:
+    altitude: float  # m
+    stop_marker_ids: tuple[int, ...]
+    time_budget_s: float  # 0 = no limit
+
+
+@dataclass(frozen=True)
+class NavigateGoal:
+    position: Vec3  # m, map frame; keep the heading
+
+
+@dataclass(frozen=True)
+class PrecisionLandGoal:
+    pad: int
+    position: Vec2  # m, map frame: where the pad should be
+    search_radius: float  # m
+
+
+@dataclass(frozen=True)
+class LandGoal:
+    speed: float  # m/s, 0 = the layer's default
+    disarm: bool
+
+
+Goal = TakeoffGoal | ReachGoal | ExploreGoal | NavigateGoal | PrecisionLandGoal | LandGoal
+
+
+# -- inputs --------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class OperatorCommand:
+    order: Order
+    reason: str = ""
+    pads: tuple[int, ...] = ()  # SEQUENCE: the pads, in order
+    points: tuple[int, ...] = ()  # SEQUENCE: what each is worth (optional)
+
+
+@dataclass(frozen=True)
+class UnknownCommand:
+    code: int
+
+
+@dataclass(frozen=True, eq=False)
+class RobotSeen:
+    marker_id: int
+    picture: object  # the node's message, sent on as it is
+
+
+@dataclass(frozen=True)
+class VehicleStatus:
+    position_valid: bool
+    armed: bool
+    landed: bool
+    battery_warning: int  # px4 BatteryStatus.WARNING_*
+    battery_remaining: float  # 0..1, NaN when unknown
+
+
+@dataclass(frozen=True)
+class Position:
+    position: Vec3  # m, map frame
+
+
+@dataclass(frozen=True)
+class Health:
+    topic: str
+    ok: bool  # LEVEL_OK
+    error: bool  # LEVEL_ERROR or worse
+    message: str
+
+
+@dataclass(frozen=True)
+class Tick:
+    """The watchdog's: check the alerts and the sequence timeout."""
+
+
+@dataclass(frozen=True)
+class Probed:
+    job: int
+    servers_down: tuple[str, ...]  # the action servers not ready
+
+
+@dataclass(frozen=True)
+class Woke:
+    job: int
+
+
+@dataclass(frozen=True)
+class ArmDone:
+    job: int
+    refusal: str | None  # None: armed
+
+
+@dataclass(frozen=True)
+class GoalDone:
+    job: int
+    outcome: Outcome
+    message: str
+    lateral_error: float = math.nan  # m, precision land's touchdown error
+
+
+Reply = Probed | Woke | ArmDone | GoalDone
+Input = (OperatorCommand | UnknownCommand | RobotSeen | VehicleStatus | Position | Health | Tick
+         | Reply)
+
+
+# -- commands ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SendGoal:
+    job: int
+    action: Action
+    goal: Goal
+
+
+@dataclass(frozen=True)
+class CallArm:
+    job: int
+    attempts: int
+
+
+@dataclass(frozen=True)
+class Probe:
+    job: int
+
+
+@dataclass(frozen=True)
+class Sleep:
+    job: int
+    seconds: float
+
+
+Job = SendGoal | CallArm | Probe | Sleep
+JOBS = (SendGoal, CallArm, Probe, Sleep)
+#: The answer each job command waits for.
+ANSWER: dict[type, type] = {SendGoal: GoalDone, CallArm: ArmDone, Probe: Probed, Sleep: Woke}
+
+
+@dataclass(frozen=True)
+class CancelGoal:
+    """Cancel the goal still running, if any."""
+
+
+@dataclass(frozen=True)
+class PublishEvent:
+    event: MissionEvent
+    state: str  # the state it happened in
+
+
+@dataclass(frozen=True)
+class StateChanged:
+    state: str
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """What ``/mission/state`` says, at one time."""
+
+    state: str
+    phase: Phase
+    previous_phase: Phase
+    robot_marker_id: int  # 0 = not found yet
+    landing_sequence: tuple[int, ...]
+    pads_landed: tuple[int, ...]
+    target_pad_id: int  # 0 = none
+    pads_skipped: tuple[int, ...]
+    score: int
+    stop_reason: str
+    phase_start_ns: int
+    elapsed_ns: int | None  # since START; None before
+
+
+@dataclass(frozen=True)
+class PublishState:
+    snapshot: Snapshot
+
+
+@dataclass(frozen=True)
+class NoPicture:
+    """Stands for the robot when perception sent no picture: its ID, where we are."""
+
+    marker_id: int
+    x: float
+    y: float
+
+
+@dataclass(frozen=True, eq=False)
+class SendPictures:
+    pictures: tuple[object, ...]  # RobotSeen.picture, or one NoPicture
+
+
+Command = Job | CancelGoal | PublishEvent | StateChanged | PublishState | SendPictures
+
+R = TypeVar("R", Probed, Woke, ArmDone, GoalDone)
+
+
+@dataclass
+class _Module:
+    """The latest health report of one module."""
+
+    ok: bool = False
+    error: bool = False
+    message: str = ""
+    last_ns: int | None = None  # None: never reported
+
+
+class Driver:
+    """See the module docstring. ``now_ns``: the companion time of the construction."""
+
+    def __init__(self, config: MissionConfig, params: DriverParams, now_ns: int) -> None:
+        self.params = params
+        self.now_ns = now_ns
+        self.mission = Mission(config, self)
+        self.timeline: list[tuple[float, str]] = [(self.now_ns / 1e9, self.mission.state)]
+        self.events: list[tuple[float, MissionEvent]] = []
+        self.pictures: list[object] = []  # of the target robot, while collecting
+        self.status: VehicleStatus | None = None
+        self.position: Vec3 | None = None
+        self.modules = {topic: _Module() for topic in params.health_topics}
+        self.job = 0  # the job in hand; every request and cancel opens a new one
+        #: the job's command waiting for its answer, and where the answer goes
+        self._asked: tuple[Job, Callable[[Any], None]] | None = None
+        self._waited: float  # s, the job's polling so far (set when it starts)
+        self._collecting = False
+        self._started_ns: int | None = None
+        self._entered_ns = 0
+        self._phase = self._previous_phase = phase_of(self.mission.state)
+        self._out: list[Command]  # the commands of the step under way (set by step)
+
+    def step(self, event: Input, now_ns: int) -> list[Command]:
+        """Take one input at ``now_ns`` (int nanoseconds, companion clock); the commands
+        it leads to, in order."""
+        self.now_ns, self._out = now_ns, []
+        if isinstance(event, Probed | Woke | ArmDone | GoalDone):
+            self._answer(event)
+        elif isinstance(event, OperatorCommand | UnknownCommand):
+            self._command(event)
+        elif isinstance(event, RobotSeen):
+            if self._collecting and event.marker_id == self.mission.config.target_robot:
+                self.pictures.append(event.picture)
+                del self.pictures[:-self.params.max_pictures]
+        elif isinstance(event, VehicleStatus):
+            self.status = event
+        elif isinstance(event, Position):
+            self.position = event.position
+        elif isinstance(event, Health):
+            module = self.modules[event.topic]
+            module.ok, module.error, module.message = event.ok, event.error, event.message
+            module.last_ns = now_ns
+        else:
+            self._watchdog()
+        return self._out
+
+    def current(self, job: int) -> bool:
+        """Whether ``job`` is still the one in hand (else its answer will be dropped)."""
+        return job == self.job
+
+    def snapshot(self, now_ns: int) -> Snapshot:
+        m = self.mission
+        return Snapshot(
+            state=m.state, phase=self._phase, previous_phase=self._previous_phase,
+            robot_marker_id=m.robot_marker or 0, landing_sequence=m.sequence,
+            pads_landed=tuple(m.landed_pads), target_pad_id=m.target_pad,
+            pads_skipped=tuple(s.pad for s in m.skipped), score=m.score,
+            stop_reason=m.stop.describe() if m.stop else "", phase_start_ns=self._entered_ns,
+            elapsed_ns=None if self._started_ns is None else now_ns - self._started_ns)
+
+    def alerts(self) -> list[tuple[ErrorCause, str]]:
+        """The error causes present now, the gravest first."""
+        out: list[tuple[ErrorCause, str]] = []
+        s, p = self.status, self.params
+        if s is not None and not s.position_valid:
+            out.append((ErrorCause.LOCALISATION_LOST,
+                        "the FCU's position estimate is not valid (visual odometry lost)"))
+        for topic, module in self.modules.items():
+            age = None if module.last_ns is None else (self.now_ns - module.last_ns) / 1e9
+            if age is None or age > p.silence_timeout_s:
+                out.append((ErrorCause.MODULE_SILENT, f"{topic}: no report for "
+                            f"{'ever' if age is None else f'{age:.1f} s'}"))
+            elif module.error:
+                out.append((ErrorCause.MODULE_ERROR, f"{topic}: {module.message}"))
+        if s is not None and s.battery_warning >= p.battery_critical_warning:
+            out.append((ErrorCause.BATTERY_CRITICAL,
+                        f"battery critical ({_percent(s.battery_remaining)})"))
+        elif s is not None and s.battery_warning >= p.battery_low_warning:
+            out.append((ErrorCause.BATTERY_LOW, f"battery low ({_percent(s.battery_remaining)})"))
+        return out
+
+    # -- inputs ----------------------------------------------------------------------------
+    def _answer(self, reply: Reply) -> None:
+        if self._asked is None:
+            return
+        command, then = self._asked
+        if reply.job == self.job and isinstance(reply, ANSWER[type(command)]):
+            self._asked = None
+            then(reply)
+
+    def _command(self, c: OperatorCommand | UnknownCommand) -> None:
+        m = self.mission
+        if isinstance(c, UnknownCommand):
+            self.emit(MissionEvent(EventKind.COMMAND_REJECTED, f"unknown command {c.code}",
+                                   Severity.WARN))
+        elif c.order is Order.START:
+            if m.start().accepted:
+                self._started_ns = self.now_ns
+        elif c.order is Order.PAUSE:
+            m.pause()
+        elif c.order is Order.RESUME:
+            m.resume()
+        elif c.order is Order.ABORT:
+            m.abort(c.reason)
+        elif c.order is Order.RETURN_HOME:
+            m.return_home(c.reason or "operator's RETURN_HOME")
+        else:
+            m.receive_sequence(c.pads, c.points)
+        self._out.append(PublishState(self.snapshot(self.now_ns)))
+
+    def _watchdog(self) -> None:
+        m = self.mission
+        if m.state != "preflight":  # on the ground before, or over: the machine ignores them
+            for cause, detail in self.alerts():
+                m.error(cause, detail)
+        if m.state == "mission.await_sequence":
+            waited = (self.now_ns - self._entered_ns) / 1e9
+            if waited > self.params.sequence_timeout_s:
+                m.error(ErrorCause.SEQUENCE_TIMEOUT, f"no landing sequence after {waited:.0f} s")
+
+    # -- the machine's requests (MissionDriver) ----------------------------------------------
+    def check_health(self) -> None:
+        self._waited = 0.0
+        self._ask(Probe(self._new_job()), self._probed)
+
+    def takeoff(self) -> None:
+        self._new_job()
+        s, altitude = self.status, self.params.cruise_altitude
+        if s is not None and s.armed and not s.landed and self.position is not None:
+            # resumed in the air: climb where we are (the take-off action needs the ground)
+            x, y, _ = self.position
+            self._ask(SendGoal(self.job, Action.REACH, ReachGoal((x, y, altitude))),
+                      self._took_off)
+        elif s is not None and s.armed:
+            self._send_takeoff()
+        else:
+            self._ask(CallArm(self.job, self.params.arm_attempts), self._armed)
+
+    def explore(self, target_robot: int) -> None:
+        self.pictures.clear()
+        self._collecting = True
+        goal = ExploreGoal(self.params.cruise_altitude, (target_robot,),
+                           self.params.explore_budget_s)
+        self._ask(SendGoal(self._new_job(), Action.EXPLORE, goal),
+                  partial(self._explored, target_robot))
+
+    def send_pictures(self) -> None:
+        self._collecting = True
+        self._waited = 0.0
+        self._ask(Sleep(self._new_job(), self.params.report_hover_s), self._hovered)
+
+    def navigate(self, target: Vec2) -> None:
+        goal = NavigateGoal((target[0], target[1], self.params.cruise_altitude))
+        self._ask(SendGoal(self._new_job(), Action.NAVIGATE, goal), self._navigated)
+
+    def precision_land(self, pad: int, position: Vec2, search_radius: float) -> None:
+        self._ask(SendGoal(self._new_job(), Action.PRECISION_LAND,
+                           PrecisionLandGoal(pad, position, search_radius)),
+                  partial(self._precision_landed, pad))
+
+    def land(self) -> None:
+        self._ask(SendGoal(self._new_job(), Action.LAND, LandGoal(self.params.land_speed, True)),
+                  self._landed)
+
+    def hold(self) -> None:
+        """Nothing more to send: with its goal canceled the layer below holds the last
+        setpoint (the seed's stop leaves the vehicle as it is for the pilot)."""
+
+    def cancel(self) -> None:
+        self._new_job()  # the one in hand is over
+        self._out.append(CancelGoal())
+
+    def state_changed(self, state: str) -> None:
+        self._entered_ns = self.now_ns
+        self.timeline.append((self.now_ns / 1e9, state))
+        if phase_of(state) != self._phase:
+            self._previous_phase, self._phase = self._phase, phase_of(state)
+        self._out += [StateChanged(state), PublishState(self.snapshot(self.now_ns))]
+
+    def emit(self, event: MissionEvent) -> None:
+        self.events.append((self.now_ns / 1e9, event))
+        self._out.append(PublishEvent(event, self.mission.state))
+
+    # -- the jobs' answers ---------------------------------------------------------------------
+    def _new_job(self) -> int:
+        self.job += 1
+        return self.job
+
+    def _ask(self, command: Job, then: Callable[[R], None]) -> None:
+        self._asked = (command, then)
+        self._out.append(command)
+
+    def _probed(self, reply: Probed) -> None:
+        missing = [f"{name} server not available" for name in reply.servers_down]
+        for topic, module in self.modules.items():
+            if module.last_ns is None:
+                missing.append(f"{topic} did not answer")
+            elif not module.ok:
+                missing.append(f"{topic} not OK: {module.message}")
+        if self.status is None:
+            missing.append("/fcu/status did not answer")
+        elif not self.status.position_valid:
+            missing.append("no valid position estimate")
+        timeout = self.params.preflight_timeout_s
+        if missing and self._waited < timeout:
+            self._ask(Sleep(self.job, PROBE_PERIOD_S), self._probe_again)
+        else:
+            self.mission.preflight_result(not missing,
+                                          f"after {timeout:g} s: " + "; ".join(missing))
+
+    def _probe_again(self, _: Woke) -> None:
+        self._waited += PROBE_PERIOD_S
+        self._ask(Probe(self.job), self._probed)
+
+    def _armed(self, reply: ArmDone) -> None:
+        if reply.refusal is not None:
+            self.mission.action_failed(f"arm: {reply.refusal}")
+        else:
+            self._send_takeoff()
+
+    def _send_takeoff(self) -> None:
+        # from the start pad the navigator's take-off also maps all around; from a
+        # sequence pad the flight-control take-off is enough
+        first = self.mission.state == "mission.takeoff"
+        action = Action.SURVEY_TAKEOFF if first else Action.TAKEOFF
+        self._ask(SendGoal(self.job, action, TakeoffGoal(self.params.cruise_altitude)),
+                  self._took_off)
+
+    def _took_off(self, reply: GoalDone) -> None:
+        if reply.outcome is Outcome.SUCCEEDED:
+            self.mission.took_off()
+        else:
+            self.mission.action_failed(f"takeoff: {reply.message}")
+
+    def _explored(self, target_robot: int, reply: GoalDone) -> None:
+        if reply.outcome is Outcome.SUCCEEDED:
+            self.mission.robot_found(target_robot)
+        elif reply.outcome is Outcome.ENDED:
+            self.mission.explore_ended(f"robot {target_robot} not seen: {reply.message}")
+        else:
+            self.mission.action_failed(f"explore: {reply.message}")
+
+    def _hovered(self, _: Woke) -> None:
+        self._look_for_pictures()
+
+    def _polled(self, _: Woke) -> None:
+        self._waited += PICTURE_POLL_S
+        self._look_for_pictures()
+
+    def _look_for_pictures(self) -> None:
+        if not self.pictures and self._waited < self.params.picture_timeout_s:
+            self._ask(Sleep(self.job, PICTURE_POLL_S), self._polled)
+            return
+        self._collecting = False
+        if not self.pictures:  # the operator still needs to know which robot it is
+            target = self.mission.config.target_robot
+            self.emit(MissionEvent(
+                EventKind.ERROR, f"no picture of robot {target} from perception after "
+                f"{self.params.report_hover_s + self._waited:.0f} s: its ID and our position "
+                "sent", Severity.WARN, marker_id=target))
+            x, y = self.position[:2] if self.position is not None else (math.nan, math.nan)
+            self.pictures.append(NoPicture(target, x, y))
+        self._out.append(SendPictures(tuple(self.pictures)))
+        self.mission.pictures_sent()
+
+    def _navigated(self, reply: GoalDone) -> None:
+        if reply.outcome is Outcome.SUCCEEDED:
+            self.mission.arrived()
+        elif reply.outcome is Outcome.NO_PATH:
+            self.mission.unreachable(reply.message)
+        else:
+            self.mission.action_failed(f"navigate: {reply.message}")
+
+    def _precision_landed(self, pad: int, reply: GoalDone) -> None:
+        if reply.outcome is Outcome.SUCCEEDED:
+            self.mission.landed(reply.lateral_error)
+        elif reply.outcome is Outcome.NOT_FOUND:
+            self.mission.marker_not_found(reply.message)
+        else:
+            self.mission.action_failed(f"precision land on pad {pad}: {reply.message}")
+
+    def _landed(self, reply: GoalDone) -> None:
+        if reply.outcome is Outcome.SUCCEEDED:
+            self.mission.landed()
+        else:
+            self.mission.action_failed(f"land: {reply.message}")
+
+
+def _percent(fraction: float) -> str:
+    return "unknown" if math.isnan(fraction) else f"{100.0 * fraction:.0f} %"
+
+
+__all__ = [
+    "ANSWER", "JOBS", "Action", "ArmDone", "CallArm", "CancelGoal", "Command", "Driver",
+    "DriverParams", "ExploreGoal", "Goal", "GoalDone", "Health", "Input", "Job", "LandGoal",
+    "NavigateGoal", "NoPicture", "OperatorCommand", "Order", "Outcome", "Position",
+    "PrecisionLandGoal", "Probe", "Probed", "PublishEvent", "PublishState", "ReachGoal",
+    "Reply", "RobotSeen", "SendGoal", "SendPictures", "Sleep", "Snapshot", "StateChanged",
+    "TakeoffGoal", "Tick", "UnknownCommand", "VehicleStatus", "Woke",
+]
