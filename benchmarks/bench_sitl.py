@@ -526,6 +526,7 @@ def main(argv: list[str] | None = None) -> int:
         "us_per_message": round(us_per_message(mix), 2),
         "tracking_rmse_m": flight.rmse_xy,
         "tracking_rmse_m_down_camera": cam.rmse_xy,
+        "tracking_reference": str(flight.report["tracking"]["reference"]).split(":")[0],
         "topics": {f"{name} ({type_name})": round(n / flight.sim_s, 1)
                    for (name, type_name), n in sorted(mix.items())},
     }

@@ -196,7 +196,7 @@ class FcuBridgeNode(Node):
             self.history.add(PoseSample(stamp_ns, np.array(odo.position), np.array(odo.q),
                                         nan_to_num(np.array(odo.velocity))))
         if self.odometry_pub.get_subscription_count():  # else only /fcu/pose_at reads it
-            self.odometry_pub.publish(fcu_messages.odometry(odo, stamp_ns))
+            self.odometry_pub.publish(fcu_messages.odometry(odo, Time(stamp_ns).to_msg()))
 
     def _follow_imu_readers(self) -> None:
         """Read /fmu/out/sensor_combined only while /fcu/imu has readers (checked with the

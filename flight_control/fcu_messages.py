@@ -17,7 +17,6 @@ import interfaces
 from flight_control.frames import FloatArray, frd_to_flu_f, quat_to_xyzw
 from flight_control.pose_history import PoseSample
 from flight_control.px4_messages import OdometryEnu
-from runtime.clock import NS_PER_S
 
 __all__ = ["BODY_FRAME", "MAP_FRAME", "all_finite", "battery", "command_ack", "imu",
            "nan_to_num", "odometry", "pose_odometry", "timesync_diagnostics"]
@@ -29,7 +28,6 @@ BODY_FRAME = "base_link"
 # published), as rclpy code would build them
 _ODOMETRY: Any = interfaces.get_message("nav_msgs/msg/Odometry")
 _HEADER: Any = interfaces.get_message("std_msgs/msg/Header")
-_TIME: Any = interfaces.get_message("builtin_interfaces/msg/Time")
 _POSE_COV: Any = interfaces.get_message("geometry_msgs/msg/PoseWithCovariance")
 _POSE: Any = interfaces.get_message("geometry_msgs/msg/Pose")
 _POINT: Any = interfaces.get_message("geometry_msgs/msg/Point")
@@ -59,16 +57,15 @@ def nan_to_num(values: FloatArray) -> FloatArray:
     return values if all_finite(values.tolist()) else np.nan_to_num(values)
 
 
-def odometry(odo: OdometryEnu, stamp_ns: int) -> Any:
+def odometry(odo: OdometryEnu, stamp: Any) -> Any:
     """``/fcu/odometry`` (nav_msgs/Odometry) from the FCU's odometry read in ENU/FLU; NaN
     covariances (unknown) become 0."""
     w, x, y, z = odo.q
     px, py, pz = odo.position
     vx, vy, vz = odo.body_velocity
     rx, ry, rz = odo.angular_velocity
-    sec, nanosec = divmod(stamp_ns, NS_PER_S)
     return _ODOMETRY(
-        header=_HEADER(stamp=_TIME(sec=sec, nanosec=nanosec), frame_id=MAP_FRAME),
+        header=_HEADER(stamp=stamp, frame_id=MAP_FRAME),
         child_frame_id=BODY_FRAME,
         pose=_POSE_COV(
             pose=_POSE(position=_POINT(x=px, y=py, z=pz),

@@ -117,8 +117,6 @@ class FieldParams:
                                  f"{clearance} m: {exc}") from None
 
 
-__all__ = ["FIELD_SOURCE", "FieldParams", "FlightControlParams"]
-
 
 @dataclass(frozen=True)
 class BridgeParams:
@@ -138,3 +136,6 @@ class BridgeParams:
                                         description="FCU silent this long: disconnected")
     status_rate_hz: float = param(unit="Hz", range=(0.5, 100.0),
                                   description="/fcu/status republish rate")
+
+
+__all__ = ["FIELD_SOURCE", "BridgeParams", "FieldParams", "FlightControlParams"]

@@ -39,7 +39,7 @@ Pure module: the standard library and the mission machine.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 from functools import partial
@@ -621,11 +621,25 @@ def _percent(fraction: float) -> str:
     return "unknown" if math.isnan(fraction) else f"{100.0 * fraction:.0f} %"
 
 
+def goal_outcome(action: Action, *, accepted: bool, success: bool, code: int,
+                 codes: Mapping[int, Outcome]) -> Outcome:
+    """What a finished goal means to the mission. A rejected goal failed, whatever its
+    result's code says (a rejected goal's result is the default one, code 0, which for
+    explore would read "area covered"); a success is a success, but for explore, whose
+    codes say whether the robot was found; any other code by ``codes`` (the action's
+    result codes that are not a plain failure), else a failure."""
+    if not accepted:
+        return Outcome.FAILED
+    if success and action is not Action.EXPLORE:
+        return Outcome.SUCCEEDED
+    return codes.get(code, Outcome.FAILED)
+
+
 __all__ = [
     "ANSWER", "JOBS", "Action", "ArmDone", "CallArm", "CancelGoal", "Command", "Driver",
     "DriverParams", "ExploreGoal", "Goal", "GoalDone", "Health", "Input", "Job", "LandGoal",
     "NavigateGoal", "NoPicture", "OperatorCommand", "Order", "Outcome", "Position",
     "PrecisionLandGoal", "Probe", "Probed", "PublishEvent", "PublishState", "ReachGoal",
     "Reply", "RobotSeen", "SendGoal", "SendPictures", "Sleep", "Snapshot", "StateChanged",
-    "TakeoffGoal", "Tick", "UnknownCommand", "VehicleStatus", "Woke",
+    "TakeoffGoal", "Tick", "UnknownCommand", "VehicleStatus", "Woke", "goal_outcome",
 ]

@@ -11,8 +11,10 @@ driver's inputs, carries out its commands and feeds the answers back; the decisi
 - ``/mission/command`` (MissionCommand), answered on ``/mission/events`` (MissionEvent);
 - ``/mission/state`` (MissionState) on every change and at ``state_rate_hz``;
 - ``/mission/robot`` (RobotFound): the pictures of the target robot;
-- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status``, ``/fcu/odometry``
-  and each of ``health_topics``; preflight also needs every action of ``action_servers``.
+- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each of
+  ``health_topics``; preflight also needs every action of ``action_servers``;
+  ``/fcu/odometry`` gives the position (a take-off resumed in the air, the robot's
+  position when no picture came).
 
 ``timeline`` and ``events`` keep what happened, with the companion time, for reports.
 """
@@ -216,13 +218,10 @@ class MissionNode(Node):
             return None
         self._active = None
         result = response.result
-        if not handle.accepted:
-            result.success = False
-            result.message = f"rejected: {result.message}"
-        outcome = OUTCOMES.get(c.action, {}).get(int(result.result), d.Outcome.FAILED)
-        if result.success and c.action is not d.Action.EXPLORE:
-            outcome = d.Outcome.SUCCEEDED
-        return d.GoalDone(c.job, outcome, str(result.message),
+        message = str(result.message) if handle.accepted else f"rejected: {result.message}"
+        outcome = d.goal_outcome(c.action, accepted=handle.accepted, success=result.success,
+                                 code=int(result.result), codes=OUTCOMES.get(c.action, {}))
+        return d.GoalDone(c.job, outcome, message,
                           float(getattr(result, "lateral_error", math.nan)))
 
     def _cancel_goal(self) -> None:

@@ -10,6 +10,8 @@ points the wrong way.
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -100,3 +102,34 @@ def test_a_wrong_way_import_is_named(package: str, line: str) -> None:
 ])
 def test_an_allowed_import_passes(package: str, line: str) -> None:
     assert violations(package, line + "\n", "x.py") == []
+
+
+#: Pure modules: algorithms, policies and message builders (STYLE.md 1 and 16). Each is
+#: tested without the runtime, so importing it must not load one, nor MuJoCo.
+PURE_MODULES = (
+    "flight_control.frames", "flight_control.pose_history", "flight_control.px4_messages",
+    "flight_control.fcu_messages", "interfaces.px4.timesync", "perception.aruco",
+    "perception.scan_policy", "navigation.astar", "navigation.voxel_graph",
+    "navigation.precision_landing", "navigation.precision_land_policy",
+    "navigation.navigator_policy", "fsm.mission_driver", "fsm.mission_machine",
+)
+
+
+def test_pure_modules_load_no_runtime_and_no_simulator() -> None:
+    """One interpreter imports them all and lists what came with them: a pure module that
+    pulls in runtime/ (directly, or through a package __init__ that imports nodes) or
+    MuJoCo is named."""
+    script = (
+        "import importlib, sys\n"
+        f"for name in {PURE_MODULES!r}:\n"
+        "    before = set(sys.modules)\n"
+        "    importlib.import_module(name)\n"
+        "    extra = sorted(m for m in set(sys.modules) - before\n"
+        "                   if m.split('.')[0] in ('runtime', 'sim', 'mujoco', 'rclpy'))\n"
+        "    if extra:\n"
+        "        print(name, 'loads', ', '.join(extra[:5]))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "", done.stdout

@@ -297,7 +297,8 @@ def _rtf_rows(d: Json) -> list[list[object]]:
         ["FCU overruns", d["fcu_overruns"], "0", "-"],
         ["messages per simulated second / us per message (publish -> callback)",
          f"{d['messages_per_sim_s']} / {d['us_per_message']}", "-", "-"],
-        ["square tracking RMSE (xy), no camera / camera",
+        ["square tracking RMSE (xy) against " + d.get("tracking_reference", "the setpoints")
+         + ", no camera / camera",
          f"{d['tracking_rmse_m']} / {d['tracking_rmse_m_down_camera']} m", "-", "-"],
     ]
     if "scheduler_metering_over_tick" in d:

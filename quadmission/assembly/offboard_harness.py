@@ -27,12 +27,9 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
-from flight_control.px4_messages import vision_odometry
+from flight_control.px4_messages import vehicle_command, vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces.px4 import (
-    COMPANION_COMPONENT_ID,
-    FCU_COMPONENT_ID,
-    FCU_SYSTEM_ID,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     ArmingState,
     NavigationState,
@@ -215,11 +212,12 @@ class OffboardHarness(Node):
                      param2=float(Px4CustomMainMode.OFFBOARD))
 
     def command(self, command: int, **params: float) -> None:
-        self.command_pub.publish(interfaces.new(
-            "px4_msgs/msg/VehicleCommand", timestamp=self.fcu_time_us(self.now().nanoseconds),
-            command=command, target_system=FCU_SYSTEM_ID, target_component=FCU_COMPONENT_ID,
-            source_system=FCU_SYSTEM_ID, source_component=COMPANION_COMPONENT_ID,
-            from_external=True, **params))
+        """Send ``command`` with its ``param1``..``param7`` (0 when not given)."""
+        values = [params.pop(f"param{i}", 0.0) for i in range(1, 8)]
+        if params:
+            raise TypeError(f"VehicleCommand has no {', '.join(sorted(params))}")
+        self.command_pub.publish(vehicle_command(
+            command, values, timestamp_us=self.fcu_time_us(self.now().nanoseconds)))
 
     def _enter(self, phase: HarnessPhase) -> None:
         self.phase = phase

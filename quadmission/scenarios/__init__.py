@@ -1,8 +1,8 @@
 """Scenarios that ``quadmission sim --scenario NAME`` runs, each writing a report.
 
 A scenario is a function of :class:`ScenarioOptions` that writes ``report.json`` (and
-pictures) into ``options.out`` and returns the report. The registry maps names to them;
-later capabilities add theirs (the contest mission). Each report carries a one-line
+pictures) into ``options.out`` and returns the report. The registry maps names to them,
+one module (or package) a scenario. Each report carries a one-line
 ``verdict`` for a person; progress goes to ``options.progress`` (the CLI prints it on
 stderr).
 """

@@ -183,9 +183,12 @@ class LandDetector:
         """``thrust_min`` and ``thrust_hover``: PX4's ``MPC_THR_MIN`` and ``MPC_THR_HOVER``,
         collective thrust as a fraction of the maximum [0..1], the controller's floor and
         the airframe's hover thrust."""
-        if not 0.0 <= thrust_min < thrust_hover <= 1.0:
+        for key, value in (("thrust_min", thrust_min), ("thrust_hover", thrust_hover)):
+            if not 0.0 <= value <= 1.0:
+                raise ParameterError(f"{value!r} is outside [0, 1]", key=key)
+        if not thrust_min < thrust_hover:
             raise ParameterError(
-                f"{thrust_hover!r} must be above thrust_min = {thrust_min!r}, both in [0, 1]",
+                f"{thrust_hover!r} must be above thrust_min = {thrust_min!r}",
                 key="thrust_hover",
             )
         self.params = params

@@ -24,8 +24,8 @@ def test_odometry_is_stamped_in_the_map_frame_and_unknown_covariances_become_zer
         position_variance=np.array([0.01, 0.04, math.nan], np.float32),
         orientation_variance=np.full(3, math.nan, np.float32),
         velocity_variance=np.full(3, math.nan, np.float32))
-    odo = fcu_messages.odometry(odometry_enu(msg), 7_250_000_001)
-    assert (odo.header.stamp.sec, odo.header.stamp.nanosec) == (7, 250_000_001)
+    odo = fcu_messages.odometry(odometry_enu(msg), STAMP)
+    assert (odo.header.stamp.sec, odo.header.stamp.nanosec) == (12, 345)
     assert (odo.header.frame_id, odo.child_frame_id) == ("map", "base_link")
     p = odo.pose.pose.position
     assert (p.x, p.y, p.z) == (2.0, 1.0, 3.0)  # NED north, east, down -> ENU east, north, up

@@ -757,3 +757,26 @@ def test_the_driver_is_pure_the_machine_and_the_standard_library_only() -> None:
     assert {m for m in imported if m.split(".")[0] in project} == {"fsm.mission_machine",
                                                                    "fsm.mission_table"}
     assert not {m for m in imported if m.split(".")[0] in ("mujoco", "rclpy", "rosbags")}
+
+
+@pytest.mark.parametrize("action", list(Action))
+def test_a_rejected_goal_failed_whatever_its_default_code_says(action: Action) -> None:
+    """A rejected goal's result is the default one (code 0): for explore that code reads
+    "area covered", which would send the mission home as "robot not found"."""
+    every_code_ends = dict.fromkeys(range(4), Outcome.ENDED)
+    assert mission_driver.goal_outcome(action, accepted=False, success=False, code=0,
+                                       codes=every_code_ends) is Outcome.FAILED
+
+
+def test_a_finished_goal_reads_as_its_code_and_explore_only_by_its_code() -> None:
+    codes = {0: Outcome.ENDED, 2: Outcome.NO_PATH}
+    outcome = mission_driver.goal_outcome
+    assert outcome(Action.NAVIGATE, accepted=True, success=True, code=0,
+                   codes=codes) is Outcome.SUCCEEDED
+    assert outcome(Action.NAVIGATE, accepted=True, success=False, code=2,
+                   codes=codes) is Outcome.NO_PATH
+    assert outcome(Action.NAVIGATE, accepted=True, success=False, code=1,
+                   codes=codes) is Outcome.FAILED  # a code with no meaning of its own
+    # explore: success says the action ran; its code says whether the robot was found
+    assert outcome(Action.EXPLORE, accepted=True, success=True, code=0,
+                   codes=codes) is Outcome.ENDED

@@ -91,13 +91,23 @@ def test_a_corner_cutting_flight_has_a_larger_error_than_one_on_the_outline() ->
 
 
 def test_being_late_along_the_outline_is_no_error_but_height_off_it_is() -> None:
-    slow = flown(SQUARE, z=ALTITUDE + 0.1)  # on the outline, wherever it is, but 10 cm high
-    track = outline_tracking(slow, SQUARE, ALTITUDE, (0.0, math.inf))
+    on_time = flown(SQUARE)
+    # the same path flown 1 s behind its setpoints (held at the start meanwhile), 10 cm high
+    lag = round(1.0 * RATE_HZ)
+    late_xy = np.vstack([np.repeat(on_time.position[:1, :2], lag, axis=0),
+                         on_time.position[:-lag, :2]])
+    late = Trajectory(on_time.t, np.column_stack([late_xy, np.full(len(on_time.t),
+                                                                  ALTITUDE + 0.1)]),
+                      on_time.quaternion, on_time.velocity)
+    track = outline_tracking(late, SQUARE, ALTITUDE, (0.0, math.inf))
     rmse = track.rmse()
-    assert rmse["xy"] == pytest.approx(0.0, abs=1e-9)
+    assert rmse["xy"] == pytest.approx(0.0, abs=1e-9)  # always on an edge, however late
     assert rmse["z"] == pytest.approx(0.1)
     assert track.max_error() == pytest.approx(0.1)
     assert track.against == "the planned outline"
+    # against its setpoints (where it should have been at each instant) the lag counts
+    behind = tracking(on_time.t, on_time.position, late, (0.0, math.inf)).rmse()
+    assert behind["xy"] is not None and behind["xy"] > 0.5 * SPEED
 
 
 def test_only_samples_in_the_window_count() -> None:

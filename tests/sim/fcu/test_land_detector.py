@@ -215,6 +215,10 @@ def test_freefall_after_its_trigger_time() -> None:
 def test_parameters_are_checked() -> None:
     with pytest.raises(ParameterError, match=r"thrust_hover: 0\.4 must be above thrust_min = 0\.5"):
         LandDetector(PARAMS, thrust_min=0.5, thrust_hover=0.4)
+    with pytest.raises(ParameterError, match=r"thrust_min: -0\.1 is outside \[0, 1\]"):
+        LandDetector(PARAMS, thrust_min=-0.1, thrust_hover=0.4)
+    with pytest.raises(ParameterError, match=r"thrust_hover: 1\.5 is outside \[0, 1\]"):
+        LandDetector(PARAMS, thrust_min=0.1, thrust_hover=1.5)
     with pytest.raises(ParameterError, match=r"trigger_time_s.*\[0, 10\]"):
         replace(PARAMS, trigger_time_s=-1.0)
 
