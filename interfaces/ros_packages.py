@@ -16,8 +16,9 @@ rosbags typestore (``interfaces.registry``). At set-up this module:
    ament index under ``share``, headers under ``include``.
 
 A stamp in the virtualenv (``share/quadmission/ros_interfaces.json``) holds a digest of
-the interface files, this module and the ROS wheels' versions, with the list of installed
-files: the build runs again only when the digest changes or an installed file is missing.
+the interface files, the package files generated for them and the ROS wheels' versions, with
+the list of installed files: the build runs again only when the digest changes or an
+installed file is missing.
 """
 
 from __future__ import annotations
@@ -136,14 +137,17 @@ def interface_digest(
     return h.hexdigest()
 
 
-def build_digest(root: Path = INTERFACE_ROOT, packages: Iterable[str] = ROS_PACKAGES) -> str:
-    """The digest the stamp records: the interface files, this module, Python, ROS wheels."""
+def build_digest(root: Path = INTERFACE_ROOT) -> str:
+    """The digest the stamp records: the interface files, the package.xml and CMakeLists.txt
+    generated for them, the Python version and the ROS wheels' versions."""
+    generated = [text for spec in package_specs(root)
+                 for text in (package_xml(spec), cmakelists(spec, root))]
     extra = [
-        hashlib.sha256(Path(__file__).read_bytes()).hexdigest(),
+        *(hashlib.sha256(text.encode()).hexdigest() for text in generated),
         f"python{sys.version_info[0]}.{sys.version_info[1]}",
         *_ros_wheel_versions(),
     ]
-    return interface_digest(root, packages, extra)
+    return interface_digest(root, ROS_PACKAGES, extra)
 
 
 def read_stamp(prefix: Path) -> dict[str, Any] | None:
