@@ -250,3 +250,22 @@ def test_generated_cmakelists_name_the_repository_files(interface_copy: Path) ->
     assert "diagnostic_msgs" in specs["quadmission_interfaces"].dependencies
     assert "<depend>diagnostic_msgs</depend>" in ros_packages.package_xml(
         specs["quadmission_interfaces"])
+
+
+def test_a_failed_build_names_the_package_the_command_and_the_cause(tmp_path: Path) -> None:
+    # rosbags reads a camelCase field name; rosidl refuses it while CMake configures.
+    root = tmp_path / "interfaces"
+    for pkg in ros_packages.ROS_PACKAGES:
+        (root / pkg / "msg").mkdir(parents=True)
+        (root / pkg / "msg" / "Sample.msg").write_text("uint8 value\n", encoding="utf-8")
+    (root / "px4_msgs" / "PX4_RELEASE").write_text("v1.17.0\n", encoding="utf-8")
+    (root / "px4_msgs" / "msg" / "Bad.msg").write_text("uint8 badName\n", encoding="utf-8")
+    workspace = tmp_path / "ws"
+    prefix = Path(sys.prefix)
+    ros_packages.write_workspace(workspace, ros_packages.package_specs(root), root)
+    with pytest.raises(interfaces.RosBuildError) as err:
+        ros_packages.colcon_build(workspace, prefix, ros_packages.build_environment(prefix))
+    text = str(err.value)
+    assert "package px4_msgs" in text
+    assert f"command: {prefix / 'bin' / 'colcon'} --log-base log build" in text
+    assert "badName" in text  # rosidl's complaint, from the tail of colcon's output
