@@ -314,15 +314,29 @@ def cmakelists(spec: PackageSpec, root: Path = INTERFACE_ROOT) -> str:
 
 def write_workspace(workspace: Path, specs: Iterable[PackageSpec],
                     root: Path = INTERFACE_ROOT) -> Path:
-    """Write ``workspace/src/<package>/{package.xml,CMakeLists.txt}``; return ``src``."""
+    """Write ``workspace/src/<package>/{package.xml,CMakeLists.txt}``; return ``src``.
+
+    A file whose text is unchanged keeps its mtime, so CMake does not reconfigure a package
+    that did not change; a package no longer generated is removed with its build tree."""
     src = workspace / "src"
+    specs = list(specs)
+    wanted = {spec.name for spec in specs}
     if src.exists():
-        shutil.rmtree(src)
+        for old in src.iterdir():
+            if old.name not in wanted:
+                if old.is_dir():
+                    shutil.rmtree(old)
+                else:
+                    old.unlink()
+                shutil.rmtree(workspace / "build" / old.name, ignore_errors=True)
     for spec in specs:
         pkg = src / spec.name
-        pkg.mkdir(parents=True)
-        (pkg / "package.xml").write_text(package_xml(spec), encoding="utf-8")
-        (pkg / "CMakeLists.txt").write_text(cmakelists(spec, root), encoding="utf-8")
+        pkg.mkdir(parents=True, exist_ok=True)
+        for name, text in (("package.xml", package_xml(spec)),
+                           ("CMakeLists.txt", cmakelists(spec, root))):
+            path = pkg / name
+            if not path.exists() or path.read_text(encoding="utf-8") != text:
+                path.write_text(text, encoding="utf-8")
     return src
 
 
@@ -458,8 +472,9 @@ def ensure_built(workspace: Path, prefix: Path | None = None, root: Path = INTER
     check_prerequisites(prefix, env)
     specs = package_specs(root)
     workspace.mkdir(parents=True, exist_ok=True)
-    for stale in ("build", "install"):
-        shutil.rmtree(workspace / stale, ignore_errors=True)
+    # colcon's build trees are kept (a changed .msg rebuilds what depends on it); its merged
+    # install is redone, so that a removed interface file leaves nothing behind
+    shutil.rmtree(workspace / "install", ignore_errors=True)
     write_workspace(workspace, specs, root)
     colcon_build(workspace, prefix, env)
     stamp = read_stamp(prefix) or {}
