@@ -9,6 +9,7 @@ and action type of both packages. The stamp logic is tested on its own, without 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -269,3 +270,27 @@ def test_a_failed_build_names_the_package_the_command_and_the_cause(tmp_path: Pa
     assert "package px4_msgs" in text
     assert f"command: {prefix / 'bin' / 'colcon'} --log-base log build" in text
     assert "badName" in text  # rosidl's complaint, from the tail of colcon's output
+
+
+def test_rewriting_the_workspace_keeps_unchanged_files_and_drops_old_packages(
+    interface_copy: Path, tmp_path: Path,
+) -> None:
+    # An unchanged CMakeLists.txt keeps its mtime, so CMake does not reconfigure that package.
+    workspace = tmp_path / "ws"
+    (workspace / "src" / "old_msgs").mkdir(parents=True)
+    (workspace / "build" / "old_msgs").mkdir(parents=True)
+    src = ros_packages.write_workspace(workspace, ros_packages.package_specs(interface_copy),
+                                       interface_copy)
+    assert sorted(p.name for p in src.iterdir()) == sorted(ros_packages.ROS_PACKAGES)
+    assert not (workspace / "build" / "old_msgs").exists()
+    px4 = src / "px4_msgs" / "CMakeLists.txt"
+    ours = src / "quadmission_interfaces" / "CMakeLists.txt"
+    for path in (px4, ours):
+        os.utime(path, ns=(1, 1))
+    extra = interface_copy / "quadmission_interfaces" / "msg" / "Extra.msg"
+    extra.write_text("uint8 x\n", encoding="utf-8")
+    ros_packages.write_workspace(workspace, ros_packages.package_specs(interface_copy),
+                                 interface_copy)
+    assert px4.stat().st_mtime_ns == 1
+    assert ours.stat().st_mtime_ns != 1
+    assert "msg/Extra.msg" in ours.read_text(encoding="utf-8")
