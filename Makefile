@@ -18,7 +18,9 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 # px4_msgs and quadmission_interfaces built as ROS 2 packages into the venv (rosidl, colcon)
 ROS_STAMP := $(VENV)/share/quadmission/ros_interfaces.json
-ROS_SOURCES := $(wildcard interfaces/px4_msgs/*/*.msg interfaces/quadmission_interfaces/*/*) \
+# (the msg/srv/action folders too: their mtime changes when a file is added or removed)
+ROS_SOURCES := $(wildcard interfaces/px4_msgs/* interfaces/px4_msgs/*/* \
+                          interfaces/quadmission_interfaces/* interfaces/quadmission_interfaces/*/*) \
                interfaces/ros_packages.py tools/build_ros_interfaces.py
 OUT    ?= runs/default
 

@@ -140,7 +140,8 @@ def interface_digest(
 def build_digest(root: Path = INTERFACE_ROOT) -> str:
     """The digest the stamp records: the interface files, the package.xml and CMakeLists.txt
     generated for them, the Python version and the ROS wheels' versions."""
-    generated = [text for spec in package_specs(root)
+    here = str(root.resolve())  # where the checkout lies does not change what is built
+    generated = [text.replace(here, "<interfaces>") for spec in package_specs(root)
                  for text in (package_xml(spec), cmakelists(spec, root))]
     extra = [
         *(hashlib.sha256(text.encode()).hexdigest() for text in generated),

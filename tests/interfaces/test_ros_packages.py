@@ -294,3 +294,11 @@ def test_rewriting_the_workspace_keeps_unchanged_files_and_drops_old_packages(
     assert px4.stat().st_mtime_ns == 1
     assert ours.stat().st_mtime_ns != 1
     assert "msg/Extra.msg" in ours.read_text(encoding="utf-8")
+
+
+def test_digest_does_not_depend_on_where_the_checkout_lies(
+    interface_copy: Path, tmp_path: Path,
+) -> None:
+    moved = tmp_path / "elsewhere" / "interfaces"
+    shutil.copytree(interface_copy, moved)
+    assert ros_packages.build_digest(moved) == ros_packages.build_digest(interface_copy)
