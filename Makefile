@@ -16,21 +16,30 @@ endif
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
+# px4_msgs and quadmission_interfaces built as ROS 2 packages into the venv (rosidl, colcon)
+ROS_STAMP := $(VENV)/share/quadmission/ros_interfaces.json
+# (the msg/srv/action folders too: their mtime changes when a file is added or removed)
+ROS_SOURCES := $(wildcard interfaces/px4_msgs/* interfaces/px4_msgs/*/* \
+                          interfaces/quadmission_interfaces/* interfaces/quadmission_interfaces/*/*) \
+               interfaces/ros_packages.py tools/build_ros_interfaces.py
 OUT    ?= runs/default
 
-.PHONY: test sim lint typecheck bench docs mutate mutate-clean clean system-deps
+.PHONY: test sim lint typecheck bench docs mutate mutate-clean clean system-deps ros-interfaces
 
 # System libraries the Python wheels need: Mesa EGL for headless MuJoCo rendering, libusb for
-# open3d's import; and Debian's headless Chromium for the operator page's browser tests
-# (tests/ground_station, driven by Playwright). Installed with apt-get when missing and we
-# are root; otherwise named.
+# open3d's import; Debian's headless Chromium for the operator page's browser tests
+# (tests/ground_station, driven by Playwright); CMake, a C/C++ compiler and Python's headers
+# to build our interfaces as ROS 2 packages (tools/build_ros_interfaces.py). Installed with
+# apt-get when missing and we are root; otherwise named.
 SYSTEM_LIBS := libusb-1.0.so.0 libEGL.so.1
-SYSTEM_BINS := /usr/bin/chromium
-SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver
+SYSTEM_BINS := /usr/bin/chromium /usr/bin/cmake /usr/bin/cc /usr/bin/c++
+SYSTEM_HDRS := $(shell $(PYTHON) -c 'import sysconfig; print(sysconfig.get_paths()["include"])' 2>/dev/null)/Python.h
+SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver cmake gcc g++ python3-dev
 
 system-deps:
 	@missing=""; for lib in $(SYSTEM_LIBS); do ldconfig -p | grep -q "$$lib" || missing="$$missing $$lib"; done; \
 	for bin in $(SYSTEM_BINS); do test -x "$$bin" || missing="$$missing $$bin"; done; \
+	for hdr in $(SYSTEM_HDRS); do test -f "$$hdr" || missing="$$missing $$hdr"; done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    echo "installing system libraries:$$missing" >&2; \
@@ -50,18 +59,27 @@ $(STAMP): pyproject.toml | system-deps
 	  else false; fi; } || { \
 	  echo "error: could not create $(VENV); on Debian/Ubuntu run: apt-get install python3-venv" >&2; exit 1; }
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,ros2]'
 	@touch $@
 
+# Builds only when an interface file, the builder or the ROS wheels changed (its own stamp
+# holds their digest; a no-op run takes under a second); the first build takes minutes.
+$(ROS_STAMP): $(STAMP) $(ROS_SOURCES)
+	$(BIN)/python tools/build_ros_interfaces.py
+	@touch $@
+
+## make ros-interfaces: build px4_msgs and quadmission_interfaces into .venv (part of test/sim)
+ros-interfaces: $(ROS_STAMP)
+
 ## make test: set up .venv, then lint, type-check and run the whole test suite
-test: $(STAMP)
+test: $(STAMP) $(ROS_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
 
 ## make sim: set up .venv, then fly the contest mission through every node (default arena),
 ## recording its topics to OUT/bag (rosbag2 MCAP)
-sim: $(STAMP)
+sim: $(STAMP) $(ROS_STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission sim --record --out $(OUT)
 
 lint: $(STAMP)

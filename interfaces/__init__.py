@@ -22,7 +22,13 @@ from interfaces.api import (
     typestore,
     validate,
 )
-from interfaces.errors import DefinitionError, InterfaceError, MessageError, UnknownTypeError
+from interfaces.errors import (
+    DefinitionError,
+    InterfaceError,
+    MessageError,
+    RosBuildError,
+    UnknownTypeError,
+)
 
 __all__ = [
     "ActionType",
@@ -31,6 +37,7 @@ __all__ = [
     "FieldInfo",
     "InterfaceError",
     "MessageError",
+    "RosBuildError",
     "ServiceType",
     "UnknownTypeError",
     "cancel_goal_service",

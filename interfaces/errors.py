@@ -20,3 +20,7 @@ class DefinitionError(InterfaceError):
 
 class MessageError(InterfaceError, ValueError):
     """A message instance that does not match its type (bad field, value, length)."""
+
+
+class RosBuildError(InterfaceError):
+    """The ROS 2 interface packages could not be built: names what is missing or failed."""
