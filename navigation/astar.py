@@ -119,61 +119,117 @@ def _h(kind: int, dx: int, dy: int, dz: int, res: float) -> float:
 
 
 @njit(cache=True)
-def _search(bits: npt.NDArray[np.uint16], nx: int, ny: int, nz: int, steps: IntArray,
-            costs: FloatArray, res: float, goal: int, g: FloatArray, parent: IntArray,
-            hn: IntArray, hk: FloatArray, pos: IntArray, touched: IntArray, state: IntArray,
-            best: FloatArray, max_expansions: int, kind: int) -> int:
-    """Run A* from the open set in (hn, hk, pos, state[0] = size) for at most
-    ``max_expansions`` expansions. ``pos[c]``: -1 unseen, -2 closed, else heap index.
-    ``state`` = [heap size, expansions so far, best cube, cubes touched]; ``best[0]`` the
-    best cube's heuristic; ``touched[:state[3]]``: the cubes whose g was set."""
+def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, nz: int,
+            res: float, start: int, goal: int, g: FloatArray, parent: IntArray, hn: IntArray,
+            hk: FloatArray, pos: IntArray, touched: IntArray, state: IntArray, best: FloatArray,
+            max_expansions: int, kind: int) -> int:
+    """Run A* for at most ``max_expansions`` expansions; ``start >= 0`` begins a search
+    from that cube (the arrays clean: as :func:`_finish` leaves them), ``start < 0`` goes on
+    with the open set in (hn, hk, pos, state[0] = size). ``pos[c]``: -1 unseen, -2 closed,
+    else heap index. ``state`` = [heap size, expansions so far, best cube, cubes touched];
+    ``best[0]`` the best cube's heuristic; ``touched[:state[3]]``: the cubes whose g was
+    set. Edge d of a cube joins it to the cube ``offsets[d]`` away, at the Euclidean
+    distance between the centres; neighbours are found by index arithmetic, without
+    dividing (an edge never leaves the grid)."""
+    nyz = ny * nz
+    n_dir = offsets.shape[0]
+    di = np.empty(n_dir, dtype=np.int64)
+    dj = np.empty(n_dir, dtype=np.int64)
+    dk = np.empty(n_dir, dtype=np.int64)
+    steps = np.empty(n_dir, dtype=np.int64)
+    costs = np.empty(n_dir, dtype=np.float64)
+    for d in range(n_dir):
+        di[d] = offsets[d, 0]
+        dj[d] = offsets[d, 1]
+        dk[d] = offsets[d, 2]
+        steps[d] = di[d] * nyz + dj[d] * nz + dk[d]
+        costs[d] = math.sqrt(float(di[d] * di[d] + dj[d] * dj[d] + dk[d] * dk[d])) * res
+    if start >= 0:
+        g[start] = 0.0
+        touched[0] = start
+        state[0] = _heap_push(hn, hk, pos, 0, start, 0.0)
+        state[1] = 0
+        state[2] = start
+        state[3] = 1
+        best[0] = np.inf
     size = state[0]
-    gx = goal // (ny * nz)
-    gy = (goal // nz) % ny
-    gz = goal % nz
+    n_touched = state[3]
+    gx = goal // nyz
+    gy = (goal - gx * nyz) // nz
+    gz = goal - gx * nyz - gy * nz
+    status = 1
     done = 0
-    n_dir = steps.shape[0]
     while size > 0:
         if done >= max_expansions:
-            state[0] = size
-            return 2
+            status = 2
+            break
         cur, size = _heap_pop(hn, hk, pos, size)
         done += 1
-        state[1] += 1
         if cur == goal:
-            state[0] = size
             state[2] = cur
             best[0] = 0.0
-            return 0
-        cx = cur // (ny * nz)
-        cy = (cur // nz) % ny
-        cz = cur % nz
-        h = _h(kind, cx - gx, cy - gy, cz - gz, res)
+            status = 0
+            break
+        cx = cur // nyz
+        cy = (cur - cx * nyz) // nz
+        dx = cx - gx
+        dy = cy - gy
+        dz = cur - cx * nyz - cy * nz - gz
+        h = _h(kind, dx, dy, dz, res)
         if h < best[0]:
             best[0] = h
             state[2] = cur
         gc = g[cur]
-        b = bits[cur]
+        b = np.int64(bits[cur])
         for d in range(n_dir):
+            if (b >> d) == 0:
+                break
             if not (b >> d) & 1:
                 continue
             nb = cur + steps[d]
             if pos[nb] == -2:
                 continue
             ng = gc + costs[d]
-            if ng < g[nb]:
-                if g[nb] == np.inf:
-                    touched[state[3]] = nb
-                    state[3] += 1
+            gn = g[nb]
+            if ng < gn:
+                if gn == np.inf:
+                    touched[n_touched] = nb
+                    n_touched += 1
                 g[nb] = ng
                 parent[nb] = cur
-                bx = nb // (ny * nz)
-                by = (nb // nz) % ny
-                bz = nb % nz
-                hb = _h(kind, bx - gx, by - gy, bz - gz, res)
+                hb = _h(kind, dx + di[d], dy + dj[d], dz + dk[d], res)
                 size = _heap_push(hn, hk, pos, size, nb, ng + hb)
     state[0] = size
-    return 1
+    state[1] += done
+    state[3] = n_touched
+    return status
+
+
+@njit(cache=True)
+def _finish(g: FloatArray, parent: IntArray, pos: IntArray, touched: IntArray, count: int,
+            end: int) -> tuple[IntArray, float]:
+    """The path from the start to ``end`` (none when ``end < 0``) and its cost, then the
+    arrays made clean for the next search: the ``count`` touched cubes reset."""
+    cost = np.inf
+    n = 0
+    if end >= 0:
+        cost = g[end]
+        n = 1
+        c = end
+        while parent[c] >= 0:
+            c = parent[c]
+            n += 1
+    path = np.empty(n, dtype=np.int64)
+    c = end
+    for i in range(n - 1, -1, -1):
+        path[i] = c
+        c = parent[c]
+    for i in range(count):
+        t = touched[i]
+        g[t] = np.inf
+        parent[t] = -1
+        pos[t] = -1
+    return path, cost
 
 
 @njit(cache=True)
@@ -224,13 +280,6 @@ class SearchResult:
     status: SearchStatus
 
 
-def _trace(parent: IntArray, end: int) -> IntArray:
-    out = [end]
-    while parent[out[-1]] >= 0:
-        out.append(int(parent[out[-1]]))
-    return np.asarray(out[::-1], dtype=np.int64)
-
-
 class Workspace:
     """The search's arrays for a grid of ``size`` cubes, reused from one search to the next
     (each search resets only the cubes it touched). One search at a time."""
@@ -243,12 +292,12 @@ class Workspace:
         self.hn = np.empty(size, dtype=np.int64)
         self.hk = np.empty(size, dtype=np.float64)
         self.touched = np.empty(size, dtype=np.int64)
+        self.state = np.zeros(4, dtype=np.int64)  # see _search
+        self.best = np.zeros(1, dtype=np.float64)
 
-    def reset(self, count: int) -> None:
-        t = self.touched[:count]
-        self.g[t] = np.inf
-        self.parent[t] = -1
-        self.pos[t] = -1
+
+_STATUS = tuple(SearchStatus)  # by value: no enum lookup per query
+_NO_LIMIT = int(np.iinfo(np.int64).max)
 
 
 def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | None = None,
@@ -256,48 +305,38 @@ def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | Non
           workspace: Workspace | None = None) -> SearchResult:
     """A* between two cubes (flat indices). Returns FOUND with the optimal path, EXHAUSTED
     (empty path), or LIMIT with the path to the closed cube nearest the goal. No checks on
-    start and goal (see :func:`plan`). ``workspace``: reuse its arrays (no allocation)."""
-    _, ny, nz = graph.grid.shape
-    steps = (OFFSETS[:, 0] * ny * nz + OFFSETS[:, 1] * nz + OFFSETS[:, 2]).astype(np.int64)
-    costs = graph.step_costs
-    ws = workspace if workspace is not None else Workspace(graph.grid.size)
-    if ws.size != graph.grid.size:
-        raise ValueError(f"workspace for {ws.size} cubes, graph has {graph.grid.size}")
-    ws.g[start] = 0.0
-    ws.touched[0] = start
-    state = np.array([0, 0, start, 1], dtype=np.int64)
-    best = np.array([np.inf])
-    state[0] = _heap_push(ws.hn, ws.hk, ws.pos, 0, start, 0.0)
-    try:
-        return _run(graph, ws, goal, steps, costs, state, best, max_expansions, time_limit_s,
-                    heuristic)
-    finally:
-        ws.reset(int(state[3]))
-
-
-def _run(graph: VoxelGraph, ws: Workspace, goal: int, steps: IntArray, costs: FloatArray,
-         state: IntArray, best: FloatArray, max_expansions: int | None,
-         time_limit_s: float | None, heuristic: Heuristic) -> SearchResult:
-    nx, ny, nz = graph.grid.shape
-    limit = max_expansions if max_expansions is not None else np.iinfo(np.int64).max
+    start and goal beyond being cubes of the grid (see :func:`plan`). ``workspace``: reuse
+    its arrays (no allocation but the path's)."""
+    grid = graph.grid
+    n = grid.size
+    ws = workspace if workspace is not None else Workspace(n)
+    if ws.size != n:
+        raise ValueError(f"workspace for {ws.size} cubes, graph has {n}")
+    if not (0 <= start < n and 0 <= goal < n):
+        raise IndexError(f"start {start} and goal {goal} must be cubes of the grid "
+                         f"(0 .. {n - 1})")
+    nx, ny, nz = grid.shape
+    limit = _NO_LIMIT if max_expansions is None else max_expansions
     deadline = None if time_limit_s is None else time.perf_counter() + time_limit_s
-    while True:
-        chunk = limit - int(state[1])
-        if deadline is not None:
-            chunk = min(chunk, CHUNK_EXPANSIONS)
-        status = SearchStatus(_search(graph.edge_bits, nx, ny, nz, steps, costs,
-                                      graph.grid.resolution, goal, ws.g, ws.parent, ws.hn,
-                                      ws.hk, ws.pos, ws.touched, state, best, chunk,
-                                      int(heuristic)))
-        if status is not SearchStatus.LIMIT:
-            break
-        if int(state[1]) >= limit or (deadline is not None and time.perf_counter() >= deadline):
-            break
-    expansions = int(state[1])
-    if status is SearchStatus.EXHAUSTED:
-        return SearchResult(np.empty(0, dtype=np.int64), math.inf, expansions, status)
-    end = goal if status is SearchStatus.FOUND else int(state[2])
-    return SearchResult(_trace(ws.parent, end), float(ws.g[end]), expansions, status)
+    bits, res, kind = graph.edge_bits, grid.resolution, int(heuristic)
+    state, end = ws.state, -1
+    try:
+        begin = start
+        while True:
+            chunk = limit - int(state[1]) if begin < 0 else limit
+            if deadline is not None:
+                chunk = min(chunk, CHUNK_EXPANSIONS)
+            code = _search(bits, OFFSETS, nx, ny, nz, res, begin, goal, ws.g, ws.parent, ws.hn,
+                           ws.hk, ws.pos, ws.touched, state, ws.best, chunk, kind)
+            begin = -1
+            if code != SearchStatus.LIMIT or int(state[1]) >= limit or (
+                    deadline is not None and time.perf_counter() >= deadline):
+                break
+        if code != SearchStatus.EXHAUSTED:
+            end = goal if code == SearchStatus.FOUND else int(state[2])
+    finally:
+        cells, cost = _finish(ws.g, ws.parent, ws.pos, ws.touched, int(state[3]), end)
+    return SearchResult(cells, cost, int(state[1]), _STATUS[code])
 
 
 def shortcut(graph: VoxelGraph, points: npt.ArrayLike) -> FloatArray:
