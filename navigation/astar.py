@@ -37,7 +37,7 @@ from navigation.errors import (
     PlanningTimedOut,
     StartOccupied,
 )
-from navigation.voxel_graph import OFFSETS, VoxelGraph
+from navigation.voxel_graph import MAX_CUBES, OFFSETS, VoxelGraph
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -82,19 +82,28 @@ def _heap_pop(hn: IntArray, hk: FloatArray, pos: IntArray, size: int) -> tuple[i
     if size > 0:
         node = hn[size]
         key = hk[size]
+        # Floyd's sift-down: the hole goes down the smaller children to the bottom, then
+        # the last entry comes up while its parent's key is not smaller. It lands where the
+        # textbook sift-down puts it (above every key >= its own on that path): the same
+        # heap, with one comparison per level fewer.
         i = 0
-        while True:  # sift down
-            c = 2 * i + 1
-            if c >= size:
-                break
+        c = 1
+        while c < size:
             if c + 1 < size and hk[c + 1] < hk[c]:
                 c += 1
-            if hk[c] >= key:
-                break
             hn[i] = hn[c]
             hk[i] = hk[c]
             pos[hn[i]] = i
             i = c
+            c = 2 * i + 1
+        while i > 0:
+            parent = (i - 1) >> 1
+            if hk[parent] < key:
+                break
+            hn[i] = hn[parent]
+            hk[i] = hk[parent]
+            pos[hn[i]] = i
+            i = parent
         hn[i] = node
         hk[i] = key
         pos[node] = i
@@ -157,6 +166,8 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
     gx = goal // nyz
     gy = (goal - gx * nyz) // nz
     gz = goal - gx * nyz - gy * nz
+    best_h = best[0]
+    best_c = state[2]
     status = 1
     done = 0
     while size > 0:
@@ -166,8 +177,8 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
         cur, size = _heap_pop(hn, hk, pos, size)
         done += 1
         if cur == goal:
-            state[2] = cur
-            best[0] = 0.0
+            best_h = 0.0
+            best_c = cur
             status = 0
             break
         cx = cur // nyz
@@ -176,9 +187,9 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
         dy = cy - gy
         dz = cur - cx * nyz - cy * nz - gz
         h = _h(kind, dx, dy, dz, res)
-        if h < best[0]:
-            best[0] = h
-            state[2] = cur
+        if h < best_h:
+            best_h = h
+            best_c = cur
         gc = g[cur]
         b = np.int64(bits[cur])
         for d in range(n_dir):
@@ -187,11 +198,9 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
             if not (b >> d) & 1:
                 continue
             nb = cur + steps[d]
-            if pos[nb] == -2:
-                continue
             ng = gc + costs[d]
             gn = g[nb]
-            if ng < gn:
+            if ng < gn and pos[nb] != -2:  # improved and not closed
                 if gn == np.inf:
                     touched[n_touched] = nb
                     n_touched += 1
@@ -201,7 +210,9 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
                 size = _heap_push(hn, hk, pos, size, nb, ng + hb)
     state[0] = size
     state[1] += done
+    state[2] = best_c
     state[3] = n_touched
+    best[0] = best_h
     return status
 
 
@@ -282,16 +293,20 @@ class SearchResult:
 
 class Workspace:
     """The search's arrays for a grid of ``size`` cubes, reused from one search to the next
-    (each search resets only the cubes it touched). One search at a time."""
+    (each search resets only the cubes it touched). One search at a time. Cube indices are
+    int32 (half the memory the search walks through; a grid holds at most
+    :data:`~navigation.voxel_graph.MAX_CUBES` < 2**31 cubes)."""
 
     def __init__(self, size: int) -> None:
+        if size > MAX_CUBES:
+            raise ValueError(f"workspace for {size} cubes: at most {MAX_CUBES}")
         self.size = size
         self.g = np.full(size, np.inf)
-        self.parent = np.full(size, -1, dtype=np.int64)
-        self.pos = np.full(size, -1, dtype=np.int64)
-        self.hn = np.empty(size, dtype=np.int64)
+        self.parent = np.full(size, -1, dtype=np.int32)
+        self.pos = np.full(size, -1, dtype=np.int32)
+        self.hn = np.empty(size, dtype=np.int32)
         self.hk = np.empty(size, dtype=np.float64)
-        self.touched = np.empty(size, dtype=np.int64)
+        self.touched = np.empty(size, dtype=np.int32)
         self.state = np.zeros(4, dtype=np.int64)  # see _search
         self.best = np.zeros(1, dtype=np.float64)
 
