@@ -90,7 +90,8 @@ MUTATE_PATHS    ?= sim/fcu/commander.py \
   sim/fcu/kernels.py:mix_kernel,_desaturate,_desaturation_gain=tests/sim/fcu/test_control.py,tests/sim/fcu/test_fcu_math_recorded.py \
   interfaces/px4/timesync.py=tests/interfaces/px4/test_timesync.py,tests/interfaces/px4/test_timesync_exchange.py,tests/flight_control/test_timesync.py \
   flight_control/behaviours/ \
-  flight_control/command_protocol.py
+  flight_control/command_protocol.py \
+  navigation/astar.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 MUTATE_ARGS     ?=

@@ -37,7 +37,7 @@ from navigation.errors import (
     PlanningTimedOut,
     StartOccupied,
 )
-from navigation.voxel_graph import MAX_CUBES, OFFSETS, VoxelGraph
+from navigation.voxel_graph import OFFSETS, VoxelGraph
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -128,18 +128,18 @@ def _h(kind: int, dx: int, dy: int, dz: int, res: float) -> float:
 
 
 @njit(cache=True)
-def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, nz: int,
-            res: float, start: int, goal: int, g: FloatArray, parent: IntArray, hn: IntArray,
-            hk: FloatArray, pos: IntArray, touched: IntArray, state: IntArray, best: FloatArray,
+def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, ny: int, nz: int, res: float,
+            start: int, goal: int, g: FloatArray, parent: IntArray, hn: IntArray,
+            hk: FloatArray, pos: IntArray, touched: IntArray, state: IntArray,
             max_expansions: int, kind: int) -> int:
-    """Run A* for at most ``max_expansions`` expansions; ``start >= 0`` begins a search
-    from that cube (the arrays clean: as :func:`_finish` leaves them), ``start < 0`` goes on
+    """Run A* for at most ``max_expansions`` expansions. ``start >= 0`` begins a search from
+    that cube, after resetting the cubes the previous search touched; ``start < 0`` goes on
     with the open set in (hn, hk, pos, state[0] = size). ``pos[c]``: -1 unseen, -2 closed,
-    else heap index. ``state`` = [heap size, expansions so far, best cube, cubes touched];
-    ``best[0]`` the best cube's heuristic; ``touched[:state[3]]``: the cubes whose g was
-    set. Edge d of a cube joins it to the cube ``offsets[d]`` away, at the Euclidean
-    distance between the centres; neighbours are found by index arithmetic, without
-    dividing (an edge never leaves the grid)."""
+    else heap index. ``state`` = [heap size, expansions so far, best cube (the closed cube
+    nearest the goal), cubes touched]; ``touched[:state[3]]``: the cubes whose g was set.
+    Edge d of a cube joins it to the cube ``offsets[d]`` away, at the Euclidean distance
+    between the centres; neighbours are found by index arithmetic, without dividing (an
+    edge never leaves the grid)."""
     nyz = ny * nz
     n_dir = offsets.shape[0]
     di = np.empty(n_dir, dtype=np.int64)
@@ -153,21 +153,29 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
         dk[d] = offsets[d, 2]
         steps[d] = di[d] * nyz + dj[d] * nz + dk[d]
         costs[d] = math.sqrt(float(di[d] * di[d] + dj[d] * dj[d] + dk[d] * dk[d])) * res
+    gx = goal // nyz
+    gy = (goal - gx * nyz) // nz
+    gz = goal - gx * nyz - gy * nz
     if start >= 0:
+        for i in range(state[3]):
+            t = touched[i]
+            g[t] = np.inf
+            parent[t] = -1
+            pos[t] = -1
         g[start] = 0.0
         touched[0] = start
         state[0] = _heap_push(hn, hk, pos, 0, start, 0.0)
         state[1] = 0
         state[2] = start
         state[3] = 1
-        best[0] = np.inf
+        best_h = np.inf
+    else:
+        bx = state[2] // nyz
+        by = (state[2] - bx * nyz) // nz
+        best_h = _h(kind, bx - gx, by - gy, state[2] - bx * nyz - by * nz - gz, res)
+    best_c = state[2]
     size = state[0]
     n_touched = state[3]
-    gx = goal // nyz
-    gy = (goal - gx * nyz) // nz
-    gz = goal - gx * nyz - gy * nz
-    best_h = best[0]
-    best_c = state[2]
     status = 1
     done = 0
     while size > 0:
@@ -177,7 +185,6 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
         cur, size = _heap_pop(hn, hk, pos, size)
         done += 1
         if cur == goal:
-            best_h = 0.0
             best_c = cur
             status = 0
             break
@@ -212,35 +219,23 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, nx: int, ny: int, n
     state[1] += done
     state[2] = best_c
     state[3] = n_touched
-    best[0] = best_h
     return status
 
 
 @njit(cache=True)
-def _finish(g: FloatArray, parent: IntArray, pos: IntArray, touched: IntArray, count: int,
-            end: int) -> tuple[IntArray, float]:
-    """The path from the start to ``end`` (none when ``end < 0``) and its cost, then the
-    arrays made clean for the next search: the ``count`` touched cubes reset."""
-    cost = np.inf
-    n = 0
-    if end >= 0:
-        cost = g[end]
-        n = 1
-        c = end
-        while parent[c] >= 0:
-            c = parent[c]
-            n += 1
+def _trace(parent: IntArray, end: int) -> IntArray:
+    """The cubes from the search's start to ``end``, following the parents."""
+    n = 1
+    c = end
+    while parent[c] >= 0:
+        c = parent[c]
+        n += 1
     path = np.empty(n, dtype=np.int64)
     c = end
     for i in range(n - 1, -1, -1):
         path[i] = c
         c = parent[c]
-    for i in range(count):
-        t = touched[i]
-        g[t] = np.inf
-        parent[t] = -1
-        pos[t] = -1
-    return path, cost
+    return path
 
 
 @njit(cache=True)
@@ -266,6 +261,8 @@ def _shortcut(points: FloatArray, free: npt.NDArray[np.bool_], origin: FloatArra
               per_cube: int) -> IntArray:
     n = points.shape[0]
     keep = np.empty(n, dtype=np.int64)
+    if n == 0:
+        return keep
     keep[0] = 0
     count = 1
     anchor = 0
@@ -292,27 +289,27 @@ class SearchResult:
 
 
 class Workspace:
-    """The search's arrays for a grid of ``size`` cubes, reused from one search to the next
-    (each search resets only the cubes it touched). One search at a time. Cube indices are
-    int32 (half the memory the search walks through; a grid holds at most
+    """The search's arrays for a grid of ``size`` cubes, reused from one search to the next:
+    a search first resets the cubes the previous one touched, so that reuse costs no
+    allocation and no pass over the grid. One search at a time. Cube indices are int32
+    (half the memory the search walks through; a grid holds at most
     :data:`~navigation.voxel_graph.MAX_CUBES` < 2**31 cubes)."""
 
     def __init__(self, size: int) -> None:
-        if size > MAX_CUBES:
-            raise ValueError(f"workspace for {size} cubes: at most {MAX_CUBES}")
         self.size = size
         self.g = np.full(size, np.inf)
         self.parent = np.full(size, -1, dtype=np.int32)
         self.pos = np.full(size, -1, dtype=np.int32)
         self.hn = np.empty(size, dtype=np.int32)
-        self.hk = np.empty(size, dtype=np.float64)
+        self.hk = np.empty(size)
         self.touched = np.empty(size, dtype=np.int32)
         self.state = np.zeros(4, dtype=np.int64)  # see _search
-        self.best = np.zeros(1, dtype=np.float64)
 
 
 _STATUS = tuple(SearchStatus)  # by value: no enum lookup per query
 _NO_LIMIT = int(np.iinfo(np.int64).max)
+_NO_CELLS = np.empty(0, dtype=np.int64)
+_NO_CELLS.flags.writeable = False
 
 
 def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | None = None,
@@ -330,51 +327,60 @@ def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | Non
     if not (0 <= start < n and 0 <= goal < n):
         raise IndexError(f"start {start} and goal {goal} must be cubes of the grid "
                          f"(0 .. {n - 1})")
-    nx, ny, nz = grid.shape
+    _, ny, nz = grid.shape
     limit = _NO_LIMIT if max_expansions is None else max_expansions
-    deadline = None if time_limit_s is None else time.perf_counter() + time_limit_s
-    bits, res, kind = graph.edge_bits, grid.resolution, int(heuristic)
-    state, end = ws.state, -1
-    try:
-        begin = start
-        while True:
-            chunk = limit - int(state[1]) if begin < 0 else limit
-            if deadline is not None:
-                chunk = min(chunk, CHUNK_EXPANSIONS)
-            code = _search(bits, OFFSETS, nx, ny, nz, res, begin, goal, ws.g, ws.parent, ws.hn,
-                           ws.hk, ws.pos, ws.touched, state, ws.best, chunk, kind)
-            begin = -1
-            if code != SearchStatus.LIMIT or int(state[1]) >= limit or (
-                    deadline is not None and time.perf_counter() >= deadline):
-                break
-        if code != SearchStatus.EXHAUSTED:
-            end = goal if code == SearchStatus.FOUND else int(state[2])
-    finally:
-        cells, cost = _finish(ws.g, ws.parent, ws.pos, ws.touched, int(state[3]), end)
-    return SearchResult(cells, cost, int(state[1]), _STATUS[code])
+    state = ws.state
+    args = (graph.edge_bits, OFFSETS, ny, nz, grid.resolution)
+    arrays = (ws.g, ws.parent, ws.hn, ws.hk, ws.pos, ws.touched, state)
+    if time_limit_s is None:
+        code = _search(*args, start, goal, *arrays, limit, int(heuristic))
+    else:  # in chunks, looking at the clock between two
+        deadline = time.perf_counter() + time_limit_s
+        code = _search(*args, start, goal, *arrays, min(limit, CHUNK_EXPANSIONS),
+                       int(heuristic))
+        while (code == SearchStatus.LIMIT and state[1] < limit
+               and time.perf_counter() < deadline):
+            code = _search(*args, -1, goal, *arrays, min(limit - state[1], CHUNK_EXPANSIONS),
+                           int(heuristic))
+    expansions = int(state[1])
+    if code == SearchStatus.EXHAUSTED:
+        return SearchResult(_NO_CELLS, math.inf, expansions, SearchStatus.EXHAUSTED)
+    end = goal if code == SearchStatus.FOUND else int(state[2])
+    return SearchResult(_trace(ws.parent, end), float(ws.g[end]), expansions, _STATUS[code])
+
+
+def _point(point: npt.ArrayLike) -> FloatArray:
+    """A map point [m] as 3 float64 (one compiled specialisation of the kernels)."""
+    return np.asarray(point, dtype=np.float64).reshape(3)
+
+
+def _as_points(points: npt.ArrayLike) -> FloatArray:
+    """(N, 3) float64 map points [m], contiguous."""
+    return np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+
+
+def _rounded(point: FloatArray) -> list[float]:
+    """A point for a message: metres, to the millimetre."""
+    return np.round(point, 3).tolist()  # type: ignore[no-any-return]
 
 
 def shortcut(graph: VoxelGraph, points: npt.ArrayLike) -> FloatArray:
     """The line-of-sight pass: from each kept waypoint, jump to the farthest later one
-    whose straight segment stays in free cubes. Ends are kept."""
-    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(p) <= 2:
-        return p.copy()
-    keep = _shortcut(p, graph.free, np.asarray(graph.grid.origin, dtype=np.float64),
-                     graph.grid.resolution, LINE_SAMPLES_PER_CUBE)
-    return p[keep]
+    whose straight segment stays in free cubes. Ends are kept. A new array."""
+    p = _as_points(points)
+    return p[_shortcut(p, graph.free, np.asarray(graph.grid.origin), graph.grid.resolution,
+                       LINE_SAMPLES_PER_CUBE)]
 
 
 def segment_free(graph: VoxelGraph, a: npt.ArrayLike, b: npt.ArrayLike) -> bool:
     """Whether the straight segment a -> b stays in free cubes (the shortcut's test)."""
-    return bool(_line_free(graph.free, np.asarray(graph.grid.origin, dtype=np.float64),
-                           graph.grid.resolution, np.asarray(a, dtype=np.float64),
-                           np.asarray(b, dtype=np.float64), LINE_SAMPLES_PER_CUBE))
+    return bool(_line_free(graph.free, np.asarray(graph.grid.origin), graph.grid.resolution,
+                           _point(a), _point(b), LINE_SAMPLES_PER_CUBE))
 
 
 def path_length(points: npt.ArrayLike) -> float:
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if len(p) > 1 else 0.0
+    """The length [m] of the polyline through (N, 3) points; 0 for fewer than two."""
+    return float(np.linalg.norm(np.diff(_as_points(points), axis=0), axis=1).sum())
 
 
 @dataclass(frozen=True)
@@ -391,28 +397,31 @@ class PlannedPath:
 
 def snap(graph: VoxelGraph, point: npt.ArrayLike, radius: float) -> int | None:
     """The free cube holding ``point``, or the nearest free cube centre within ``radius``
-    [m]; None when there is none. Raises OutOfBounds outside the grid."""
+    [m] (the first in index order among equals); None when there is none. Raises
+    OutOfBounds outside the grid."""
+    return _snap(graph, _point(point), radius)[0]
+
+
+def _snap(graph: VoxelGraph, p: FloatArray, radius: float) -> tuple[int | None, bool]:
+    """:func:`snap`, and whether the cube found holds ``p``."""
     grid = graph.grid
-    cell = grid.cell_of(point)[0]
+    cell = grid.cell_of(p)[0]
     if not grid.inside(cell[None])[0]:
-        raise OutOfBounds(f"{np.round(np.asarray(point, dtype=float), 3).tolist()} m is "
-                          "outside the field")
+        raise OutOfBounds(f"{_rounded(p)} m is outside the field")
     if graph.free[tuple(cell)]:
-        return int(grid.flat(cell[None])[0])
-    r = math.ceil(radius / grid.resolution)
-    if r <= 0:
-        return None
+        return int(grid.flat(cell[None])[0]), True
+    r = math.ceil(radius / grid.resolution)  # every centre within radius is in this block
     lo = np.maximum(cell - r, 0)
     hi = np.minimum(cell + r + 1, np.asarray(grid.shape))
     block = graph.free[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]]
     cand = np.argwhere(block) + lo
     if len(cand) == 0:
-        return None
-    d = np.linalg.norm(grid.center(cand) - np.asarray(point, dtype=np.float64), axis=1)
+        return None, False
+    d = np.linalg.norm(grid.center(cand) - p, axis=1)
     i = int(np.argmin(d))  # first of equals: argwhere's order, deterministic
     if d[i] > radius:
-        return None
-    return int(grid.flat(cand[i][None])[0])
+        return None, False
+    return int(grid.flat(cand[i][None])[0]), False
 
 
 def plan(graph: VoxelGraph, start: npt.ArrayLike, goal: npt.ArrayLike, *,
@@ -421,34 +430,34 @@ def plan(graph: VoxelGraph, start: npt.ArrayLike, goal: npt.ArrayLike, *,
          use_shortcut: bool = True, heuristic: Heuristic = Heuristic.EUCLIDEAN,
          workspace: Workspace | None = None) -> PlannedPath:
     """Plan from ``start`` to ``goal`` [m, map frame]. Waypoints are the cube centres
-    between the exact start and goal points, shortened by :func:`shortcut`. Raises
-    OutOfBounds, StartOccupied, GoalOccupied, NoPathFound or PlanningTimedOut (whose
-    ``partial`` is the path to the closed cube nearest the goal when ``partial``)."""
-    s_pt = np.asarray(start, dtype=np.float64).reshape(3)
-    g_pt = np.asarray(goal, dtype=np.float64).reshape(3)
-    s = snap(graph, s_pt, snap_radius)
+    between the exact start and goal points (each kept when it lies in its end cube, else
+    that cube's centre), shortened by :func:`shortcut`. Raises OutOfBounds, StartOccupied,
+    GoalOccupied, NoPathFound or PlanningTimedOut (whose ``partial`` is the path to the
+    closed cube nearest the goal when ``partial``)."""
+    s_pt, g_pt = _point(start), _point(goal)
+    s, s_inside = _snap(graph, s_pt, snap_radius)
     if s is None:
-        raise StartOccupied(f"start {np.round(s_pt, 3).tolist()} m is in or too close to an "
-                            "obstacle (no free cube there)")
-    g = snap(graph, g_pt, snap_radius)
+        raise StartOccupied(f"start {_rounded(s_pt)} m is in or too close to an obstacle "
+                            "(no free cube there)")
+    g, g_inside = _snap(graph, g_pt, snap_radius)
     if g is None:
-        raise GoalOccupied(f"goal {np.round(g_pt, 3).tolist()} m is in or too close to an "
-                           "obstacle (no free cube there)")
+        raise GoalOccupied(f"goal {_rounded(g_pt)} m is in or too close to an obstacle "
+                           "(no free cube there)")
     result = astar(graph, s, g, max_expansions=max_expansions, time_limit_s=time_limit_s,
                    heuristic=heuristic, workspace=workspace)
     if result.status is SearchStatus.EXHAUSTED:
-        raise NoPathFound(f"no path from {np.round(s_pt, 3).tolist()} to "
-                          f"{np.round(g_pt, 3).tolist()} m: the goal is not connected to the "
-                          f"start ({result.expansions} cubes searched)")
-    centres = graph.grid.center(graph.grid.unflat(result.cells))
+        raise NoPathFound(f"no path from {_rounded(s_pt)} to {_rounded(g_pt)} m: the goal is "
+                          f"not connected to the start ({result.expansions} cubes searched)")
+    points = graph.grid.center(graph.grid.unflat(result.cells))
     if result.status is SearchStatus.LIMIT:
-        best = shortcut(graph, centres) if use_shortcut else centres
+        best = shortcut(graph, points) if use_shortcut else points
         raise PlanningTimedOut(
             f"search stopped after {result.expansions} expansions without reaching the goal",
             partial=best if partial else None)
-    points = centres.copy()
-    points[0] = s_pt if graph.grid.flat(graph.grid.cell_of(s_pt))[0] == s else centres[0]
-    points[-1] = g_pt if graph.grid.flat(graph.grid.cell_of(g_pt))[0] == g else centres[-1]
+    if s_inside:
+        points[0] = s_pt
+    if g_inside:
+        points[-1] = g_pt
     if use_shortcut:
         points = shortcut(graph, points)
     return PlannedPath(points, path_length(points), result.cost, result.expansions)
