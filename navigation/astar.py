@@ -41,6 +41,7 @@ from navigation.voxel_graph import OFFSETS, VoxelGraph
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+Int32Array = npt.NDArray[np.int32]
 CHUNK_EXPANSIONS = 20_000  # expansions between two looks at the clock (time limits)
 LINE_SAMPLES_PER_CUBE = 8  # line-of-sight samples per cube side
 
@@ -52,7 +53,7 @@ class SearchStatus(IntEnum):
 
 
 @njit(cache=True)
-def _heap_push(hn: IntArray, hk: FloatArray, pos: IntArray, size: int, node: int,
+def _heap_push(hn: Int32Array, hk: FloatArray, pos: Int32Array, size: int, node: int,
                key: float) -> int:
     i = pos[node]
     if i < 0:
@@ -75,7 +76,8 @@ def _heap_push(hn: IntArray, hk: FloatArray, pos: IntArray, size: int, node: int
 
 
 @njit(cache=True)
-def _heap_pop(hn: IntArray, hk: FloatArray, pos: IntArray, size: int) -> tuple[int, int]:
+def _heap_pop(hn: Int32Array, hk: FloatArray, pos: Int32Array, size: int
+              ) -> tuple[int, int]:
     top = hn[0]
     pos[top] = -2  # closed
     size -= 1
@@ -129,8 +131,8 @@ def _h(kind: int, dx: int, dy: int, dz: int, res: float) -> float:
 
 @njit(cache=True)
 def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, ny: int, nz: int, res: float,
-            start: int, goal: int, g: FloatArray, parent: IntArray, hn: IntArray,
-            hk: FloatArray, pos: IntArray, touched: IntArray, state: IntArray,
+            start: int, goal: int, g: FloatArray, parent: Int32Array, hn: Int32Array,
+            hk: FloatArray, pos: Int32Array, touched: Int32Array, state: IntArray,
             max_expansions: int, kind: int) -> int:
     """Run A* for at most ``max_expansions`` expansions. ``start >= 0`` begins a search from
     that cube, after resetting the cubes the previous search touched; ``start < 0`` goes on
@@ -223,7 +225,7 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, ny: int, nz: int, r
 
 
 @njit(cache=True)
-def _trace(parent: IntArray, end: int) -> IntArray:
+def _trace(parent: Int32Array, end: int) -> IntArray:
     """The cubes from the search's start to ``end``, following the parents."""
     n = 1
     c = end
@@ -329,19 +331,20 @@ def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | Non
                          f"(0 .. {n - 1})")
     _, ny, nz = grid.shape
     limit = _NO_LIMIT if max_expansions is None else max_expansions
-    state = ws.state
-    args = (graph.edge_bits, OFFSETS, ny, nz, grid.resolution)
-    arrays = (ws.g, ws.parent, ws.hn, ws.hk, ws.pos, ws.touched, state)
+    state, kind = ws.state, int(heuristic)
+
+    def search(begin: int, chunk: int) -> int:
+        return _search(graph.edge_bits, OFFSETS, ny, nz, grid.resolution, begin, goal, ws.g,
+                       ws.parent, ws.hn, ws.hk, ws.pos, ws.touched, state, chunk, kind)
+
     if time_limit_s is None:
-        code = _search(*args, start, goal, *arrays, limit, int(heuristic))
+        code = search(start, limit)
     else:  # in chunks, looking at the clock between two
         deadline = time.perf_counter() + time_limit_s
-        code = _search(*args, start, goal, *arrays, min(limit, CHUNK_EXPANSIONS),
-                       int(heuristic))
+        code = search(start, min(limit, CHUNK_EXPANSIONS))
         while (code == SearchStatus.LIMIT and state[1] < limit
                and time.perf_counter() < deadline):
-            code = _search(*args, -1, goal, *arrays, min(limit - state[1], CHUNK_EXPANSIONS),
-                           int(heuristic))
+            code = search(-1, min(limit - int(state[1]), CHUNK_EXPANSIONS))
     expansions = int(state[1])
     if code == SearchStatus.EXHAUSTED:
         return SearchResult(_NO_CELLS, math.inf, expansions, SearchStatus.EXHAUSTED)
@@ -361,7 +364,7 @@ def _as_points(points: npt.ArrayLike) -> FloatArray:
 
 def _rounded(point: FloatArray) -> list[float]:
     """A point for a message: metres, to the millimetre."""
-    return np.round(point, 3).tolist()  # type: ignore[no-any-return]
+    return np.round(point, 3).tolist()
 
 
 def shortcut(graph: VoxelGraph, points: npt.ArrayLike) -> FloatArray:
@@ -399,11 +402,12 @@ def snap(graph: VoxelGraph, point: npt.ArrayLike, radius: float) -> int | None:
     """The free cube holding ``point``, or the nearest free cube centre within ``radius``
     [m] (the first in index order among equals); None when there is none. Raises
     OutOfBounds outside the grid."""
-    return _snap(graph, _point(point), radius)[0]
+    found = _snap(graph, _point(point), radius)
+    return None if found is None else found[0]
 
 
-def _snap(graph: VoxelGraph, p: FloatArray, radius: float) -> tuple[int | None, bool]:
-    """:func:`snap`, and whether the cube found holds ``p``."""
+def _snap(graph: VoxelGraph, p: FloatArray, radius: float) -> tuple[int, bool] | None:
+    """:func:`snap`'s cube and whether it holds ``p``; None when there is none."""
     grid = graph.grid
     cell = grid.cell_of(p)[0]
     if not grid.inside(cell[None])[0]:
@@ -416,11 +420,11 @@ def _snap(graph: VoxelGraph, p: FloatArray, radius: float) -> tuple[int | None, 
     block = graph.free[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]]
     cand = np.argwhere(block) + lo
     if len(cand) == 0:
-        return None, False
+        return None
     d = np.linalg.norm(grid.center(cand) - p, axis=1)
     i = int(np.argmin(d))  # first of equals: argwhere's order, deterministic
     if d[i] > radius:
-        return None, False
+        return None
     return int(grid.flat(cand[i][None])[0]), False
 
 
@@ -435,14 +439,15 @@ def plan(graph: VoxelGraph, start: npt.ArrayLike, goal: npt.ArrayLike, *,
     GoalOccupied, NoPathFound or PlanningTimedOut (whose ``partial`` is the path to the
     closed cube nearest the goal when ``partial``)."""
     s_pt, g_pt = _point(start), _point(goal)
-    s, s_inside = _snap(graph, s_pt, snap_radius)
-    if s is None:
+    s_found = _snap(graph, s_pt, snap_radius)
+    if s_found is None:
         raise StartOccupied(f"start {_rounded(s_pt)} m is in or too close to an obstacle "
                             "(no free cube there)")
-    g, g_inside = _snap(graph, g_pt, snap_radius)
-    if g is None:
+    g_found = _snap(graph, g_pt, snap_radius)
+    if g_found is None:
         raise GoalOccupied(f"goal {_rounded(g_pt)} m is in or too close to an obstacle "
                            "(no free cube there)")
+    (s, s_inside), (g, g_inside) = s_found, g_found
     result = astar(graph, s, g, max_expansions=max_expansions, time_limit_s=time_limit_s,
                    heuristic=heuristic, workspace=workspace)
     if result.status is SearchStatus.EXHAUSTED:

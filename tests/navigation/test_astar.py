@@ -302,6 +302,8 @@ def test_error_messages_say_which_point_is_wrong_to_the_millimetre() -> None:
         plan(g, (1.0, 1.0, 1.0), (3.20049, 1.0, 1.0))
     with pytest.raises(OutOfBounds, match=re.escape("[7.123, 1.0, 1.0] m is outside the field")):
         plan(g, (1.0, 1.0, 1.0), (7.12349, 1.0, 1.0))
+    with pytest.raises(StartOccupied, match=re.escape("start [3.0, 1.0, 1.0] m")):
+        plan(g, (3, 1, 1), (5, 1, 1))  # integers are metres too
     with pytest.raises(ValueError):  # a point has three coordinates
         plan(g, (1.0, 1.0), (5.0, 1.0, 1.0))
     ring = ring_graph()
@@ -399,3 +401,6 @@ def test_shortcut_returns_float_waypoints_for_any_count() -> None:
     assert shortcut(g, two).tolist() == two.tolist()
     assert not segment_free(g, (1.0, 1.0, 1.0), (7.0, 1.0, 1.0))  # leaves the field
     assert segment_free(g, (1, 3, 1), (5, 3.6, 1))
+    assert segment_free(g, [[1.0, 3.0, 1.0]], [[5.0], [3.6], [1.0]])  # any shape of 3 values
+    with pytest.raises(ValueError):
+        segment_free(g, (1.0, 3.0, 1.0, 2.0), (5.0, 3.6, 1.0))
