@@ -137,11 +137,11 @@ def _search(bits: npt.NDArray[np.uint16], offsets: IntArray, ny: int, nz: int, r
     """Run A* for at most ``max_expansions`` expansions. ``start >= 0`` begins a search from
     that cube, after resetting the cubes the previous search touched; ``start < 0`` goes on
     with the open set in (hn, hk, pos, state[0] = size). ``pos[c]``: -1 unseen, -2 closed,
-    else heap index. ``state`` = [heap size, expansions so far, best cube (the closed cube
-    nearest the goal), cubes touched]; ``touched[:state[3]]``: the cubes whose g was set.
-    Edge d of a cube joins it to the cube ``offsets[d]`` away, at the Euclidean distance
-    between the centres; neighbours are found by index arithmetic, without dividing (an
-    edge never leaves the grid)."""
+    else heap index. ``state`` = [heap size, expansions so far, best cube (the goal once
+    found, else the closed cube nearest it), cubes touched]; ``touched[:state[3]]``: the
+    cubes whose g was set. Edge d of a cube joins it to the cube ``offsets[d]`` away, at
+    the Euclidean distance between the centres; neighbours are found by index arithmetic,
+    without dividing (an edge never leaves the grid)."""
     nyz = ny * nz
     n_dir = offsets.shape[0]
     di = np.empty(n_dir, dtype=np.int64)
@@ -348,7 +348,7 @@ def astar(graph: VoxelGraph, start: int, goal: int, *, max_expansions: int | Non
     expansions = int(state[1])
     if code == SearchStatus.EXHAUSTED:
         return SearchResult(_NO_CELLS, math.inf, expansions, SearchStatus.EXHAUSTED)
-    end = goal if code == SearchStatus.FOUND else int(state[2])
+    end = int(state[2])  # the goal when found
     return SearchResult(_trace(ws.parent, end), float(ws.g[end]), expansions, _STATUS[code])
 
 
