@@ -123,7 +123,8 @@ MUTATE_PATHS    ?= sim/fcu/commander.py \
   flight_control/bridge_node.py:FcuBridgeNode.to_companion_ns,FcuBridgeNode.to_fcu_us,FcuBridgeNode._stamp=tests/flight_control/test_bridge_node_clocks.py \
   navigation/precision_landing.py \
   navigation/navigator_policy.py \
-  fsm/mission_driver.py
+  fsm/mission_driver.py \
+  navigation/astar.py
 MUTATE_CHILDREN ?= 1
 MUTATE_MIN_KILL ?= 90
 MUTATE_ARGS     ?=

@@ -11,7 +11,10 @@ poses into a 5 cm voxel map (``--map FILE`` uses a map file instead, e.g. the ``
   ``astar_path`` on the same graph (same edges, same Euclidean costs and heuristic: the
   same cost to 1e-9 is checked) and libtcod's C A* (``tcod.path``, integer costs: edge
   cost = round(1000 x metres), its own admissible heuristic; the same queries). Times are
-  per query, host seconds; ratios are medians of per-query ratios;
+  per query, host seconds; a query's four runs are back to back, so the host's load weighs
+  on each alike. All the queries are run ``--rounds`` times; a round's ratio is the median
+  of its per-query ratios, and a figure is reported as the median of the rounds' with
+  their min / median / max (``*_rounds``), the spread the host's load gives;
 - the line-of-sight shortcut: path length and waypoint reduction.
 
 Ratios (``speedup_vs_networkx_median`` = networkx / ours; ``time_ratio_vs_tcod_median`` =
@@ -148,8 +151,56 @@ def random_pairs(g: VoxelGraph, n: int, rng: np.random.Generator) -> list[tuple[
     return pairs
 
 
+def query_times(g: VoxelGraph, ws: Workspace, s: int, t: int, tcod_graph_: Any,
+                networkx: tuple[Any, Any] | None) -> dict[str, Any]:
+    """One query's times, back to back so that the host's load weighs on all alike: ours
+    (median of 3), octile (median of 3), tcod (median of 3) and networkx (once) when given
+    (graph, heuristic). Also the results, for the checks."""
+    ours_s, res_ = timed(lambda: astar(g, s, t, workspace=ws), repeat=3)
+    oct_s, res_oct = timed(lambda: astar(g, s, t, heuristic=Heuristic.OCTILE, workspace=ws),
+                           repeat=3)
+    tcod_s, tpath = timed(lambda: tcod_query(tcod_graph_, g, s, t), repeat=3)
+    row = {"ours_s": ours_s, "octile_s": oct_s, "tcod_s": tcod_s, "result": res_,
+           "octile_result": res_oct, "tcod_path": tpath}
+    if networkx is not None:
+        import networkx as nx
+
+        G, h = networkx
+        nx_s, npath = timed(lambda: nx.astar_path(G, s, t, heuristic=h, weight="weight"))
+        row |= {"networkx_s": nx_s, "networkx_path": npath}
+    return row
+
+
+def spread(values: list[float]) -> dict[str, float]:
+    """min / median / max of per-round figures."""
+    return {"min": min(values), "median": statistics.median(values), "max": max(values)}
+
+
+def round_figures(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """One round's medians of per-query times and ratios."""
+    with_nx = [r for r in rows if "networkx_s" in r]
+    return {
+        "ours_s_median": statistics.median(r["ours_s"] for r in rows),
+        "networkx_s_median": statistics.median(r["networkx_s"] for r in with_nx),
+        "tcod_s_median": statistics.median(r["tcod_s"] for r in rows),
+        "speedup_vs_networkx_median": statistics.median(r["networkx_s"] / r["ours_s"]
+                                                        for r in with_nx),
+        "time_ratio_vs_tcod_median": statistics.median(r["ours_s"] / r["tcod_s"] for r in rows),
+        "octile_s_median": statistics.median(r["octile_s"] for r in rows),
+        "octile_speedup_vs_networkx_median": statistics.median(r["networkx_s"] / r["octile_s"]
+                                                               for r in with_nx),
+        "octile_time_ratio_vs_tcod_median": statistics.median(r["octile_s"] / r["tcod_s"]
+                                                              for r in rows),
+        "corner_ours_s": rows[0]["ours_s"],
+        "corner_octile_s": rows[0]["octile_s"],
+        "corner_tcod_s": rows[0]["tcod_s"],
+        "corner_networkx_s": rows[0]["networkx_s"],
+    }
+
+
 def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], res: float,
-                     n_pairs: int, n_networkx: int, rng: np.random.Generator) -> dict[str, Any]:
+                     n_pairs: int, n_networkx: int, rounds: int,
+                     rng: np.random.Generator) -> dict[str, Any]:
     p = params(res)
     build_s, g = timed(lambda: build_graph(points, (0, 0, 0), field_max, p), repeat=3)
     big = rng.uniform((0, 0, 0), field_max, (1_000_000, 3))
@@ -171,30 +222,33 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
         return float(np.linalg.norm(centres[a] - centres[b]))
 
     T_s, T = timed(lambda: tcod_graph(g))
-    rows = []
-    for k, (s, t) in enumerate(pairs):
-        ours_s, res_ = timed(lambda s=s, t=t: astar(g, s, t, workspace=ws), repeat=3)
-        oct_s, res_oct = timed(lambda s=s, t=t: astar(g, s, t, heuristic=Heuristic.OCTILE,
-                                                      workspace=ws), repeat=3)
-        tcod_s, tpath = timed(lambda s=s, t=t: tcod_query(T, g, s, t), repeat=3)
-        tcod_cost = path_length(g.grid.center(tpath))
-        row = {"pair": k, "ours_s": ours_s, "tcod_s": tcod_s, "cost_m": res_.cost,
-               "tcod_cost_m": tcod_cost, "expansions": res_.expansions,
-               "octile_s": oct_s, "octile_cost_m": res_oct.cost,
-               "octile_expansions": res_oct.expansions}
-        if k < n_networkx:
-            nx_s, npath = timed(lambda s=s, t=t: nx.astar_path(G, s, t, heuristic=h,
-                                                                weight="weight"))
-            nx_cost = float(nx.path_weight(G, npath, weight="weight"))
-            row |= {"networkx_s": nx_s, "networkx_cost_m": nx_cost,
-                    "same_cost": abs(nx_cost - res_.cost) <= 1e-9}
-        centres_path = g.grid.center(g.grid.unflat(res_.cells))
-        short = shortcut(g, centres_path)
-        row |= {"waypoints": len(res_.cells), "shortcut_waypoints": len(short),
-                "shortcut_length_m": path_length(short)}
-        rows.append(row)
-    with_nx = [r for r in rows if "networkx_s" in r]
-    corner = rows[0]
+    per_round: list[dict[str, float]] = []
+    rows: list[dict[str, Any]] = []
+    for r in range(rounds):
+        print(f"  round {r + 1}/{rounds}", file=sys.stderr)
+        this = [query_times(g, ws, s, t, T, (G, h) if k < n_networkx else None)
+                for k, (s, t) in enumerate(pairs)]
+        per_round.append(round_figures(this))
+        if r == 0:
+            rows = this  # the results are the same every round: checked on the first
+    checks = []
+    for row in rows:
+        res_, res_oct = row["result"], row["octile_result"]
+        check = {"cost_m": res_.cost, "expansions": res_.expansions,
+                 "tcod_cost_m": path_length(g.grid.center(row["tcod_path"])),
+                 "octile_cost_m": res_oct.cost, "octile_expansions": res_oct.expansions}
+        if "networkx_path" in row:
+            nx_cost = float(nx.path_weight(G, row["networkx_path"], weight="weight"))
+            check["same_cost"] = abs(nx_cost - res_.cost) <= 1e-9
+        short = shortcut(g, g.grid.center(g.grid.unflat(res_.cells)))
+        check |= {"waypoints": len(res_.cells), "shortcut_waypoints": len(short),
+                  "shortcut_length_m": path_length(short)}
+        checks.append(check)
+    with_nx = [c for c in checks if "same_cost" in c]
+
+    def med(key: str) -> float:
+        return statistics.median(f[key] for f in per_round)
+
     return {
         "resolution_m": res,
         "grid_shape": list(g.grid.shape),
@@ -204,36 +258,47 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
         "build_1m_points_s_median": build_1m_s,
         "networkx_graph_build_s": G_s,
         "tcod_graph_build_s": T_s,
-        "queries": len(rows),
+        "queries": len(checks),
         "networkx_queries": len(with_nx),
-        "corner_to_corner": {k: corner.get(k) for k in (
-            "ours_s", "octile_s", "networkx_s", "tcod_s", "cost_m", "expansions",
-            "octile_expansions")},
-        "ours_s_median": statistics.median(r["ours_s"] for r in rows),
-        "networkx_s_median": statistics.median(r["networkx_s"] for r in with_nx),
-        "tcod_s_median": statistics.median(r["tcod_s"] for r in rows),
-        "speedup_vs_networkx_median": statistics.median(r["networkx_s"] / r["ours_s"]
-                                                        for r in with_nx),
-        "time_ratio_vs_tcod_median": statistics.median(r["ours_s"] / r["tcod_s"] for r in rows),
-        "same_cost_as_networkx": all(r["same_cost"] for r in with_nx),
+        "rounds": rounds,
+        "corner_to_corner": {
+            "ours_s": med("corner_ours_s"), "octile_s": med("corner_octile_s"),
+            "networkx_s": med("corner_networkx_s"), "tcod_s": med("corner_tcod_s"),
+            "speedup_vs_networkx": spread([f["corner_networkx_s"] / f["corner_ours_s"]
+                                           for f in per_round]),
+            "cost_m": checks[0]["cost_m"], "expansions": checks[0]["expansions"],
+            "octile_expansions": checks[0]["octile_expansions"]},
+        "ours_s_median": med("ours_s_median"),
+        "networkx_s_median": med("networkx_s_median"),
+        "tcod_s_median": med("tcod_s_median"),
+        "speedup_vs_networkx_median": med("speedup_vs_networkx_median"),
+        "speedup_vs_networkx_rounds": spread([f["speedup_vs_networkx_median"]
+                                              for f in per_round]),
+        "time_ratio_vs_tcod_median": med("time_ratio_vs_tcod_median"),
+        "time_ratio_vs_tcod_rounds": spread([f["time_ratio_vs_tcod_median"]
+                                             for f in per_round]),
+        "same_cost_as_networkx": all(c["same_cost"] for c in with_nx),
         "octile": {
-            "ours_s_median": statistics.median(r["octile_s"] for r in rows),
-            "speedup_vs_networkx_median": statistics.median(r["networkx_s"] / r["octile_s"]
-                                                            for r in with_nx),
-            "time_ratio_vs_tcod_median": statistics.median(r["octile_s"] / r["tcod_s"]
-                                                           for r in rows),
-            "same_cost_as_euclidean": all(abs(r["octile_cost_m"] - r["cost_m"]) <= 1e-9
-                                          for r in rows),
+            "ours_s_median": med("octile_s_median"),
+            "speedup_vs_networkx_median": med("octile_speedup_vs_networkx_median"),
+            "speedup_vs_networkx_rounds": spread([f["octile_speedup_vs_networkx_median"]
+                                                  for f in per_round]),
+            "time_ratio_vs_tcod_median": med("octile_time_ratio_vs_tcod_median"),
+            "time_ratio_vs_tcod_rounds": spread([f["octile_time_ratio_vs_tcod_median"]
+                                                 for f in per_round]),
+            "same_cost_as_euclidean": all(abs(c["octile_cost_m"] - c["cost_m"]) <= 1e-9
+                                          for c in checks),
             "expansions_ratio_median": statistics.median(
-                r["octile_expansions"] / r["expansions"] for r in rows),
+                c["octile_expansions"] / c["expansions"] for c in checks),
         },
-        "max_cost_diff_vs_tcod_m": max(abs(r["tcod_cost_m"] - r["cost_m"]) for r in rows),
+        "max_cost_diff_vs_tcod_m": max(abs(c["tcod_cost_m"] - c["cost_m"]) for c in checks),
         "shortcut": {
-            "length_ratio_median": statistics.median(r["shortcut_length_m"] / r["cost_m"]
-                                                     for r in rows if r["cost_m"] > 0),
-            "waypoint_ratio_median": statistics.median(r["shortcut_waypoints"] / r["waypoints"]
-                                                       for r in rows),
+            "length_ratio_median": statistics.median(c["shortcut_length_m"] / c["cost_m"]
+                                                     for c in checks if c["cost_m"] > 0),
+            "waypoint_ratio_median": statistics.median(c["shortcut_waypoints"] / c["waypoints"]
+                                                       for c in checks),
         },
+        "per_round": per_round,
     }
 
 
@@ -245,12 +310,31 @@ def main() -> None:
     ap.add_argument("--resolutions", default="0.2,0.1", help="cube sides [m]")
     ap.add_argument("--networkx-pairs", default="201,21",
                     help="queries also run on networkx, per resolution (it is slow at 0.1 m)")
+    ap.add_argument("--rounds", type=int, default=3,
+                    help="rounds of all the queries; ratios are reported per round and as "
+                         "min / median / max over the rounds")
+    ap.add_argument("--cloud-cache", type=Path, default=None,
+                    help=".npy file: the survey's cloud is read from it when it exists, else "
+                         "surveyed and written there (the survey takes minutes)")
     args = ap.parse_args()
+    if args.rounds < 1:
+        ap.error(f"--rounds: {args.rounds} must be >= 1")
     arena = default_arena()
     fx, fy, fz = arena.field.size
+    load_start = os.getloadavg()[0]  # the host's load before and after: other work skews times
     t0 = time.perf_counter()
     print("cloud ...", file=sys.stderr)
-    points = load_map(args.map) if args.map else survey_cloud(arena)
+    cloud = str(args.map) if args.map else "default arena depth survey (true poses)"
+    if args.map:
+        points = load_map(args.map)
+    elif args.cloud_cache is not None and args.cloud_cache.is_file():
+        points = np.load(args.cloud_cache)
+        cloud += f", read from {args.cloud_cache}"
+    else:
+        points = survey_cloud(arena)
+        if args.cloud_cache is not None:
+            args.cloud_cache.parent.mkdir(parents=True, exist_ok=True)
+            np.save(args.cloud_cache, points)
     cloud_s = time.perf_counter() - t0
     n_nx = [int(v) for v in args.networkx_pairs.split(",")]
     rng = np.random.default_rng(SEED)
@@ -258,24 +342,28 @@ def main() -> None:
     results = []
     for i, res in enumerate(resolutions):
         print(f"resolution {res} m: {len(points)} cloud points", file=sys.stderr)
-        results.append(bench_resolution(points, (fx, fy, fz), res, args.pairs, n_nx[i], rng))
+        results.append(bench_resolution(points, (fx, fy, fz), res, args.pairs, n_nx[i],
+                                        args.rounds, rng))
     out = {
         "benchmark": "astar",
-        "cloud": str(args.map) if args.map else "default arena depth survey (true poses)",
+        "cloud": cloud,
         "cloud_points": len(points),
         "cloud_s": cloud_s,
         "resolutions": results,
         "speedup_vs_networkx_median": results[0]["speedup_vs_networkx_median"],
+        "speedup_vs_networkx_rounds": results[0]["speedup_vs_networkx_rounds"],
         "time_ratio_vs_tcod_median": results[0]["time_ratio_vs_tcod_median"],
         "build_1m_points_s_median": results[0]["build_1m_points_s_median"],
         "octile_speedup_vs_networkx_median": results[0]["octile"]["speedup_vs_networkx_median"],
         "octile_time_ratio_vs_tcod_median": results[0]["octile"]["time_ratio_vs_tcod_median"],
         "host": {"python": platform.python_version(), "machine": platform.machine(),
-                 "cpus": os.cpu_count()},
+                 "cpus": os.cpu_count(),
+                 "load_average_1m": [load_start, os.getloadavg()[0]]},
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(out, indent=2) + "\n")
     print(json.dumps({k: out[k] for k in ("speedup_vs_networkx_median",
+                                          "speedup_vs_networkx_rounds",
                                           "time_ratio_vs_tcod_median",
                                           "octile_speedup_vs_networkx_median",
                                           "octile_time_ratio_vs_tcod_median",
