@@ -249,8 +249,12 @@ class FlightControlNode(Node):
                 problems.append("FCU not connected")
             if not state.position_valid:
                 problems.append("no valid position estimate")
+            # the battery is the vehicle's state, not a fault of this module: a warning here
+            # (goals that need a good battery are refused); the mission reacts to it on its
+            # own cause from /fcu/status (BATTERY_LOW / BATTERY_CRITICAL), so an error here
+            # would add a MODULE_ERROR whose HOLD stops the landing the battery asked for
             if battery_critical(state.battery_warning, self.params.battery_critical_warning):
-                problems.append(f"battery critical (warning level {state.battery_warning})")
+                warnings.append(f"battery critical (warning level {state.battery_warning})")
             elif state.battery_warning > 0:
                 warnings.append(f"battery low (warning level {state.battery_warning})")
             if s.failsafe:

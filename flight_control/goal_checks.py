@@ -129,7 +129,7 @@ class VehicleState:
 
 def battery_critical(warning: int, critical_warning: int) -> bool:
     """Whether the FCU's battery ``warning`` (px4 ``BatteryWarning``) is at or above the
-    level ``critical_warning`` that rejects goals and makes health an error."""
+    level ``critical_warning`` that rejects goals (landing excepted)."""
     return warning >= critical_warning
 
 

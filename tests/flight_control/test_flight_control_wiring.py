@@ -125,7 +125,9 @@ def test_battery_critical_exactly_at_the_configured_warning_level() -> None:
     rig.fcu.battery_warning = critical
     rig.ex.spin_for(1.1)
     level, message = _health_level(rig)
-    assert level == HEALTH.LEVEL_ERROR
+    # the vehicle's state, not a fault of the module: the mission reacts to the battery on
+    # its own cause, and an error here would stop (HOLD) the landing it asks for
+    assert level == HEALTH.LEVEL_WARN
     assert message == f"battery critical (warning level {critical})"
     handle = rig.send("reach", **reach_goal(2.0, 3.0, 1.5))
     assert not handle.accepted
