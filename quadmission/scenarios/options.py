@@ -11,6 +11,7 @@ from typing import Any
 from quadmission.errors import OptionsError
 from sim.arena import ArenaSpec, Lighting, default_arena, dump_arena, load_arena
 from sim.arena_generator import generate_arena
+from sim.fault_spec import Fault
 
 __all__ = ["ARENA_NAME", "Scenario", "ScenarioOptions"]
 
@@ -29,6 +30,7 @@ class ScenarioOptions:
     lighting: Lighting | None = None  # None: the arena file's preset
     target_robot: int | None = None  # mission: the robot to find (None: config/mission.yaml)
     remove_pad: int | None = None  # mission: take this pad out of the field (seed 003, 4.2)
+    faults: tuple[Fault, ...] = ()  # mission: faults injected (sim.fault_spec, issue 22)
     progress: Callable[[str], None] = field(default=lambda _line: None, compare=False)
     # pacing, recording, Foxglove, the operator page (quadmission.assembly.services.RunServices)
     services: Any = field(default=None, compare=False)

@@ -252,6 +252,13 @@ class BatteryModel:
             - (1.0 - self.params.initial_soc) * self.params.capacity_mah,
         )
 
+    def sag_to(self, soc: float) -> None:
+        """A fault: the charge drops at once to ``soc`` (a failing cell); never raises it."""
+        if not 0.0 <= soc <= 1.0:
+            raise ValueError(f"soc: {soc!r} must be in [0, 1]")
+        self._discharged_mah = max(self._discharged_mah, (1.0 - soc) * self.params.capacity_mah)
+        self._last = self._measure(self._last.current_a)
+
     def step(self, dt_us: int, rotor_thrusts_n: Sequence[float]) -> BatteryMeasurement:
         """Draw the power of ``rotor_thrusts_n`` [N] for ``dt_us`` [us]; the measurement after.
 
@@ -330,6 +337,13 @@ class BatteryEstimator:
         cell_v = voltage_v / self.cell_count + p.r_internal_ohm * current_a
         soc = (cell_v - p.v_empty) / (p.v_charged - p.v_empty)
         return cell_v, min(max(soc, 0.0), 1.0)
+
+    def sag_to(self, remaining: float) -> None:
+        """A fault: the estimate follows the pack's sudden drop to ``remaining`` at once
+        (as PX4's voltage-based estimate does on a sag); never raises it."""
+        if not 0.0 <= remaining <= 1.0:
+            raise ValueError(f"remaining: {remaining!r} must be in [0, 1]")
+        self._soc = min(self._soc, remaining)
 
     def update(self, measurement: BatteryMeasurement, armed: bool) -> BatteryStatusData:
         """Fold in one measurement; the status to publish. Timestamps must not decrease."""

@@ -332,6 +332,10 @@ class Link:
         self._to_fcu = _DirectionState(params.to_fcu, np.random.default_rng(to_fcu_seq))
         self._to_companion = _DirectionState(params.to_companion,
                                              np.random.default_rng(to_companion_seq))
+        self.down = False
+        """While True every message, both ways, is lost (a fault: the cable is out). The
+        random draws go on as usual, so the link after the outage is the one it would
+        have been."""
 
     def _state(self, direction: LinkDirection) -> _DirectionState:
         # not a dict keyed by the enum: an Enum's hash is a Python call
@@ -361,7 +365,7 @@ class Link:
         jitter_us: float = state.gamma(p.jitter_shape, p.jitter_scale_us)  # a float already
         state.last_send_ns = send_time_ns
         state.sent += 1
-        if u_loss < p.loss_probability:
+        if u_loss < p.loss_probability or self.down:
             state.lost += 1
             return None
         delay_us = p.base_latency_us + jitter_us

@@ -44,12 +44,16 @@ class Sitl:
     vision: VisionPose
     actuation: Actuation
     extra_parts: list[Part] = field(default_factory=list)
+    first_parts: list[Part] = field(default_factory=list)
+    """Parts that run before all others at a tick (fault switches: a fault due at ``t``
+    acts on what the other parts do at ``t``)."""
 
     @property
     def parts(self) -> list[Part]:
-        """In order: IMU, firmware, motors, vision, robots, then scenario extras."""
-        return [self.imu, self.firmware, self.actuation, self.vision, RobotMotion(),
-                *self.extra_parts]
+        """In order: the first parts, IMU, firmware, motors, vision, robots, then
+        scenario extras."""
+        return [*self.first_parts, self.imu, self.firmware, self.actuation, self.vision,
+                RobotMotion(), *self.extra_parts]
 
     def run(self, duration_s: float, stop: Stop | None = None) -> WorldResult:
         return run_world(self.scene, self.executor, duration_s=duration_s, parts=self.parts,

@@ -1,0 +1,142 @@
+"""Each fault kind's expected reaction, written once, and a run's faults judged by it.
+
+The mission's reactions are not restated: a kind the mission must notice names the
+:class:`~fsm.mission_table.ErrorCause` it shows as, and the reaction is that cause's in
+:data:`~fsm.mission_table.ERROR_POLICY`. A lost link is the FCU's to handle (its
+offboard-loss failsafe: hold, then ``offboard_loss_action``); a gust is ridden out.
+
+What happened is read from what the mission published (its ``/mission/events``: an error
+event carries its cause and reaction) and from the FCU's modes; where the vehicle ended
+from ground truth (:func:`end_state`). Evaluation only: the app layer.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from fsm.mission_machine import MissionEvent
+from fsm.mission_table import ERROR_POLICY, ErrorCause, Reaction
+from sim.arena import PAD_SIZE, ArenaSpec
+from sim.fault_spec import Fault, FaultKind
+from sim.world import Crash, Trajectory
+
+__all__ = ["EXPECTED", "EndState", "Expectation", "Handler", "end_state", "judge_fault"]
+
+AT_REST_M_S = 0.15  # m/s: slower than this, the vehicle is at rest (landed or holding)
+ON_GROUND_M = 0.1  # m: the body this close to its resting height on the pad is down
+SETTLE_WINDOW_S = 2.0  # s after a gust in which an error still counts as its doing
+
+
+class Handler(Enum):
+    """Who must react to a fault."""
+
+    MISSION = "mission"  # the mission's error policy
+    FCU = "fcu"  # the flight controller's failsafe
+    NOBODY = "nobody"  # ride it out: no error, no crash
+
+
+@dataclass(frozen=True)
+class Expectation:
+    handler: Handler
+    cause: ErrorCause | None = None  # what the mission must report (Handler.MISSION)
+
+    @property
+    def reaction(self) -> str:
+        """The expected reaction's name: the policy's for the cause, else the handler's."""
+        if self.cause is not None:
+            return ERROR_POLICY[self.cause].reaction.name
+        return "FAILSAFE" if self.handler is Handler.FCU else "NONE"
+
+
+EXPECTED: dict[FaultKind, Expectation] = {
+    FaultKind.VIO_STOP: Expectation(Handler.MISSION, ErrorCause.LOCALISATION_LOST),
+    FaultKind.BATTERY_LOW: Expectation(Handler.MISSION, ErrorCause.BATTERY_LOW),
+    FaultKind.BATTERY_CRITICAL: Expectation(Handler.MISSION, ErrorCause.BATTERY_CRITICAL),
+    FaultKind.OPERATOR_ABORT: Expectation(Handler.MISSION, ErrorCause.OPERATOR_ABORT),
+    FaultKind.LINK_LOST: Expectation(Handler.FCU),
+    FaultKind.WIND_GUST: Expectation(Handler.NOBODY),
+}
+
+
+class EndState(Enum):
+    """Where the vehicle was at the end of the run, from ground truth."""
+
+    CRASHED = "crashed"
+    LANDED_ON_START_PAD = "landed_on_start_pad"
+    LANDED = "landed"  # on the ground elsewhere, at rest
+    HOLDING = "holding"  # in the air, at rest
+    FLYING = "flying"
+
+
+def end_state(truth: Trajectory, arena: ArenaSpec, resting_height_m: float,
+              crash: Crash | None) -> EndState:
+    """The vehicle's state at the last true sample. ``resting_height_m``: the body's
+    height above a pad's top when it stands on it."""
+    if crash is not None:
+        return EndState.CRASHED
+    x, y, z = (float(v) for v in truth.position[-1])
+    speed = float(math.hypot(*truth.velocity[-1]))
+    sx, sy, sz = arena.takeoff_position
+    if speed > AT_REST_M_S:
+        return EndState.FLYING
+    if z - resting_height_m > sz + ON_GROUND_M:
+        return EndState.HOLDING
+    half = PAD_SIZE / 2.0
+    if abs(x - sx) <= half and abs(y - sy) <= half:
+        return EndState.LANDED_ON_START_PAD
+    return EndState.LANDED
+
+
+_END_STATES_OF: dict[Reaction, set[EndState]] = {
+    Reaction.HOLD: {EndState.HOLDING, EndState.LANDED, EndState.LANDED_ON_START_PAD},
+    Reaction.LAND_NOW: {EndState.LANDED, EndState.LANDED_ON_START_PAD},
+    Reaction.RETURN_AND_LAND: {EndState.LANDED_ON_START_PAD},
+}
+
+
+def _cause_of(event: MissionEvent) -> tuple[str, str] | None:
+    values = dict(event.values)
+    if "cause" in values and "reaction" in values:
+        return values["cause"], values["reaction"]
+    return None
+
+
+def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
+                fcu_failsafes: Sequence[float], end: EndState) -> dict[str, Any]:
+    """One fault's entry of the report: ``{kind, at_s, expected, observed, reaction_s,
+    end_state, handled}``. ``events``: the mission's (time, event); ``fcu_failsafes``:
+    the times the FCU entered a failsafe."""
+    expected = EXPECTED[fault.kind]
+    observed, reaction_s = "none", None
+    handled = end is not EndState.CRASHED
+    if expected.handler is Handler.FCU:
+        t = next((t for t in fcu_failsafes if fault.at_s <= t <= fault.end_s + 1e-9), None)
+        if t is not None:
+            observed, reaction_s = "FAILSAFE", t - fault.at_s
+        handled = handled and t is not None
+    else:
+        until = fault.end_s + SETTLE_WINDOW_S if expected.handler is Handler.NOBODY else math.inf
+        errors = [(t, c) for t, e in events if fault.at_s <= t <= until
+                  and (c := _cause_of(e)) is not None]
+        want = expected.cause.value if expected.cause is not None else None
+        hit = next(((t, c) for t, c in errors if c[0] == want), errors[0] if errors else None)
+        if hit is not None:
+            t, (cause, reaction) = hit
+            observed, reaction_s = f"{cause}: {reaction}", t - fault.at_s
+        if expected.cause is None:
+            handled = handled and hit is None
+        else:
+            policy = ERROR_POLICY[expected.cause].reaction
+            handled = (handled and hit is not None and hit[1] == (want, policy.name)
+                       and end in _END_STATES_OF[policy])
+    return {"kind": fault.kind.value, "at_s": fault.at_s, "duration_s": fault.duration_s,
+            "spec": fault.spec(),
+            "expected": (expected.reaction if expected.cause is None
+                         else f"{expected.cause.value}: {expected.reaction}"),
+            "observed": observed,
+            "reaction_s": None if reaction_s is None else round(reaction_s, 3),
+            "end_state": end.value, "handled": handled}

@@ -1,0 +1,248 @@
+"""Fault specifications: what goes wrong, when, for how long (issue 22). Parsed once.
+
+A fault is written ``KIND@T[:DURATION][,key=value...]`` (``T`` and ``DURATION`` in
+simulated seconds from the start of the run), e.g. ``vio_stop@40:5``,
+``battery_critical@30``, ``wind_gust@35:2,force=3,direction_deg=90``, or as a YAML file
+holding a list of mappings with the same fields::
+
+    - {kind: vio_stop, at_s: 40, duration_s: 5}
+    - {kind: wind_gust, at_s: 35, duration_s: 2, force: 3.0, direction_deg: 90}
+
+Each kind declares once whether it takes a duration and which keys, with their unit,
+default and range (:data:`KINDS`); an error names the bad part. The faults act where they
+would on a real drone: :mod:`sim.faults` in the simulator, on the link and in the FCU;
+the operator's (outside the companion under test) in the app. Pure module: PyYAML only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from sim.errors import SimError
+
+__all__ = ["KINDS", "Fault", "FaultKind", "FaultSpecError", "Key", "KindSpec", "load_faults",
+           "parse_fault", "parse_faults"]
+
+
+class FaultSpecError(SimError, ValueError):
+    """A fault specification that cannot be used; the message names the bad part."""
+
+
+class FaultKind(Enum):
+    """What goes wrong; the value is how a spec names it."""
+
+    VIO_STOP = "vio_stop"  # the visual odometry stops publishing
+    LINK_LOST = "link_lost"  # the FCU <-> companion serial link loses every message
+    BATTERY_LOW = "battery_low"  # the pack sags below PX4's BAT_LOW_THR
+    BATTERY_CRITICAL = "battery_critical"  # ... below BAT_CRIT_THR
+    WIND_GUST = "wind_gust"  # a horizontal force on the quadrotor's body
+    OPERATOR_ABORT = "operator_abort"  # the operator presses ABORT
+
+
+class Duration(Enum):
+    """Whether a kind takes a duration."""
+
+    NONE = "none"  # a step: it happens once and stays
+    OPTIONAL = "optional"  # without one it lasts to the end of the run
+    REQUIRED = "required"
+
+
+@dataclass(frozen=True)
+class Key:
+    """A kind's ``key=value`` with its unit, default and closed range."""
+
+    name: str
+    default: float
+    unit: str
+    lo: float
+    hi: float
+    doc: str
+
+
+@dataclass(frozen=True)
+class KindSpec:
+    duration: Duration
+    keys: tuple[Key, ...]
+    doc: str
+
+
+KINDS: dict[FaultKind, KindSpec] = {
+    FaultKind.VIO_STOP: KindSpec(Duration.OPTIONAL, (), "the visual odometry publishes "
+                                 "nothing for DURATION s (to the end without one)"),
+    FaultKind.LINK_LOST: KindSpec(Duration.OPTIONAL, (), "every message on the FCU link, "
+                                  "both ways, is lost for DURATION s (to the end without one)"),
+    FaultKind.BATTERY_LOW: KindSpec(Duration.NONE, (
+        Key("remaining", math.nan, "", 0.0, 1.0, "charge left after the sag (default: half "
+            "way between BAT_CRIT_THR and BAT_LOW_THR)"),), "the pack sags to LOW"),
+    FaultKind.BATTERY_CRITICAL: KindSpec(Duration.NONE, (
+        Key("remaining", math.nan, "", 0.0, 1.0, "charge left after the sag (default: half "
+            "way between BAT_EMERGEN_THR and BAT_CRIT_THR)"),), "the pack sags to CRITICAL"),
+    FaultKind.WIND_GUST: KindSpec(Duration.REQUIRED, (
+        Key("force", 2.0, "N", 0.0, 50.0, "horizontal force on the body"),
+        Key("direction_deg", 0.0, "deg", -360.0, 360.0,
+            "where the force pushes, from map +x (east) towards +y (north)"),),
+        "a gust pushes the quadrotor for DURATION s"),
+    FaultKind.OPERATOR_ABORT: KindSpec(Duration.NONE, (), "the operator presses ABORT"),
+}
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One fault: its kind, when it starts [s], how long it lasts [s] (None: a step, or
+    to the end of the run), and its keys (every key of the kind, defaults filled in)."""
+
+    kind: FaultKind
+    at_s: float
+    duration_s: float | None = None
+    values: tuple[tuple[str, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        name = self.spec()
+        spec = KINDS[self.kind]
+        if not (math.isfinite(self.at_s) and self.at_s >= 0.0):
+            raise FaultSpecError(f"fault {name!r}: time must be >= 0 s, got {self.at_s!r}")
+        if self.duration_s is not None:
+            if spec.duration is Duration.NONE:
+                raise FaultSpecError(f"fault {name!r}: {self.kind.value} takes no duration")
+            if not (math.isfinite(self.duration_s) and self.duration_s > 0.0):
+                raise FaultSpecError(
+                    f"fault {name!r}: duration must be > 0 s, got {self.duration_s!r}")
+        elif spec.duration is Duration.REQUIRED:
+            raise FaultSpecError(f"fault {name!r}: {self.kind.value} needs a duration "
+                                 f"({self.kind.value}@T:DURATION)")
+        known = {k.name: k for k in spec.keys}
+        for key, value in self.values:
+            k = known.get(key)
+            if k is None:
+                names = ", ".join(sorted(known)) or "none"
+                raise FaultSpecError(f"fault {name!r}: unknown key {key!r} for "
+                                     f"{self.kind.value} (known: {names})")
+            if not (k.lo <= value <= k.hi) and not (math.isnan(value) and math.isnan(k.default)):
+                raise FaultSpecError(f"fault {name!r}: {key}={value:g} is outside "
+                                     f"[{k.lo:g}, {k.hi:g}] {k.unit}".rstrip())
+
+    @classmethod
+    def of(cls, kind: FaultKind, at_s: float, duration_s: float | None = None,
+           **values: float) -> Fault:
+        """A fault with the kind's defaults for the keys not given (checked)."""
+        spec = KINDS[kind]
+        names = sorted(k.name for k in spec.keys)
+        unknown = sorted(set(values) - set(names))
+        if unknown:
+            raise FaultSpecError(f"fault {kind.value}@{at_s:g}: unknown key {unknown[0]!r} for "
+                                 f"{kind.value} (known: {', '.join(names) or 'none'})")
+        filled = tuple((k.name, float(values.get(k.name, k.default))) for k in spec.keys)
+        return cls(kind, float(at_s), None if duration_s is None else float(duration_s), filled)
+
+    def value(self, key: str) -> float:
+        """The value of ``key`` (NaN: the kind's computed default)."""
+        for name, value in self.values:
+            if name == key:
+                return value
+        raise KeyError(f"{self.kind.value} has no key {key!r}")
+
+    @property
+    def end_s(self) -> float:
+        """When the fault is over [s]: ``inf`` for one that lasts to the end (or a step)."""
+        return math.inf if self.duration_s is None else self.at_s + self.duration_s
+
+    def spec(self) -> str:
+        """The fault written back as a spec string (replays it)."""
+        out = f"{self.kind.value}@{self.at_s:g}"
+        if self.duration_s is not None:
+            out += f":{self.duration_s:g}"
+        given = [f"{k}={v:g}" for k, v in self.values if not math.isnan(v)]
+        return ",".join([out, *given])
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": self.kind.value, "at_s": self.at_s, "duration_s": self.duration_s,
+                **{k: v for k, v in self.values if not math.isnan(v)}}
+
+
+def _kind(name: str, where: str) -> FaultKind:
+    try:
+        return FaultKind(name.strip())
+    except ValueError:
+        known = ", ".join(k.value for k in FaultKind)
+        raise FaultSpecError(f"fault {where!r}: unknown fault kind {name.strip()!r} "
+                             f"(known: {known})") from None
+
+
+def _seconds(text: str, what: str, where: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise FaultSpecError(f"fault {where!r}: {what} {text!r} is not a number of "
+                             "seconds") from None
+
+
+def parse_fault(text: str) -> Fault:
+    """One ``KIND@T[:DURATION][,key=value...]``."""
+    head, *pairs = text.strip().split(",")
+    if "@" not in head:
+        raise FaultSpecError(f"fault {text!r}: expected KIND@T[:DURATION][,key=value...]")
+    name, when = head.split("@", 1)
+    kind = _kind(name, text)
+    at, _, duration = when.partition(":")
+    at_s = _seconds(at, "time", text)
+    duration_s = _seconds(duration, "duration", text) if duration else None
+    values: dict[str, float] = {}
+    for pair in pairs:
+        key, eq, raw = pair.partition("=")
+        if not eq:
+            raise FaultSpecError(f"fault {text!r}: {pair!r} is not key=value")
+        try:
+            values[key.strip()] = float(raw)
+        except ValueError:
+            raise FaultSpecError(f"fault {text!r}: {key.strip()}={raw!r} is not a "
+                                 "number") from None
+    try:
+        return Fault.of(kind, at_s, duration_s, **values)
+    except FaultSpecError as exc:
+        raise FaultSpecError(str(exc).replace(f"{kind.value}@{at_s:g}", text, 1)) from None
+
+
+def parse_faults(texts: Iterable[str]) -> tuple[Fault, ...]:
+    """Several specs, in the order given."""
+    return tuple(parse_fault(t) for t in texts)
+
+
+def _from_mapping(entry: Any, where: str) -> Fault:
+    if not isinstance(entry, Mapping):
+        raise FaultSpecError(f"{where}: expected a mapping {{kind, at_s, ...}}, got {entry!r}")
+    fields = dict(entry)
+    for required in ("kind", "at_s"):
+        if required not in fields:
+            raise FaultSpecError(f"{where}: missing {required!r}")
+    kind = _kind(str(fields.pop("kind")), where)
+    at = fields.pop("at_s")
+    duration = fields.pop("duration_s", None)
+    try:
+        values = {str(k): float(v) for k, v in fields.items()}
+        at_s = float(at)
+        duration_s = None if duration is None else float(duration)
+    except (TypeError, ValueError):
+        raise FaultSpecError(f"{where}: at_s, duration_s and the keys must be numbers, "
+                             f"got {entry!r}") from None
+    try:
+        return Fault.of(kind, at_s, duration_s, **values)
+    except FaultSpecError as exc:
+        raise FaultSpecError(f"{where}: {exc}") from None
+
+
+def load_faults(path: Path) -> tuple[Fault, ...]:
+    """The faults of a YAML file: a list of ``{kind, at_s, duration_s?, key: value...}``."""
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise FaultSpecError(f"{path}: {exc}") from None
+    if not isinstance(data, list):
+        raise FaultSpecError(f"{path}: expected a list of faults, got {type(data).__name__}")
+    return tuple(_from_mapping(entry, f"{path}: fault {i + 1}") for i, entry in enumerate(data))
