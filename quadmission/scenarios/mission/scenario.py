@@ -74,6 +74,7 @@ if TYPE_CHECKING:
 
 MISSION_LIMIT_S = 1800.0  # s of simulated time before the run is declared stuck
 SETTLE_S = 3.0  # s flown on after the end, so the last touchdown is judged at rest
+FAULT_SETTLE_S = 10.0  # s flown on after a fault stopped the mission: where it comes to rest
 PROGRESS_EVERY_S = 10.0  # s of simulated time between progress lines
 PICTURES = {"path": "path.png", "altitude": "altitude.png", "timeline": "timeline.png"}
 
@@ -317,6 +318,8 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         runs = [result]
         if result.crash is None and mission.mission.state != "stopped":
             runs.append(sitl.run(SETTLE_S))  # on the ground: judge the touchdown at rest
+        elif result.crash is None and options.faults:  # stopped by a fault's reaction: fly
+            runs.append(sitl.run(FAULT_SETTLE_S))  # on, so the end state is where it settles
     truth = Trajectory(*(np.concatenate([getattr(r.trajectory, f) for r in runs])
                          for f in ("t", "position", "quaternion", "velocity")))
     crash = next((r.crash for r in runs if r.crash is not None), None)
