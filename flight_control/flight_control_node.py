@@ -35,7 +35,13 @@ from flight_control.behaviours import OFFBOARD, CommandReply, Observation, Setpo
 from flight_control.command_protocol import CommandProtocol
 from flight_control.flight_actions import LAND, REACH, TAKEOFF, TURN, motion_actions, point, xyz
 from flight_control.frames import quat_rotate_f, quat_to_yaw_f
-from flight_control.goal_checks import GoalError, VehicleState, battery_critical, check_vehicle
+from flight_control.goal_checks import (
+    NO_POSITION_MESSAGE,
+    GoalError,
+    VehicleState,
+    battery_critical,
+    check_vehicle,
+)
 from flight_control.health import health_report
 from flight_control.params import FIELD_SOURCE, FieldParams, FlightControlParams
 from runtime import Node, ParameterError, qos_profile_default, qos_profile_sensor_data
@@ -248,7 +254,7 @@ class FlightControlNode(Node):
             if not state.connected:
                 problems.append("FCU not connected")
             if not state.position_valid:
-                problems.append("no valid position estimate")
+                problems.append(NO_POSITION_MESSAGE)
             # the battery is the vehicle's state, not a fault of this module: a warning here
             # (goals that need a good battery are refused); the mission reacts to it on its
             # own cause from /fcu/status (BATTERY_LOW / BATTERY_CRITICAL), so an error here

@@ -16,6 +16,10 @@ from enum import Enum
 import numpy as np
 import numpy.typing as npt
 
+#: A goal rejected for want of a position estimate says this (a state that can pass: a
+#: client may send the goal again).
+NO_POSITION_MESSAGE = "no valid position estimate"
+
 
 class GoalError(Enum):
     """Why a goal cannot be accepted."""
@@ -143,7 +147,7 @@ def check_vehicle(state: VehicleState | None, *, battery_critical_warning: int |
     if state is None or not state.connected:
         return GoalProblem(GoalError.FCU_DISCONNECTED, "FCU not connected")
     if not state.position_valid:
-        return GoalProblem(GoalError.NO_POSITION, "no valid position estimate")
+        return GoalProblem(GoalError.NO_POSITION, NO_POSITION_MESSAGE)
     if battery_critical_warning is not None and battery_critical(state.battery_warning,
                                                                  battery_critical_warning):
         return GoalProblem(GoalError.BATTERY_CRITICAL,
@@ -191,6 +195,7 @@ def check_speed(speed: float, max_speed: float) -> GoalProblem | None:
 
 
 __all__ = [
+    "NO_POSITION_MESSAGE",
     "FieldBounds",
     "GoalError",
     "GoalProblem",

@@ -21,7 +21,8 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
-from flight_control.clients import arm, arm_client
+from flight_control.clients import ARM_RETRY_S, arm, arm_client
+from flight_control.goal_checks import NO_POSITION_MESSAGE
 from runtime import ActionClient, Node, qos_profile_default
 
 TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
@@ -63,7 +64,7 @@ class SquarePilot(Node):
 
     def __init__(self, corners: Sequence[Sequence[float]], *, altitude: float,
                  speed: float = 0.0, land_speed: float = 0.0, ready_timeout_s: float = 20.0,
-                 arm_attempts: int = 5, **kwargs: Any) -> None:
+                 arm_attempts: int = 5, goal_attempts: int = 3, **kwargs: Any) -> None:
         super().__init__("square_pilot", **kwargs)
         self.corners: FloatArray = np.asarray(corners, dtype=np.float64).reshape(-1, 3)
         if len(self.corners) == 0:
@@ -73,6 +74,7 @@ class SquarePilot(Node):
         self.land_speed = float(land_speed)  # m/s, descent; 0: the FCU's own landing
         self.ready_timeout_s = ready_timeout_s
         self.arm_attempts = arm_attempts
+        self.goal_attempts = goal_attempts  # tries per goal while it is rejected
         self.phase = PilotPhase.WAIT_READY
         self.phase_started_ns: dict[PilotPhase, int] = {PilotPhase.WAIT_READY: 0}
         self.corner_index = 0  # the corner being flown to (during SQUARE)
@@ -104,13 +106,24 @@ class SquarePilot(Node):
         self.outcome = PilotOutcome(success, PilotPhase.DONE if success else failed_in, message)
 
     async def _goal(self, client: ActionClient, goal: Any) -> tuple[bool, str]:
-        """Send ``goal`` and wait for its result: (succeeded, the server's message)."""
-        handle = await client.send_goal_async(goal)
-        if not handle.accepted:
+        """Send ``goal`` and wait for its result: (succeeded, the server's message). A goal
+        rejected for want of a position estimate is sent again, up to ``goal_attempts``
+        times ``ARM_RETRY_S`` apart, as arming is: a process starved of CPU can leave the
+        FCU's estimate invalid for a moment. Any other rejection ends it at once."""
+        for attempt in range(self.goal_attempts):
+            if attempt:
+                await self.sleep(ARM_RETRY_S)
+            handle = await client.send_goal_async(goal)
+            if handle.accepted:
+                response = await handle.get_result_async()
+                return bool(response.result.success), str(response.result.message)
             response = await handle.get_result_async()
-            return False, f"rejected: {response.result.message}"
-        response = await handle.get_result_async()
-        return bool(response.result.success), str(response.result.message)
+            message = f"rejected: {response.result.message}"
+            if response.result.message != NO_POSITION_MESSAGE:
+                break
+            self.get_logger().warning(f"goal {message} (attempt {attempt + 1}/"
+                                      f"{self.goal_attempts})")
+        return False, message
 
     async def _mission(self) -> None:
         waited = 0.0
