@@ -8,6 +8,7 @@ The same nodes, parameters and inputs therefore give the same callback trace.
 
 from __future__ import annotations
 
+import concurrent.futures
 import heapq
 import itertools
 from collections.abc import Callable, Coroutine
@@ -75,8 +76,12 @@ class DeterministicExecutor:
         config_dir: Path | _Default | None = DEFAULT_CONFIG_DIR,
         transport: Transport | None = None,
         record_trace: bool = False,
+        worker_thread: bool = True,
     ) -> None:
         self._clock = SimClock(start_ns)
+        self.worker_thread = worker_thread
+        """Work offloaded by nodes runs on a worker thread (False: in line, for comparison)."""
+        self._worker: concurrent.futures.ThreadPoolExecutor | None = None
         self._heap: list[tuple[int, int, Handle]] = []
         self._order = itertools.count()
         self._nodes: list[Node] = []
@@ -107,6 +112,28 @@ class DeterministicExecutor:
         handle = Handle(callback, label)
         heapq.heappush(self._heap, (self._clock.nanoseconds, next(self._order), handle))
         return handle
+
+    def start_work(self, work: Callable[[], T]) -> concurrent.futures.Future[T]:
+        """Start ``work`` for :meth:`runtime.node.Node.offload`: on the worker thread (one,
+        so work runs in the order it was started), or at once in line when the executor
+        was made with ``worker_thread=False``: the same results either way."""
+        if not self.worker_thread:
+            done: concurrent.futures.Future[T] = concurrent.futures.Future()
+            try:
+                done.set_result(work())
+            except Exception as exc:  # noqa: BLE001 - the future carries it
+                done.set_exception(exc)
+            return done
+        if self._worker is None:
+            self._worker = concurrent.futures.ThreadPoolExecutor(
+                1, thread_name_prefix="executor_work")
+        return self._worker.submit(work)
+
+    def shutdown(self) -> None:
+        """Wait for the work started and stop the worker thread (made again if needed)."""
+        if self._worker is not None:
+            worker, self._worker = self._worker, None
+            worker.shutdown(wait=True)
 
     # nodes -------------------------------------------------------------------------------
     def add_node(self, node: Node) -> None:
