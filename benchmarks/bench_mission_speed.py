@@ -56,11 +56,13 @@ _RULES: tuple[tuple[str, str, str], ...] = (
 _OUTER = ("sim/fcu/sitl.py", "sim/world.py")  # loops that run every part
 # innermost frames of a thread that is waiting, not working
 _IDLE = ("threading.py", "queue.py", "selectors.py")
+_POOL = "concurrent/futures/thread.py"  # a pool thread's loop: idle when innermost
 
 
 def classify(frame: FrameType | None) -> str | None:
     """The part a thread's stack is in, or None when the thread is idle."""
-    if frame is None or frame.f_code.co_filename.endswith(_IDLE):
+    if frame is None or frame.f_code.co_filename.endswith(_IDLE) or (
+            frame.f_code.co_filename.endswith(_POOL) and frame.f_code.co_name == "_worker"):
         return None
     while frame is not None:
         filename, qualname = frame.f_code.co_filename, frame.f_code.co_qualname

@@ -11,6 +11,7 @@ from __future__ import annotations
 import concurrent.futures
 import heapq
 import itertools
+import os
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, field
 from enum import Enum
@@ -61,6 +62,16 @@ class TraceEntry:
     name: str
 
 
+THREADS_VARIABLE = "QUADMISSION_THREADS"
+"""Set to 0, work offloaded by nodes and the simulator's cameras run in line: the same run,
+on one core (for comparison and for debugging)."""
+
+
+def threads_allowed() -> bool:
+    """Whether work may leave the main thread (:data:`THREADS_VARIABLE` is not 0)."""
+    return os.environ.get(THREADS_VARIABLE, "1").strip() != "0"
+
+
 class DeterministicExecutor:
     """Runs every node of its context in one thread, in simulated time.
 
@@ -76,11 +87,12 @@ class DeterministicExecutor:
         config_dir: Path | _Default | None = DEFAULT_CONFIG_DIR,
         transport: Transport | None = None,
         record_trace: bool = False,
-        worker_thread: bool = True,
+        worker_thread: bool | None = None,
     ) -> None:
         self._clock = SimClock(start_ns)
-        self.worker_thread = worker_thread
-        """Work offloaded by nodes runs on a worker thread (False: in line, for comparison)."""
+        self.worker_thread = threads_allowed() if worker_thread is None else worker_thread
+        """Work offloaded by nodes runs on a worker thread (False: in line, for comparison;
+        default: :func:`threads_allowed`)."""
         self._worker: concurrent.futures.ThreadPoolExecutor | None = None
         self._heap: list[tuple[int, int, Handle]] = []
         self._order = itertools.count()

@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from runtime.errors import ParameterError
+from runtime.executor import threads_allowed
 from sim.mjcf import DEPTH_CAMERA, DOWN_CAMERA, QUAD_GEOM_GROUP, TOP_CAMERA
 from sim.quadrotor import CameraParams
 
@@ -101,6 +102,12 @@ renderer a pass each, and the cameras look down or ahead at the field, not the s
 
 #: headless backends whose GL contexts may live on any thread (GLFW's may not)
 _OFF_MAIN_THREAD_GL = os.environ.get("MUJOCO_GL", "").lower() in ("egl", "osmesa")
+
+
+def _render_thread() -> bool:
+    """Whether frames may be drawn on the render thread (a headless GL backend, and
+    threads allowed: :func:`runtime.executor.threads_allowed`)."""
+    return _OFF_MAIN_THREAD_GL and threads_allowed()
 
 
 def _rgb_camera(camera: str) -> None:
@@ -232,9 +239,10 @@ class SceneRenderer:
         previous = self._in_flight.get(camera)
         if previous is not None:
             previous.exception()  # its render reads the scene captured below
-        if _OFF_MAIN_THREAD_GL and self._worker is None:
+        threaded = _render_thread()
+        if threaded and self._worker is None:
             self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
-        worker = self._worker if _OFF_MAIN_THREAD_GL else None
+        worker = self._worker if threaded else None
         if worker is None:
             renderer = self._renderer(camera)
         elif (renderer := self._threaded.get(camera)) is None:
