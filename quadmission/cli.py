@@ -246,10 +246,10 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                    help="mission: remove this pad from the field, which the mission still "
                         "believes is there (seed 003, 4.2: the pad-search branch)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
-                   help="mission: inject a fault, KIND@T[:DURATION][,key=value...] in "
+                   help="mission, square: inject a fault, KIND@T[:DURATION][,key=value...] in "
                         "simulated seconds (repeatable; docs/scenarios.md)")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
-                   help="mission: inject the faults listed in this YAML file")
+                   help="mission, square: inject the faults listed in this YAML file")
     _run_services_args(p)
 
 
@@ -260,15 +260,15 @@ def _stderr(line: str) -> None:
 def _sim_run(args: argparse.Namespace) -> int:
     from quadmission.errors import OptionsError, ScenarioRefused
     from quadmission.reports.report import REPORT_NAME
-    from quadmission.scenarios import SCENARIOS, ScenarioOptions
+    from quadmission.scenarios import FAULTED_SCENARIOS, SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
     from sim.fault_spec import load_faults, parse_faults
 
     # a bad spec is a SimError: one line naming the bad part, exit code 2
     faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
-    if faults and args.scenario != "mission":
-        raise OptionsError(f"--fault/--faults act in the mission scenario, not "
-                           f"{args.scenario!r}")
+    if faults and args.scenario not in FAULTED_SCENARIOS:
+        raise OptionsError(f"--fault/--faults act in the {', '.join(sorted(FAULTED_SCENARIOS))} "
+                           f"scenarios, not {args.scenario!r}")
     services = _run_services(args)
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               faults=faults,
