@@ -164,7 +164,9 @@ def _fault_sets(value: Any, where: str) -> list[tuple[Fault, ...]]:
             try:
                 faults.append(parse_fault(spec))
             except FaultSpecError as exc:
-                raise CampaignError(f"{at}: {exc}") from None
+                hint = ("; in a [flow, list] YAML splits at commas: quote the spec"
+                        if "@" not in spec and "=" in spec else "")
+                raise CampaignError(f"{at}: {exc}{hint}") from None
         sets.append(tuple(faults))
     if not sets:
         raise CampaignError(f"{where}: no fault sets (write [[]] for clean runs)")
@@ -178,8 +180,8 @@ def _arena(value: Any, where: str, base: Path) -> Path | None:
         raise CampaignError(f"{where}: {value!r} is not {RANDOM_ARENA!r} or an arena YAML")
     path = Path(value)
     for candidate in (path, base / path):  # as given (from the working folder), or beside
-        if candidate.is_file():
-            return candidate
+        if candidate.is_file():  # the campaign file; absolute, for workers elsewhere
+            return candidate.resolve()
     raise CampaignError(f"{where}: no arena file {value!r} (nor {base / path})")
 
 

@@ -8,8 +8,8 @@ A row's verdicts (see :func:`row_of`):
   ``landed`` | ``crash`` | ``failed`` | ``refused``), or ``error`` (the run raised, or
   died: no report) or ``timeout`` (stopped after the campaign's ``timeout_s``);
 - ``ok``: the scenario's own check (``quadmission sim`` exit code 0);
-- ``handled`` (issue 22): no error, no crash, and every fault's observed reaction the
-  expected one (vacuous for a clean run);
+- ``handled`` (issue 22): the run flew (no error, no time-out, not refused), did not
+  crash, and every fault's observed reaction was the expected one (vacuous when clean);
 - ``passed``: what the campaign counts: ``handled`` for a faulted run, ``ok`` for a clean
   one (a clean mission must complete with every landing inside its pad).
 """
@@ -93,7 +93,9 @@ def _result(outcome: RunOutcome) -> tuple[str, str | None]:
     if report is None or outcome.exit_code not in (0, 1, 2):
         code = outcome.exit_code
         why = f"killed by signal {-code}" if code < 0 else f"exit code {code}"
-        return "error", f"{why}: {outcome.log_tail.strip()[-400:] or 'no output'}"
+        last = next((line for line in reversed(outcome.log_tail.splitlines()) if line.strip()),
+                    "no output")  # a traceback's last line: the exception
+        return "error", f"{why}: {last.strip()[:300]}"
     result = report.get("result", report.get("outcome"))
     return str(result), report.get("reason") or report.get("refused")
 
@@ -109,7 +111,7 @@ def row_of(cell: Cell, outcome: RunOutcome, *, run_dir: Path, worker: str,
     errors = [d["touchdown_error_m"] for d in landings
               if d.get("touchdown_error_m") is not None]
     ok = outcome.exit_code == 0
-    sane = result not in ("error", "timeout") and bool(report)
+    sane = result not in ("error", "timeout", "refused") and bool(report)  # it flew
     handled = sane and not crashed and all(f["handled"] for f in faults)
     if cell.faults and len(faults) != len(cell.faults):
         handled = False  # a faulted run must judge each of its faults
