@@ -362,9 +362,9 @@ def _campaign_args(p: argparse.ArgumentParser) -> None:
 
 
 def _campaign_run(args: argparse.Namespace) -> int:
-    from quadmission.campaigns import load_campaign, run_campaign
+    from quadmission.campaigns.matrix import load_campaign
     from quadmission.campaigns.results import RESULTS_NAME
-    from quadmission.campaigns.runner import SUMMARY_NAME
+    from quadmission.campaigns.runner import SUMMARY_NAME, run_campaign
 
     campaign = load_campaign(args.file).limited(args.limit)
     result = run_campaign(campaign, args.out, source=str(args.file), workers=args.workers,

@@ -1,7 +1,9 @@
-"""Campaigns: scenarios x seeds x faults x lighting, run on Dask distributed (issue 22)."""
+"""Campaigns: scenarios x seeds x faults x lighting, run on Dask distributed (issue 22).
 
-from quadmission.campaigns.matrix import Campaign, Cell, load_campaign, parse_campaign
-from quadmission.campaigns.runner import CampaignResult, run_campaign
+Nothing is imported here, so that a cell's process (:mod:`.child`) starts light:
+:mod:`.matrix` (the campaign file and its cells), :mod:`.results` (rows, resuming,
+Parquet), :mod:`.summary` and :mod:`.plots` (summary.md and its PNGs), :mod:`.process`
+(one cell as a child process) and :mod:`.runner` (Dask; :func:`.runner.run_campaign`).
+"""
 
-__all__ = ["Campaign", "CampaignResult", "Cell", "load_campaign", "parse_campaign",
-           "run_campaign"]
+__all__ = ["child", "matrix", "plots", "process", "results", "runner", "summary"]

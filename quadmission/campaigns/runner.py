@@ -80,7 +80,7 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, s
         return
     n = workers or os.cpu_count() or 1
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster, \
             Client(cluster) as client:
         yield client, f"a local cluster of {n} worker processes"
 
