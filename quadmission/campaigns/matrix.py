@@ -185,15 +185,19 @@ def _arena(value: Any, where: str, base: Path) -> Path | None:
     raise CampaignError(f"{where}: no arena file {value!r} (nor {base / path})")
 
 
+def _check_keys(data: Any, keys: frozenset[str], where: str) -> None:
+    """``data`` is a mapping of ``keys`` only."""
+    allowed = ", ".join(sorted(keys))
+    if not isinstance(data, Mapping):
+        raise CampaignError(f"{where}: expected a mapping with keys {allowed}, got {data!r}")
+    unknown = sorted(set(data) - keys)
+    if unknown:
+        raise CampaignError(f"{where}: unknown key {unknown[0]!r} (allowed: {allowed})")
+
+
 def _block_cells(block: Any, where: str, *, scenarios: Collection[str],
                  faulted: Collection[str], base: Path) -> list[Cell]:
-    if not isinstance(block, Mapping):
-        raise CampaignError(f"{where}: expected a mapping with keys "
-                            f"{', '.join(sorted(BLOCK_KEYS))}, got {block!r}")
-    unknown = sorted(set(block) - BLOCK_KEYS)
-    if unknown:
-        raise CampaignError(f"{where}: unknown key {unknown[0]!r} (allowed: "
-                            f"{', '.join(sorted(BLOCK_KEYS))})")
+    _check_keys(block, BLOCK_KEYS, where)
     for required in ("scenarios", "seeds"):
         if required not in block:
             raise CampaignError(f"{where}: missing {required!r}")
@@ -222,13 +226,7 @@ def parse_campaign(data: Any, where: str, *, scenarios: Collection[str],
     """A campaign from its parsed YAML. ``where`` prefixes every error (the file);
     ``scenarios``: the names that exist; ``faulted``: those that take faults; ``base``:
     the folder arena paths may be relative to."""
-    if not isinstance(data, Mapping):
-        raise CampaignError(f"{where}: expected a mapping with keys "
-                            f"{', '.join(sorted(TOP_KEYS))}, got {type(data).__name__}")
-    unknown = sorted(set(data) - TOP_KEYS)
-    if unknown:
-        raise CampaignError(f"{where}: unknown key {unknown[0]!r} (allowed: "
-                            f"{', '.join(sorted(TOP_KEYS))})")
+    _check_keys(data, TOP_KEYS, where)
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name.strip():
         raise CampaignError(f"{where}: name: {name!r} is not a name")

@@ -3,7 +3,7 @@ wall time per run, each a PNG in the campaign's folder, units on every axis."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,8 +48,27 @@ def _bars(ax: Axes, rates: Sequence[Rate], title: str) -> None:
     ax.tick_params(axis="x", labelrotation=30)
 
 
-def _empty(ax: Axes, text: str) -> None:
-    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes)
+def _grouped(pairs: Iterable[tuple[str, float | None]]) -> dict[str, list[float]]:
+    """The values of each group, in order, without the unknown ones."""
+    out: dict[str, list[float]] = {}
+    for group, value in pairs:
+        if value is not None:
+            out.setdefault(group, []).append(value)
+    return out
+
+
+def _single(path: Path, size: tuple[float, float], labels: tuple[str, str],
+            draw: Callable[[Axes], None] | None, empty: str) -> None:
+    """One plot: ``draw`` on its axes (None: say ``empty`` instead), ``labels`` x and y."""
+    fig = Figure(figsize=size)
+    ax = fig.subplots()
+    if draw is None:
+        ax.text(0.5, 0.5, empty, ha="center", va="center", transform=ax.transAxes)
+    else:
+        draw(ax)
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    _save(fig, path)
 
 
 def save_plots(summary: CampaignSummary, rows: Sequence[dict[str, Any]], out: Path) -> None:
@@ -60,49 +79,36 @@ def save_plots(summary: CampaignSummary, rows: Sequence[dict[str, Any]], out: Pa
     _bars(right, summary.by_lighting, "per lighting")
     _save(fig, out / PASS_RATE_PNG)
 
-    fig = Figure(figsize=(6, 4))
-    ax = fig.subplots()
     errors_cm = [100.0 * e for row in rows for e in row["touchdown_errors_m"]]
-    if errors_cm:
+
+    def touchdowns(ax: Axes) -> None:
         ax.hist(errors_cm, bins=20, color="tab:blue")
         ax.axvline(PAD_HALF_CM, color="tab:red", linestyle="--", label="pad edge (50 cm)")
         ax.legend()
-    else:
-        _empty(ax, "no landings on pads")
-    ax.set_xlabel("touchdown error, true touchdown to pad centre [cm]")
-    ax.set_ylabel("landings")
-    _save(fig, out / TOUCHDOWN_PNG)
 
-    fig = Figure(figsize=(8, 4))
-    ax = fig.subplots()
-    by_kind: dict[str, list[float]] = {}
-    for row in rows:
-        for kind, t in zip(row["fault_kinds"], row["reaction_s"], strict=False):
-            if t is not None:
-                by_kind.setdefault(kind, []).append(t)
-    if by_kind:
+    _single(out / TOUCHDOWN_PNG, (6, 4), ("touchdown error, true touchdown to pad centre "
+                                          "[cm]", "landings"),
+            touchdowns if errors_cm else None, "no landings on pads")
+
+    by_kind = _grouped((kind, t) for row in rows
+                       for kind, t in zip(row["fault_kinds"], row["reaction_s"], strict=False))
+
+    def reactions(ax: Axes) -> None:
         kinds = sorted(by_kind)
         ax.boxplot([by_kind[k] for k in kinds], tick_labels=kinds)
         for i, k in enumerate(kinds, start=1):  # every run, over its box
             ax.plot([i] * len(by_kind[k]), by_kind[k], "o", color="tab:blue", alpha=0.5)
         ax.set_ylim(bottom=0.0)
         ax.tick_params(axis="x", labelrotation=30)
-    else:
-        _empty(ax, "no reactions observed")
-    ax.set_xlabel("fault kind")
-    ax.set_ylabel("reaction time after the fault [s]")
-    _save(fig, out / REACTION_PNG)
 
-    fig = Figure(figsize=(6, 4))
-    ax = fig.subplots()
-    by_scenario: dict[str, list[float]] = {}
-    for row in rows:
-        by_scenario.setdefault(row["scenario"], []).append(row["wall_s"])
-    if by_scenario:
+    _single(out / REACTION_PNG, (8, 4), ("fault kind", "reaction time after the fault [s]"),
+            reactions if by_kind else None, "no reactions observed")
+
+    by_scenario = _grouped((row["scenario"], row["wall_s"]) for row in rows)
+
+    def wall_times(ax: Axes) -> None:
         ax.hist(list(by_scenario.values()), bins=20, stacked=True, label=list(by_scenario))
         ax.legend()
-    else:
-        _empty(ax, "no runs")
-    ax.set_xlabel("wall time per run [s]")
-    ax.set_ylabel("runs")
-    _save(fig, out / WALL_TIME_PNG)
+
+    _single(out / WALL_TIME_PNG, (6, 4), ("wall time per run [s]", "runs"),
+            wall_times if by_scenario else None, "no runs")
