@@ -37,12 +37,14 @@ from quadmission.campaigns.plots import PICTURES, save_plots
 from quadmission.campaigns.process import run_cell
 from quadmission.campaigns.results import RESULTS_NAME, CellStore, write_parquet
 from quadmission.campaigns.summary import CampaignSummary, Session, render_markdown, summarize
+from quadmission.errors import CampaignError
 
 __all__ = ["EVENT_TOPIC", "RETRIES", "SUMMARY_NAME", "CampaignResult", "run_campaign"]
 
 EVENT_TOPIC = "quadmission-campaign"  # each attempt of a cell: {session, cell, worker, pid}
 RETRIES = 2  # a task that raised (not a run that failed: that is a result) runs again
 SUMMARY_NAME = "summary.md"
+CONNECT_TIMEOUT_S = 30.0  # s to reach a scheduler given by address
 
 
 def _cell_task(cell: Cell, out: str, timeout_s: float, session: str) -> dict[str, Any]:
@@ -74,7 +76,12 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, s
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError) as exc:
+            raise CampaignError(f"--scheduler {scheduler}: no Dask scheduler answers there "
+                                f"({exc})") from None
+        with client:
             n = len(client.scheduler_info(n_workers=-1)["workers"])
             yield client, f"the cluster at {scheduler} ({n} workers when it started)"
         return
