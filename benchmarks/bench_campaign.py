@@ -8,7 +8,8 @@ random arenas with the smallest squares: seeds 2, 3 and 7, 2-2.75 m sides, 35-41
 simulated flight; light and dark) runs through the campaign runner
 (:func:`quadmission.campaigns.runner.run_campaign`) on a local Dask cluster of 1 worker
 process and on one of 2, each into a fresh folder, the two alternated over ``--rounds``.
-The clusters are started before the clock starts (a fixed 2-5 s a campaign pays once).
+The clusters are started, and their workers have imported the runner, before the clock
+starts (a fixed 2-10 s a campaign pays once).
 
 - ``missions_per_cpu_hour``: runs per hour of the runs' own CPU time (each run's process,
   user + system, from ``wait4``), interpreter start included: what a mission costs
@@ -16,7 +17,10 @@ The clusters are started before the clock starts (a fixed 2-5 s a campaign pays 
 - ``runs_per_hour``: runs per hour of wall time, submission to the last row, per worker
   count; ``ratio_2_over_1``: 2 workers' against 1's, in each round (the same minutes of
   the machine), and their median. 2.0 is perfect scaling on 2 free cores; the machine is
-  shared, so the JSON records the 1-minute load before and after.
+  shared, so the JSON records the 1-minute load before and after, and each side's
+  ``cpu_share_per_run`` (a run's CPU seconds per wall second: how much of a core the
+  neighbours left it) and ``runner_overhead_s`` (the campaign's wall time beyond its runs'
+  own, spread over the workers).
 
 A short square is a mission of the campaign's smallest kind: the interpreter's start
 (about 2 s of CPU) weighs more here than in a 5-15 minute contest mission.
@@ -25,6 +29,7 @@ A short square is a mission of the campaign's smallest kind: the interpreter's s
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import platform
@@ -40,7 +45,7 @@ os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
 # measure the checkout this file is in (a worktree), not whatever the venv has installed
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from distributed import LocalCluster
+from distributed import Client, LocalCluster
 
 from quadmission.campaigns.matrix import Campaign, Cell
 from quadmission.campaigns.runner import run_campaign
@@ -58,15 +63,22 @@ def campaign(seeds: list[int]) -> Campaign:
 def one_side(plan: Campaign, workers: int, folder: Path) -> dict[str, Any]:
     """Run ``plan`` on a fresh local cluster of ``workers`` processes."""
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=":0") as cluster:
+                      dashboard_address=":0") as cluster, Client(cluster) as client:
+        client.run(importlib.import_module, "quadmission.campaigns.runner")  # a fixed cost
         started = time.monotonic()
         result = run_campaign(plan, folder, source="benchmarks/bench_campaign.py",
                               scheduler=cluster.scheduler_address, progress=False)
         wall_s = time.monotonic() - started
     rows = result.rows
     cpu_s = sum(r["cpu_s"] for r in rows)
+    runs_wall_s = sum(r["wall_s"] for r in rows)
     return {"workers": workers, "runs": len(rows), "passed": sum(r["passed"] for r in rows),
             "wall_s": round(wall_s, 2), "cpu_s": round(cpu_s, 2),
+            # the runs' own wall time spread over the workers, against the campaign's: what
+            # the runner adds between runs (Dask, rows, the summary and plots at the end)
+            "runs_wall_s": round(runs_wall_s, 2),
+            "runner_overhead_s": round(wall_s - runs_wall_s / workers, 2),
+            "cpu_share_per_run": round(cpu_s / runs_wall_s, 3),
             "runs_per_hour": round(len(rows) * S_PER_HOUR / wall_s, 1),
             "missions_per_cpu_hour": round(len(rows) * S_PER_HOUR / cpu_s, 1),
             "run_wall_s_p50": round(statistics.median(r["wall_s"] for r in rows), 2)}
