@@ -246,10 +246,10 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                    help="mission: remove this pad from the field, which the mission still "
                         "believes is there (seed 003, 4.2: the pad-search branch)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
-                   help="mission: inject a fault, KIND@T[:DURATION][,key=value...] in "
+                   help="mission, square: inject a fault, KIND@T[:DURATION][,key=value...] in "
                         "simulated seconds (repeatable; docs/scenarios.md)")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
-                   help="mission: inject the faults listed in this YAML file")
+                   help="mission, square: inject the faults listed in this YAML file")
     _run_services_args(p)
 
 
@@ -260,15 +260,15 @@ def _stderr(line: str) -> None:
 def _sim_run(args: argparse.Namespace) -> int:
     from quadmission.errors import OptionsError, ScenarioRefused
     from quadmission.reports.report import REPORT_NAME
-    from quadmission.scenarios import SCENARIOS, ScenarioOptions
+    from quadmission.scenarios import FAULTED_SCENARIOS, SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
     from sim.fault_spec import load_faults, parse_faults
 
     # a bad spec is a SimError: one line naming the bad part, exit code 2
     faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
-    if faults and args.scenario != "mission":
-        raise OptionsError(f"--fault/--faults act in the mission scenario, not "
-                           f"{args.scenario!r}")
+    if faults and args.scenario not in FAULTED_SCENARIOS:
+        raise OptionsError(f"--fault/--faults act in the {', '.join(sorted(FAULTED_SCENARIOS))} "
+                           f"scenarios, not {args.scenario!r}")
     services = _run_services(args)
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               faults=faults,
@@ -332,6 +332,51 @@ def _linger(services: Any, args: argparse.Namespace) -> None:
                 time.sleep(1.0)
     finally:
         services.close()
+
+
+# -- campaign --------------------------------------------------------------------------------
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} must be at least 1")
+    return value
+
+
+def _campaign_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", type=Path, help="campaign YAML: a matrix of scenarios x seeds x "
+                   "lighting x faults (docs/campaigns.md), e.g. config/campaigns/faults.yaml")
+    p.add_argument("--out", type=Path, required=True,
+                   help="folder for results.parquet, summary.md, the plots, and each run "
+                        "in OUT/runs/; run again into the same folder to resume")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, default=None, metavar="N",
+                       help="worker processes of the local Dask cluster (default: one a core)")
+    where.add_argument("--scheduler", default=None, metavar="ADDR",
+                       help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--limit", type=_positive_int, default=None, metavar="N",
+                   help="run only the campaign's first N runs (a quick look)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _campaign_run(args: argparse.Namespace) -> int:
+    from quadmission.campaigns.matrix import load_campaign
+    from quadmission.campaigns.results import RESULTS_NAME
+    from quadmission.campaigns.runner import SUMMARY_NAME, run_campaign
+
+    campaign = load_campaign(args.file).limited(args.limit)
+    result = run_campaign(campaign, args.out, source=str(args.file), workers=args.workers,
+                          scheduler=args.scheduler, progress=not args.no_progress,
+                          say=_stderr)
+    s = result.summary
+    print(json.dumps({"runs": len(campaign.cells), "finished": s.runs, "passed": s.passed,
+                      "failed": len(s.failed), "not_finished": result.session.lost,
+                      "requeued": s.requeued, "results": str(result.out / RESULTS_NAME),
+                      "summary": str(result.out / SUMMARY_NAME)}), flush=True)
+    _stderr(f"summary: {result.out / SUMMARY_NAME}")
+    return 0 if s.passed == len(campaign.cells) else 1
 
 
 # -- fcu-schedule ----------------------------------------------------------------------------
@@ -511,6 +556,8 @@ def _fsm_run(args: argparse.Namespace) -> int:
 
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
+    Command("campaign", "run a matrix of scenarios x seeds x faults x lighting on Dask",
+            _campaign_args, _campaign_run),
     Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
             _fcu_schedule_args, _fcu_schedule_run),
     Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
@@ -557,8 +604,10 @@ def main(argv: Sequence[str] | None = None, commands: Sequence[Command] = COMMAN
     args = build_parser(commands).parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
-    if not args.verbose:  # the state machine library narrates every callback at INFO
+    if not args.verbose:  # the state machine library narrates every callback at INFO,
         logging.getLogger("transitions").setLevel(logging.WARNING)
+        # and Dask each connection (read when distributed is imported, workers included)
+        os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
     try:
         code = int(args.handler(args))
         sys.stdout.flush()  # a closed pipe shows here, not at exit

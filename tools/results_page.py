@@ -517,6 +517,22 @@ def _bag_kill(d: Json) -> list[str]:
     ]) + host_line(None, d.get("load_average_1min"))
 
 
+def _campaign(d: Json) -> list[str]:
+    one, two = d["runs_per_hour_one_worker"], d["runs_per_hour_two_workers"]
+    rounds = d["ratio_2_over_1_rounds"]
+    return table(["figure", "value", "baseline"], [
+        ["missions per CPU-hour (the runs' own CPU time)",
+         f"{d['missions_per_cpu_hour']:.0f}", "-"],
+        ["runs per wall hour, 1 worker / 2 workers", f"{span(one, 0)} / {span(two, 0)}",
+         "-"],
+        ["2 workers against 1, throughput",
+         ratio(d["ratio_2_over_1"]) + (f" ({span(rounds)}x over {len(rounds)} rounds)"
+                                       if len(rounds) > 1 else ""),
+         "2.00x on 2 free cores"],
+        ["every run passed", yes(d["all_passed"]), "yes"],
+    ]) + host_line(d.get("host"))
+
+
 SECTIONS: dict[str, Section] = {
     "mission": Section(
         "Contest mission on 20 random arenas", "bench_mission.py",
@@ -629,6 +645,14 @@ SECTIONS: dict[str, Section] = {
         "cyclonedds ping-pong in the same run and the in-process transport. Microseconds move "
         "with the host's load; the ratio is the figure to compare.",
         _dds),
+    "campaign": Section(
+        "Campaign throughput", "bench_campaign.py",
+        "`quadmission campaign`'s runner on a local Dask cluster of 1 worker process and of "
+        "2, the same short clean square flights (random arenas with the smallest squares, "
+        "light and dark), the two alternated over rounds. Throughput is wall clock and "
+        "moves with the host's load (recorded below); the ratio of each round is measured in "
+        "the same minutes.",
+        _campaign),
     "bag_kill": Section(
         "Crash-safe recording", "bench_bag_kill.py",
         "`quadmission sim --scenario square --rtf 1 --record` killed with SIGKILL, the bag "

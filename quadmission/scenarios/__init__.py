@@ -16,7 +16,8 @@ from quadmission.scenarios.options import ARENA_NAME, Scenario, ScenarioOptions
 from quadmission.scenarios.precision_landing.scenario import precision_landing
 from quadmission.scenarios.square.flight import square
 
-__all__ = ["ARENA_NAME", "DEFAULT_SCENARIO", "SCENARIOS", "Scenario", "ScenarioOptions"]
+__all__ = ["ARENA_NAME", "DEFAULT_SCENARIO", "FAULTED_SCENARIOS", "SCENARIOS", "Scenario",
+           "ScenarioOptions"]
 
 SCENARIOS: dict[str, Scenario] = {
     "arena-tour": arena_tour,
@@ -26,5 +27,7 @@ SCENARIOS: dict[str, Scenario] = {
     "precision-landing": precision_landing,
     "square": square,
 }
+#: The scenarios that inject ``ScenarioOptions.faults`` (issue 22); the others refuse them.
+FAULTED_SCENARIOS = frozenset({"mission", "square"})
 #: The most complete scenario there is; ``make sim`` runs it.
 DEFAULT_SCENARIO = "mission"

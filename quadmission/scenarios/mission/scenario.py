@@ -48,7 +48,7 @@ from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
 from quadmission.assembly.services import attach_services
 from quadmission.errors import OptionsError
-from quadmission.evaluation.faults import end_state, judge_fault
+from quadmission.evaluation.faults import FAULT_SETTLE_S, FcuFailsafes, end_state, judge_fault
 from quadmission.evaluation.mission import Landing, distance_m, landing, score, touchdown_summary
 from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
 from quadmission.reports.mission_plots import (
@@ -63,7 +63,6 @@ from runtime.parameters import load_parameters
 from sim.arena import ArenaSpec, robot_pose
 from sim.fault_spec import Fault, FaultKind
 from sim.faults import install_faults
-from sim.fcu.firmware import Firmware
 from sim.fcu.sitl import build_sitl
 from sim.render import SceneRenderer
 from sim.sensors import SimSensorsNode, sensor_parts
@@ -74,7 +73,6 @@ if TYPE_CHECKING:
 
 MISSION_LIMIT_S = 1800.0  # s of simulated time before the run is declared stuck
 SETTLE_S = 3.0  # s flown on after the end, so the last touchdown is judged at rest
-FAULT_SETTLE_S = 10.0  # s flown on after a fault stopped the mission: where it comes to rest
 PROGRESS_EVERY_S = 10.0  # s of simulated time between progress lines
 PICTURES = {"path": "path.png", "altitude": "altitude.png", "timeline": "timeline.png"}
 
@@ -226,24 +224,6 @@ class _OperatorFaults:
                 self.buttons.press(Act.ABORT)
 
 
-@dataclass
-class _FcuFailsafes:
-    """A world part that notes when the FCU enters a failsafe (truth, for the report)."""
-
-    firmware: Firmware
-    name: str = "fcu_failsafes"
-    rate_hz: float = 50.0
-    entered_s: list[float] = field(default_factory=list)
-    _was: bool = False
-
-    def update(self, t_ns: int, scene: Scene) -> None:
-        status = self.firmware.status
-        now = bool(status is not None and status.failsafe)
-        if now and not self._was:
-            self.entered_s.append(t_ns / 1e9)
-        self._was = now
-
-
 def _first_event_s(node: MissionNode, kind: EventKind) -> float | None:
     return next((t for t, e in node.events if e.kind is kind), None)
 
@@ -307,7 +287,7 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         sitl.extra_parts.append(_Progress(mission, options.progress))
         played = _Script(mission, buttons, companion.vio, list(script))
         sitl.extra_parts.append(played)
-        failsafes = _FcuFailsafes(sitl.firmware)
+        failsafes = FcuFailsafes(sitl.firmware)
         if options.faults:  # a run without faults keeps the parts it had
             install_faults(sitl, options.faults)
             sitl.extra_parts.append(failsafes)
