@@ -533,7 +533,32 @@ def _campaign(d: Json) -> list[str]:
     ]) + host_line(d.get("host"))
 
 
+def _mission_speed(d: Json) -> list[str]:
+    share = d["cpu_share"]
+    return table(["figure", "value", "baseline"], [
+        ["real-time factor (simulated / wall seconds)", num(d["rtf_mission"]),
+         f"bare world loop {num(d['rtf_bare_world'], 1)} (ratio "
+         f"{num(d['ratio_mission_over_bare_world'], 3)})"],
+        ["wall / CPU time (every thread) for the simulated time",
+         f"{d['wall_s']:.0f} s / {d['cpu_s']:.0f} s for {d['sim_s']:.0f} s", "-"],
+        ["busy samples per part: scanner, down camera, depth camera, mapping, FCU, other",
+         ", ".join(pct(share[k]) for k in ("scanner", "down_camera", "depth_camera", "mapping",
+                                          "fcu", "other")), "-"],
+        ["the mission: result, score, landings inside, touchdown RMSE / max",
+         f"{d['result']}, {d['score']}/{d['max_score']}, {d['landings_inside']}/"
+         f"{d['landings']}, {cm(d['touchdown_rmse_m'])} / {cm(d['touchdown_max_m'])}",
+         "every landing inside, RMSE <= 3 cm"],
+    ]) + host_line(None, d.get("load_before"))
+
+
 SECTIONS: dict[str, Section] = {
+    "mission_speed": Section(
+        "Contest mission speed, default arena", "bench_mission_speed.py",
+        "`quadmission sim` (default arena, seed 0, every node, both cameras with their 50 ms "
+        "latency, the scanner off the callbacks' thread) in one process, with the bare world "
+        "loop measured right after on the same host. The CPU shares come from a sampling "
+        "profiler reading every thread's stack.",
+        _mission_speed),
     "mission": Section(
         "Contest mission on 20 random arenas", "bench_mission.py",
         "The whole contest (`quadmission sim --scenario mission`) on seeded random arenas. "
