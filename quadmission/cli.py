@@ -129,10 +129,16 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
                         "time limit, default 600)")
     p.add_argument("--config-dir", type=Path, default=None,
                    help="node YAMLs (default: config/, or $QUADMISSION_CONFIG_DIR)")
-    p.add_argument("--transport", choices=("inproc", "dds"), default="inproc",
+    p.add_argument("--transport", choices=("inproc", "ros2", "dds"), default="inproc",
                    help="inproc: every node in this process, in simulated time (default); "
-                        "dds: each process group in its own process on Cyclone DDS")
-    p.add_argument("--domain-id", type=int, default=0, help="dds: the DDS domain id")
+                        "ros2: each process group in its own process, every node a real "
+                        "rcl node (rclpy on Fast DDS); dds: the same on our Cyclone DDS "
+                        "mapping")
+    p.add_argument("--domain-id", type=int, default=0,
+                   help="ros2, dds: the DDS domain id (ROS_DOMAIN_ID)")
+    p.add_argument("--network", action="store_true",
+                   help="ros2, dds: discover and talk beyond this machine (default: "
+                        "localhost only)")
     p.add_argument("--out", type=Path, default=Path("runs/launch"),
                    help="folder for the recording (--record writes OUT/bag)")
     _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
@@ -145,7 +151,7 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
 
     if not 0 <= args.domain_id <= 232:
         raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
-    dds = args.transport == "dds"
+    dds = args.transport in ("ros2", "dds")
     if not (dds or has_simulator):
         return
     # in process, the recorder and the Foxglove bridge tap the executor around the
@@ -155,7 +161,8 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
                                    ("--gcs", args.gcs),
                                    ("--rtf", args.rtf is not None and not dds)) if on]
     if asked:
-        where = "--transport dds" if dds else "a launch file with a simulator, in process"
+        where = (f"--transport {args.transport}" if dds
+                 else "a launch file with a simulator, in process")
         raise OptionsError(
             f"{' '.join(asked)}: not available with {where}; add the nodes to the launch "
             "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder', "
@@ -163,11 +170,12 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
-def _launch_dds(args: argparse.Namespace, description: Any) -> int:
-    from runtime.dds.launcher import process_specs, run_launch
+def _launch_processes(args: argparse.Namespace, description: Any) -> int:
+    from runtime.processes.launcher import process_specs, run_launch
 
     specs = process_specs(
-        description, domain_id=args.domain_id, rtf=1.0 if args.rtf is None else args.rtf,
+        description, transport=args.transport, domain_id=args.domain_id,
+        loopback_only=not args.network, rtf=1.0 if args.rtf is None else args.rtf,
         duration_s=args.duration or 600.0,
         config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
     result = run_launch(specs)
@@ -182,8 +190,8 @@ def _launch_run(args: argparse.Namespace) -> int:
 
     description = LaunchDescription.from_yaml(args.file)
     _refuse_ignored_services(args, description.simulator is not None)
-    if args.transport == "dds":
-        return _launch_dds(args, description)
+    if args.transport in ("ros2", "dds"):
+        return _launch_processes(args, description)
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))
     if description.simulator is not None:

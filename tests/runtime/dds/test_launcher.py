@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from runtime.dds.config import DdsConfig
-from runtime.dds.launcher import process_specs, run_launch
+from runtime.processes.launcher import process_specs, run_launch
 from runtime.launch import LaunchDescription, NodeSpec
 
 
@@ -57,7 +57,7 @@ def test_the_simulator_never_runs_far_ahead_of_a_starved_process(
     # real time. In lockstep the world waits: it is never more than the bound (plus a
     # report's way) ahead of the node, which is what keeps a starved bridge's time sync
     # valid. At the old 0.25 s bound the lead reached about 0.25 s.
-    from runtime.dds.process import ProcessSpec
+    from runtime.processes.child import ProcessSpec
     from tests.runtime.dds.lockstep_parts import SLOW_PERIOD_S
 
     launch_file = tmp_path / "lockstep.yaml"

@@ -17,7 +17,7 @@ import interfaces
 from interfaces.qos import QoSProfile, ReliabilityPolicy, qos_profile_default
 from runtime import ActionClient, ActionServer, Node
 from runtime.dds.config import DdsConfig
-from runtime.dds.executor import ClockedExecutor
+from runtime.processes.executor import ClockedExecutor
 from runtime.dds.transport import DdsTransport
 
 Spin = Callable[[Callable[[], bool], float], bool]
@@ -36,8 +36,8 @@ def pair(dds_config: DdsConfig) -> Any:
         return until()
 
     yield a, b, spin
-    a.dds.close()
-    b.dds.close()
+    a.process_transport.close()
+    b.process_transport.close()
 
 
 def test_topic_samples_cross_and_carry_the_type_hash(pair: Any) -> None:
@@ -117,7 +117,7 @@ def test_incompatible_qos_is_reported_and_does_not_match(pair: Any) -> None:
     pub = fcu.create_publisher("std_msgs/msg/String", "/dds_test/px4_out", best_effort)
     sub = companion.create_subscription("std_msgs/msg/String", "/dds_test/px4_out",
                                         lambda _m: None, qos_profile_default)
-    assert spin(lambda: bool(b.dds.incompatibilities) and bool(a.dds.incompatibilities))
-    assert b.dds.incompatibilities[0].name == "/dds_test/px4_out"
-    assert "RELIABILITY" in b.dds.incompatibilities[0].reason
+    assert spin(lambda: bool(b.process_transport.incompatibilities) and bool(a.process_transport.incompatibilities))
+    assert b.process_transport.incompatibilities[0].name == "/dds_test/px4_out"
+    assert "RELIABILITY" in b.process_transport.incompatibilities[0].reason
     assert pub.get_subscription_count() == 0 and sub.get_publisher_count() == 0
