@@ -242,6 +242,9 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     result = simulation.run(spec.duration_s, stop=lambda: stop["now"], tick=tick,
                             tick_hz=_TICK_HZ)
+    sim_s, wall_s = (ex.now().nanoseconds - sim0) / 1e9, time.perf_counter() - wall0
+    _say(spec.name, f"ran {sim_s:.3f} s simulated in {wall_s:.3f} s "
+                    f"(real-time factor {sim_s / max(wall_s, 1e-9):.2f})")
     if stop["now"]:
         return 0
     _say(spec.name, result.reason)
