@@ -71,8 +71,8 @@ def _stats(latencies_ns: list[int], sent: int, duration_s: float) -> dict[str, A
 def ours_echo(domain: int) -> None:
     from runtime import Node
     from runtime.dds.config import DdsConfig
-    from runtime.processes.executor import ClockedExecutor
     from runtime.dds.transport import DdsTransport
+    from runtime.processes.executor import ClockedExecutor
 
     ex = ClockedExecutor(DdsTransport(DdsConfig(domain)), use_sim_time=False, config_dir=None)
     node = Node("bench_echo", context=ex.context)
@@ -85,8 +85,8 @@ def ours_echo(domain: int) -> None:
 def ours_ping(domain: int, duration_s: float) -> dict[str, Any]:
     from runtime import Node
     from runtime.dds.config import DdsConfig
-    from runtime.processes.executor import ClockedExecutor
     from runtime.dds.transport import DdsTransport
+    from runtime.processes.executor import ClockedExecutor
 
     ex = ClockedExecutor(DdsTransport(DdsConfig(domain)), use_sim_time=False, config_dir=None)
     node = Node("bench_ping", context=ex.context)

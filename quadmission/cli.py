@@ -139,6 +139,9 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--network", action="store_true",
                    help="ros2, dds: discover and talk beyond this machine (default: "
                         "localhost only)")
+    p.add_argument("--wall-clock", action="store_true",
+                   help="ros2, dds: nodes follow the host's clock, not /clock (a launch "
+                        "without a simulator, e.g. the companion of a real vehicle)")
     p.add_argument("--out", type=Path, default=Path("runs/launch"),
                    help="folder for the recording (--record writes OUT/bag)")
     _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
@@ -175,7 +178,8 @@ def _launch_processes(args: argparse.Namespace, description: Any) -> int:
 
     specs = process_specs(
         description, transport=args.transport, domain_id=args.domain_id,
-        loopback_only=not args.network, rtf=1.0 if args.rtf is None else args.rtf,
+        loopback_only=not args.network, use_sim_time=not args.wall_clock,
+        rtf=1.0 if args.rtf is None else args.rtf,
         duration_s=args.duration or 600.0,
         config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
     result = run_launch(specs)

@@ -1,8 +1,7 @@
-"""Nodes as processes: the clocked executor, one child process, the launcher (any transport)."""
+"""Nodes as processes on any process transport: child (one process), launcher, executor.
 
-from runtime.processes.child import TRANSPORTS, ProcessSpec
-from runtime.processes.executor import ClockedExecutor, ProcessTransport
-from runtime.processes.launcher import LaunchResult, process_specs, run_launch
+Import the modules themselves (``runtime.processes.launcher``...): ``python -m
+runtime.processes.child`` runs a child, so this package imports none of them.
+"""
 
-__all__ = ["TRANSPORTS", "ClockedExecutor", "LaunchResult", "ProcessSpec", "ProcessTransport",
-           "process_specs", "run_launch"]
+__all__: list[str] = []

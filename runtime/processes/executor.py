@@ -1,10 +1,10 @@
 """The executor of a node process: the same event loop, in real time.
 
 :class:`ClockedExecutor` is the deterministic executor's loop driven from outside: samples
-come from a process transport (ROS 2 or DDS; taken in this thread, handed to the nodes' queues), and time
-comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a simulation: timers fire when
-the simulator's clock passes them) or from the host's clock. Node code is the same as in
-process; only who moves the clock differs.
+come from a process transport (ROS 2 or DDS; taken in this thread, handed to the nodes'
+queues), and time comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a
+simulation: timers fire when the simulator's clock passes them) or from the host's
+clock. Node code is the same as in process; only who moves the clock differs.
 
 Between two ``/clock`` samples the time is interpolated at the rate the clock has been
 running (simulated over wall time), at most one ``/clock`` interval ahead of the last
@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Protocol, runtime_checkable
 from pathlib import Path
+from typing import Protocol, runtime_checkable
 
 import interfaces
 from interfaces.qos import QoSProfile, ReliabilityPolicy

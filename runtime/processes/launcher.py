@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from runtime.processes.child import ProcessSpec
 from runtime.launch import LaunchDescription
+from runtime.processes.child import ProcessSpec
 
 __all__ = ["LaunchResult", "process_specs", "run_launch"]
 

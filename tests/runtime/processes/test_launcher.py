@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from runtime.processes.launcher import process_specs, run_launch
 from runtime.launch import LaunchDescription, NodeSpec
+from runtime.processes.launcher import process_specs, run_launch
 
 
 def test_a_dead_child_ends_the_launch_naming_it(transport_kind: str, domain_id: int) -> None:
