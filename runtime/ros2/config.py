@@ -4,17 +4,25 @@ By default nothing leaves the machine: Jazzy's ``ROS_AUTOMATIC_DISCOVERY_RANGE=L
 (Fast DDS then discovers and talks over loopback and shared memory only). The wheels' Fast
 DDS has no security plugins, so this is the boundary. ``localhost_only=False`` opens it to
 the subnet (``SUBNET``, Jazzy's default), for a ROS 2 machine on the LAN.
+
+Fast DDS reads its participant from :data:`FASTDDS_PROFILE` (``fastdds_profile.xml``):
+the built-in transports with shared-memory segments large enough for camera images. A
+profile the user names in ``FASTRTPS_DEFAULT_PROFILES_FILE`` is left in charge.
 """
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
-__all__ = ["DEFAULT_DOMAIN_ID", "RMW_IMPLEMENTATION", "Ros2Config"]
+__all__ = ["DEFAULT_DOMAIN_ID", "FASTDDS_PROFILE", "RMW_IMPLEMENTATION", "Ros2Config"]
 
 DEFAULT_DOMAIN_ID = 0
 RMW_IMPLEMENTATION = "rmw_fastrtps_cpp"  # the one the wheels ship (ros-jazzy-rclpy[fastrtps])
+#: Fast DDS's default participant profile for our processes (16 MiB shared-memory segments)
+FASTDDS_PROFILE = Path(__file__).with_name("fastdds_profile.xml")
+_PROFILE_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"  # the name Fast DDS 2.14 reads
 
 
 @dataclass(frozen=True)
@@ -37,6 +45,8 @@ class Ros2Config:
 
     def apply(self) -> None:
         """Put :meth:`environment` into this process's environment; drop the deprecated
-        ``ROS_LOCALHOST_ONLY``, which would override the range."""
+        ``ROS_LOCALHOST_ONLY``, which would override the range; name our Fast DDS profile
+        unless the user named one."""
         os.environ.pop("ROS_LOCALHOST_ONLY", None)
         os.environ.update(self.environment())
+        os.environ.setdefault(_PROFILE_VARIABLE, str(FASTDDS_PROFILE))
