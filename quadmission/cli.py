@@ -148,34 +148,44 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
 
 
 def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> None:
-    """Run services a launch cannot attach are refused, not silently dropped: over DDS
-    and around a launch file's simulator they are nodes of the launch file instead."""
+    """Run services a launch cannot attach are refused, not silently dropped. Under
+    ``ros2`` they are nodes in a process of their own; the ``dds`` transport cannot list
+    its topics for the recorder and the bridge, and around a launch file's simulator in
+    process there is no page: there they are nodes of the launch file instead."""
     from quadmission.errors import OptionsError
 
     if not 0 <= args.domain_id <= 232:
         raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
-    dds = args.transport in ("ros2", "dds")
-    if not (dds or has_simulator):
+    processes = args.transport in ("ros2", "dds")
+    if not (processes or has_simulator):
         return
+    dds = args.transport == "dds"
     # in process, the recorder and the Foxglove bridge tap the executor around the
     # simulator as they do around a scenario; pacing and the page need the sim loop's parts
     asked = [flag for flag, on in (("--record", args.record and dds),
                                    ("--foxglove", args.foxglove and dds),
-                                   ("--gcs", args.gcs),
-                                   ("--rtf", args.rtf is not None and not dds)) if on]
+                                   ("--gcs", args.gcs and not processes),
+                                   ("--rtf", args.rtf is not None and not processes)) if on]
     if asked:
-        where = (f"--transport {args.transport}" if dds
-                 else "a launch file with a simulator, in process")
+        where = ("--transport dds (Cyclone cannot list its topics; use --transport ros2)"
+                 if dds else "a launch file with a simulator, in process")
         raise OptionsError(
             f"{' '.join(asked)}: not available with {where}; add the nodes to the launch "
-            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder', "
-            "ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
+            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder' and "
+            "its 'topics', ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
 def _launch_processes(args: argparse.Namespace, description: Any) -> int:
+    from ground_station.server import TOKEN_ENV
+    from runtime.launch import LaunchDescription
     from runtime.processes.launcher import process_specs, run_launch
 
+    services = _run_services(args)  # --record, --foxglove, --gcs: a process of their own
+    if services.gcs is not None:
+        os.environ[TOKEN_ENV] = services.gcs.token  # the page's process inherits it
+    description = LaunchDescription((*description.nodes, *services.process_nodes(args.out)),
+                                    description.simulator)
     specs = process_specs(
         description, transport=args.transport, domain_id=args.domain_id,
         loopback_only=not args.network, use_sim_time=not args.wall_clock,

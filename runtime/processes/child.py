@@ -167,7 +167,11 @@ def run_nodes(spec: ProcessSpec) -> int:
         _say(spec.name, f"no {CLOCK_TOPIC} after {spec.startup_timeout_s:g} s; is the "
                         "simulator running on this domain?")
         return EXIT_NO_CLOCK
-    ex.spin(until=lambda: finished(nodes) is not None)
+    try:
+        ex.spin(until=lambda: finished(nodes) is not None)
+    finally:  # what a node holds outside the graph is let go: a bag's index, a server
+        for node in reversed(nodes):
+            node.destroy_node()
     done = finished(nodes)
     if done is None:
         return 0

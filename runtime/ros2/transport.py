@@ -301,6 +301,17 @@ class Ros2Transport:
         return _Reader(self, endpoint, client.client,
                        lambda: int(client.client.service_is_ready()))
 
+    def topic_names_and_types(self) -> list[tuple[str, str]]:
+        """The graph's topics, as ``ros2 topic list -t`` gives them (any node of any
+        process on the domain), with their type: those our typestore knows, one type each
+        (a topic carried with two types, or with a type we cannot decode, is left out)."""
+        import interfaces
+
+        known = set(interfaces.typestore().fielddefs)
+        return sorted((name, types[0]) for name, types
+                      in self.rcl_node().get_topic_names_and_types()
+                      if len(types) == 1 and types[0] in known)
+
     def _forget(self, entity: Any) -> None:
         for table in (self._subs, self._services, self._clients):
             table.pop(entity, None)
