@@ -8,8 +8,11 @@ in the ROS 2 graph, Cyclone's discovery data) is tested on that one.
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -20,6 +23,7 @@ from runtime import ActionClient, ActionServer, Node
 from runtime.processes.executor import ClockedExecutor
 from tests.runtime.processes.conftest import make_transport, needs_ros2
 
+ROOT = Path(__file__).resolve().parents[3]
 Spin = Callable[[Callable[[], bool], float], bool]
 
 
@@ -188,3 +192,31 @@ def test_a_plain_rclpy_parameter_client_lists_reads_and_sets_them(pair: Any,
         foreign.destroy_node()
     finally:
         rclpy.shutdown(context=context)
+
+
+@needs_ros2
+def test_camera_images_cross_processes_best_effort_without_loss(domain_id: int) -> None:
+    # A 640x480 RGB image is 921,600 B. In Fast DDS's default 512 KiB shared-memory
+    # segments the writer recycled an image's fragments before the reader took them, and
+    # images were lost whole (the mission's scanner then saw none for a second); our
+    # participant profile's 16 MiB segments keep them. Five (the reader's depth) back to
+    # back from another process, as a busy scanner meets them.
+    sent = 5
+    ex = ClockedExecutor(make_transport("ros2", domain_id, "scanner_process"),
+                         use_sim_time=False, config_dir=None)
+    scanner = Node("scanner", context=ex.context)
+    frames: list[int] = []
+    scanner.create_subscription("sensor_msgs/msg/Image", "/tt/image_raw",
+                                lambda m: frames.append(m.header.stamp.sec),
+                                QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT))
+    camera = subprocess.Popen([sys.executable, "-m", "tests.runtime.processes.image_publisher",
+                               str(domain_id), str(sent)], cwd=ROOT)
+    try:
+        deadline = time.monotonic() + 60.0
+        while camera.poll() is None and len(frames) < sent and time.monotonic() < deadline:
+            ex.spin_once_realtime()
+    finally:
+        ex.process_transport.close()
+        camera.kill()
+        camera.wait()
+    assert frames == list(range(sent)), f"{len(frames)} of {sent} images arrived: {frames}"
