@@ -33,9 +33,11 @@ from typing import Any
 import rclpy
 from rclpy.clock import ClockType
 from rclpy.context import Context
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node as RclNode
 from rclpy.parameter import Parameter as RclParameter
+from rclpy.qos import QoSPolicyKind
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time as RclTime
@@ -46,7 +48,15 @@ from runtime.ros2.config import Ros2Config
 from runtime.ros2.parameters import mirror_parameters
 from runtime.ros2.qos import rclpy_qos
 from runtime.ros2.types import rclpy_type, service_type_of
-from runtime.transport import Endpoint, EndpointKind, Reader, RequestId, SampleCallback, Writer
+from runtime.transport import (
+    Endpoint,
+    EndpointKind,
+    Incompatibility,
+    Reader,
+    RequestId,
+    SampleCallback,
+    Writer,
+)
 
 __all__ = ["Ros2Transport"]
 
@@ -197,7 +207,11 @@ class Ros2Transport:
         self._topic_types: dict[str, str] = {}
         self._request_ids = itertools.count(1)
         self._wait_set: Any = None
-        self._ready: tuple[set[int], set[int], set[int]] | None = None
+        # a topic's incompatible-QoS event handlers (rclpy's), by the entity they watch
+        self._events: dict[Any, list[Any]] = {}
+        #: incompatible QoS pairs met so far, each named by topic, side and policy
+        self.incompatibilities: list[Incompatibility] = []
+        self._ready: tuple[set[int], set[int], set[int], list[Any]] | None = None
         self._closed = False
 
     # -- nodes -----------------------------------------------------------------------------
@@ -250,7 +264,11 @@ class Ros2Transport:
         qos = rclpy_qos(endpoint.qos)
         key = (endpoint.node, endpoint.name)
         if endpoint.kind is EndpointKind.TOPIC:
-            pub = node.create_publisher(rclpy_type(endpoint.type_name), endpoint.name, qos)
+            noted = self._incompatible(endpoint, "offered")
+            pub = node.create_publisher(
+                rclpy_type(endpoint.type_name), endpoint.name, qos,
+                event_callbacks=PublisherEventCallbacks(incompatible_qos=noted))
+            self._watch_events(pub, noted)
             return _TopicWriter(endpoint, pub)
         srv_type = service_type_of(endpoint.type_name)
         if endpoint.kind is EndpointKind.REPLY:  # a service of ours: its reply half
@@ -283,8 +301,11 @@ class Ros2Transport:
         node = self.rcl_node(endpoint.node)
         qos = rclpy_qos(endpoint.qos)
         if endpoint.kind is EndpointKind.TOPIC:
-            sub = node.create_subscription(rclpy_type(endpoint.type_name), endpoint.name,
-                                           _noop, qos, raw=True)
+            noted = self._incompatible(endpoint, "requested")
+            sub = node.create_subscription(
+                rclpy_type(endpoint.type_name), endpoint.name, _noop, qos, raw=True,
+                event_callbacks=SubscriptionEventCallbacks(incompatible_qos=noted))
+            self._watch_events(sub, noted)
             self._subs[sub] = self._taker(sub, on_sample)
             self._wait_set = None
             return _Reader(self, endpoint, sub, sub.get_publisher_count)
@@ -313,8 +334,26 @@ class Ros2Transport:
                       if len(types) == 1 and types[0] in known)
 
     def _forget(self, entity: Any) -> None:
-        for table in (self._subs, self._services, self._clients):
+        for table in (self._subs, self._services, self._clients, self._events):
             table.pop(entity, None)
+        self._wait_set = None
+
+    # -- QoS events ------------------------------------------------------------------------
+    def _incompatible(self, endpoint: Endpoint, side: str) -> Callable[[Any], None]:
+        """rcl's incompatible-QoS event of a topic's endpoint: recorded and logged, naming
+        the topic and the policy (``offered``: our writer; ``requested``: our reader)."""
+        def note(info: Any) -> None:
+            policy = QoSPolicyKind(int(info.last_policy_kind)).name
+            reason = f"{side} QoS incompatible with a peer's on policy {policy}"
+            self.incompatibilities.append(Incompatibility(endpoint.name, reason))
+            _log.warning("incompatible QoS on %s: %s; they will not communicate",
+                         endpoint.name, reason)
+        return note
+
+    def _watch_events(self, entity: Any, callback: Callable[[Any], None]) -> None:
+        """Wait on ``entity``'s event handlers that call ``callback`` (rclpy adds others of
+        its own, which log; ours record)."""
+        self._events[entity] = [h for h in entity.event_handlers if h.callback is callback]
         self._wait_set = None
 
     # -- taking ----------------------------------------------------------------------------
@@ -372,9 +411,9 @@ class Ros2Transport:
             return False
         ws = self._wait_set
         if ws is None:
-            ws = self._wait_set = _rclpy.WaitSet(len(self._subs), 1, 0, len(self._clients),
-                                                 len(self._services), 0,
-                                                 self.context.handle)
+            ws = self._wait_set = _rclpy.WaitSet(
+                len(self._subs), 1, 0, len(self._clients), len(self._services),
+                sum(len(h) for h in self._events.values()), self.context.handle)
         ws.clear_entities()
         for sub in self._subs:
             ws.add_subscription(sub.handle)
@@ -382,11 +421,16 @@ class Ros2Transport:
             ws.add_client(client.handle)
         for srv in self._services:
             ws.add_service(srv.handle)
+        for handlers in self._events.values():
+            for handler in handlers:
+                handler.add_to_wait_set(ws)
         ws.add_guard_condition(self._guard)
         ws.wait(max(0, round(timeout_s * _NS_PER_S)))
         ready = (set(ws.get_ready_entities("subscription")),
                  set(ws.get_ready_entities("client")),
-                 set(ws.get_ready_entities("service")))
+                 set(ws.get_ready_entities("service")),
+                 [h for handlers in self._events.values() for h in handlers
+                  if h.is_ready(ws)])
         self._ready = ready
         return any(ready)
 
@@ -401,9 +445,14 @@ class Ros2Transport:
         if self._ready is None:
             self.wait(0.0)
         assert self._ready is not None
-        subs, clients, services = self._ready
+        subs, clients, services, events = self._ready
         self._ready = None
         n = 0
+        for handler in events:
+            taken = handler.take_data()
+            if taken is not None:
+                handler.callback(taken)
+                n += 1
         for table, ready in ((self._subs, subs), (self._clients, clients),
                              (self._services, services)):
             if ready:

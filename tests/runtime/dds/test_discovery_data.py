@@ -1,5 +1,5 @@
-"""What only Cyclone DDS shows: the wire names, type names and type hash in discovery, and
-incompatible QoS recorded with the policy's name (the transport tests run on both)."""
+"""What only Cyclone DDS shows: the wire names, type names and type hash in discovery (the
+transport tests, incompatible QoS named included, run on both transports)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from cyclonedds.core import Policy
 
 import interfaces
-from interfaces.qos import QoSProfile, ReliabilityPolicy, qos_profile_default
+from interfaces.qos import qos_profile_default
 from runtime import Node
 from runtime.dds.config import DdsConfig
 from runtime.dds.transport import DdsTransport
@@ -50,18 +50,3 @@ def test_topic_carries_ros2_names_and_the_type_hash(pair: Any) -> None:
     assert endpoint.qos[Policy.Userdata].data == (
         b"typehash=RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18;")
     pub.publish(interfaces.new("std_msgs/msg/String", data="x"))
-
-
-def test_incompatible_qos_is_reported_naming_the_policy(pair: Any) -> None:
-    a, b, spin = pair
-    fcu, companion = Node("fcu", context=a.context), Node("companion", context=b.context)
-    best_effort = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
-    pub = fcu.create_publisher("std_msgs/msg/String", "/dds_test/px4_out", best_effort)
-    sub = companion.create_subscription("std_msgs/msg/String", "/dds_test/px4_out",
-                                        lambda _m: None, qos_profile_default)
-    transport_a, transport_b = a.process_transport, b.process_transport
-    assert spin(lambda: bool(transport_b.incompatibilities)
-                and bool(transport_a.incompatibilities))
-    assert transport_b.incompatibilities[0].name == "/dds_test/px4_out"
-    assert "RELIABILITY" in transport_b.incompatibilities[0].reason
-    assert pub.get_subscription_count() == 0 and sub.get_publisher_count() == 0

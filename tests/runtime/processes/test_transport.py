@@ -110,7 +110,7 @@ def test_action_goal_feedback_and_result_cross(pair: Any) -> None:
     assert spin(lambda: len(feedback) == 1)
 
 
-def test_incompatible_qos_does_not_match(pair: Any) -> None:
+def test_incompatible_qos_does_not_match_and_is_named(pair: Any) -> None:
     a, b, spin = pair
     fcu, companion = Node("fcu", context=a.context), Node("companion", context=b.context)
     best_effort = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -121,6 +121,14 @@ def test_incompatible_qos_does_not_match(pair: Any) -> None:
                                                lambda _m: None, best_effort)
     assert spin(lambda: compatible.get_publisher_count() == 1)  # discovery has happened
     assert pub.get_subscription_count() == 1 and sub.get_publisher_count() == 0
+    # and each side records the pair, naming the topic and the policy
+    transport_a, transport_b = a.process_transport, b.process_transport
+    assert spin(lambda: bool(transport_a.incompatibilities)
+                and bool(transport_b.incompatibilities))
+    (offered,), (requested,) = transport_a.incompatibilities, transport_b.incompatibilities
+    assert offered.name == requested.name == "/tt/px4_out"
+    assert offered.reason.startswith("offered ") and "RELIABILITY" in offered.reason
+    assert requested.reason.startswith("requested ") and "RELIABILITY" in requested.reason
 
 
 # -- ros2 only: our nodes are rcl nodes a plain rclpy program sees --------------------------
