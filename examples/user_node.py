@@ -9,9 +9,10 @@ It prints the mission's state and the drone's odometry as they come, sends the o
 command START on /mission/command and prints the mission's answer from /mission/events
 (accepted before the mission starts, rejected with the reason once it runs). It exits 0
 once it has seen STATES states, ODOMETRY odometry messages and the answer, 1 after
-TIMEOUT seconds without them:
+TIMEOUT seconds without them. With --graph it then prints the ROS 2 graph as rclpy sees
+it: each node (``node: /name``) and each topic with its types (``topic: /name type``):
 
-    python examples/user_node.py [--states 3] [--odometry 3] [--timeout 120]
+    python examples/user_node.py [--states 3] [--odometry 3] [--timeout 120] [--graph]
 """
 
 import argparse
@@ -64,11 +65,20 @@ class MissionWatcher(Node):
             print(f"answer: {self.answer}: {msg.message}", flush=True)
 
 
+def print_graph(node: Node) -> None:
+    for name, namespace in sorted(node.get_node_names_and_namespaces()):
+        print(f"node: {namespace.rstrip('/')}/{name}")
+    for topic, types in sorted(node.get_topic_names_and_types()):
+        print(f"topic: {topic} {' '.join(types)}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--states", type=int, default=3)
     parser.add_argument("--odometry", type=int, default=3)
     parser.add_argument("--timeout", type=float, default=120.0)
+    parser.add_argument("--graph", action="store_true",
+                        help="print the graph's nodes and topics before exiting")
     args = parser.parse_args()
     rclpy.init()
     node = MissionWatcher()
@@ -77,6 +87,8 @@ def main() -> int:
         while time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.1)
             if node.states >= args.states and node.odometry >= args.odometry and node.answer:
+                if args.graph:
+                    print_graph(node)
                 return 0
         print(f"after {args.timeout:g} s: {node.states} states, {node.odometry} odometry, "
               f"answer {node.answer or 'none'}", file=sys.stderr)
