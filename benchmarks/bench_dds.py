@@ -7,7 +7,7 @@ processes on a loopback-only domain: the pinger sends at 200 Hz, the echoer send
 message straight back, the pinger takes half the round trip as the one-way latency
 (p50, p99, max [us]) and counts what came back (throughput [msg/s]).
 
-- **ours**: two node processes (:class:`~runtime.dds.executor.ClockedExecutor` on the
+- **ours**: two node processes (:class:`~runtime.processes.executor.ClockedExecutor` on the
   wall clock, :class:`~runtime.dds.transport.DdsTransport`): a timer publishes, a
   subscription callback receives the deserialised message and publishes the echo; node
   code as any node writes it (rosbags CDR in, rosbags CDR out).
@@ -71,8 +71,8 @@ def _stats(latencies_ns: list[int], sent: int, duration_s: float) -> dict[str, A
 def ours_echo(domain: int) -> None:
     from runtime import Node
     from runtime.dds.config import DdsConfig
-    from runtime.dds.executor import ClockedExecutor
     from runtime.dds.transport import DdsTransport
+    from runtime.processes.executor import ClockedExecutor
 
     ex = ClockedExecutor(DdsTransport(DdsConfig(domain)), use_sim_time=False, config_dir=None)
     node = Node("bench_echo", context=ex.context)
@@ -85,8 +85,8 @@ def ours_echo(domain: int) -> None:
 def ours_ping(domain: int, duration_s: float) -> dict[str, Any]:
     from runtime import Node
     from runtime.dds.config import DdsConfig
-    from runtime.dds.executor import ClockedExecutor
     from runtime.dds.transport import DdsTransport
+    from runtime.processes.executor import ClockedExecutor
 
     ex = ClockedExecutor(DdsTransport(DdsConfig(domain)), use_sim_time=False, config_dir=None)
     node = Node("bench_ping", context=ex.context)

@@ -41,6 +41,7 @@ class FoxgloveBridgeNode(Node):
         except BaseException:
             self.server.stop()  # a refused topics entry does not keep the port bound
             raise
+        self.get_logger().info("Foxglove: open connection %s", self.url)
 
     @property
     def url(self) -> str:

@@ -2,8 +2,8 @@
 Foxglove bridge do. Samples are passed on as CDR bytes, never decoded (a message handed
 over in-process is serialized first).
 
-Discovery asks the transport for ``topic_names_and_types()`` (the in-process transport
-offers it) every ``discovery_period_s`` of node time; the ``topics`` given as
+Discovery asks the transport for ``topic_names_and_types()`` (the in-process and the
+ROS 2 transports offer it) every ``discovery_period_s`` of node time; the ``topics`` given as
 ``"name pkg/msg/Type"`` are tapped from the start, for a transport that cannot list its
 topics (DDS: give them in the node's YAML). Readers are BEST_EFFORT and VOLATILE, so
 they match every writer (QoS request/offer rules) and never slow one down.
@@ -82,7 +82,8 @@ class TopicTap:
                             bytes(sample_bytes(data, msgtype)))
 
         self._readers[name] = self._node.context.transport.create_reader(
-            Endpoint(name, msgtype, TAP_QOS), on_sample)
+            Endpoint(name, msgtype, TAP_QOS, node=self._node.get_fully_qualified_name()),
+            on_sample)
         self.topics[name] = msgtype
 
     def close(self) -> None:

@@ -286,8 +286,18 @@ def package_xml(spec: PackageSpec) -> str:
     )
 
 
+#: rclpy needs the C structs, their type descriptions, the C type supports (Fast DDS's and
+#: introspection) and the Python bindings; the C++ generators and type supports, which
+#: rosidl_default_generators and the dependencies' runtime register too, are dropped: no
+#: C++ code uses these packages, and they were about half of a fresh build's time.
+_PYTHON_ONLY = ("# the generators rclpy needs: C and Python, not C++\n"
+                "list(FILTER AMENT_EXTENSIONS_rosidl_generate_idl_interfaces EXCLUDE REGEX "
+                '"_cpp:")\n')
+
+
 def cmakelists(spec: PackageSpec, root: Path = INTERFACE_ROOT) -> str:
-    """CMakeLists.txt naming each interface file as rosidl's ``<base>:<relative>`` tuple."""
+    """CMakeLists.txt naming each interface file as rosidl's ``<base>:<relative>`` tuple,
+    generating what rclpy uses (C and Python, :data:`_PYTHON_ONLY`)."""
     base = (root / spec.name).resolve()
     if ":" in str(base) or '"' in str(base) or ";" in str(base):
         raise RosBuildError(f"rosidl cannot take interface files from {base} "
@@ -304,6 +314,7 @@ def cmakelists(spec: PackageSpec, root: Path = INTERFACE_ROOT) -> str:
         "find_package(ament_cmake REQUIRED)\n"
         "find_package(rosidl_default_generators REQUIRED)\n"
         f"{finds}"
+        f"{_PYTHON_ONLY}"
         "rosidl_generate_interfaces(${PROJECT_NAME}\n"
         f"{files}"
         + (f"  DEPENDENCIES {deps}\n" if deps else "")
@@ -387,15 +398,33 @@ def _log_tail(path: Path, lines: int = _LOG_TAIL_LINES) -> str:
     return "\n".join(text[-lines:])
 
 
+def cmake_generator(env: Mapping[str, str]) -> str:
+    """Ninja when it is installed (it schedules rosidl's many small targets better than
+    make), else CMake's default."""
+    return "Ninja" if shutil.which("ninja", path=env.get("PATH")) else "Unix Makefiles"
+
+
+def _drop_other_generators_trees(build: Path, generator: str) -> None:
+    """CMake refuses a build tree made with another generator: start those afresh."""
+    if not build.is_dir():
+        return
+    for cache in build.glob("*/CMakeCache.txt"):
+        text = cache.read_text(encoding="utf-8", errors="replace")
+        if f"CMAKE_GENERATOR:INTERNAL={generator}\n" not in text:
+            shutil.rmtree(cache.parent)
+
+
 def colcon_build(workspace: Path, prefix: Path, env: Mapping[str, str]) -> None:
     """``colcon build --merge-install`` in ``workspace``; RosBuildError with the failing
     package, the command and the tail of its log when it fails."""
+    generator = cmake_generator(env)
+    _drop_other_generators_trees(workspace / "build", generator)
     command = [
         str(prefix / "bin" / "colcon"), "--log-base", "log", "build",
         "--merge-install", "--base-paths", "src",
         "--build-base", "build", "--install-base", "install",
         "--cmake-args", f"-DPython3_EXECUTABLE={prefix / 'bin' / 'python'}",
-        "-DPython3_FIND_VIRTUALENV=ONLY", "-DBUILD_TESTING=OFF",
+        "-DPython3_FIND_VIRTUALENV=ONLY", "-DBUILD_TESTING=OFF", "-G", generator,
     ]
     output = workspace / "colcon-build.log"
     with output.open("w", encoding="utf-8") as out:

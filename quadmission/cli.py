@@ -36,6 +36,9 @@ _STARTED_HOST_S = time.monotonic()  # when the command started: simulated time 0
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a C tool killed by the signal returns
+#: [s] simulated: a launch file's simulator stops the launch after this long: the contest's
+#: 900 s. (The former 600 s cut a mission over processes during its 10th landing.)
+SIMULATOR_TIME_LIMIT_S = 900.0
 
 
 def project_errors() -> tuple[type[Exception], ...]:
@@ -126,49 +129,71 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
                    "e.g. config/launch/example.yaml")
     p.add_argument("--duration", type=_positive_seconds, default=None,
                    help="simulated seconds to run (default 10; with a simulator: the "
-                        "time limit, default 600)")
+                        f"time limit, default {SIMULATOR_TIME_LIMIT_S:g})")
     p.add_argument("--config-dir", type=Path, default=None,
                    help="node YAMLs (default: config/, or $QUADMISSION_CONFIG_DIR)")
-    p.add_argument("--transport", choices=("inproc", "dds"), default="inproc",
+    p.add_argument("--transport", choices=("inproc", "ros2", "dds"), default="inproc",
                    help="inproc: every node in this process, in simulated time (default); "
-                        "dds: each process group in its own process on Cyclone DDS")
-    p.add_argument("--domain-id", type=int, default=0, help="dds: the DDS domain id")
+                        "ros2: each process group in its own process, every node a real "
+                        "rcl node (rclpy on Fast DDS); dds: the same on our Cyclone DDS "
+                        "mapping")
+    p.add_argument("--domain-id", type=int, default=0,
+                   help="ros2, dds: the DDS domain id (ROS_DOMAIN_ID)")
+    p.add_argument("--network", action="store_true",
+                   help="ros2, dds: discover and talk beyond this machine (default: "
+                        "localhost only)")
+    p.add_argument("--wall-clock", action="store_true",
+                   help="ros2, dds: nodes follow the host's clock, not /clock (a launch "
+                        "without a simulator, e.g. the companion of a real vehicle)")
     p.add_argument("--out", type=Path, default=Path("runs/launch"),
                    help="folder for the recording (--record writes OUT/bag)")
     _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
 
 
 def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> None:
-    """Run services a launch cannot attach are refused, not silently dropped: over DDS
-    and around a launch file's simulator they are nodes of the launch file instead."""
+    """Run services a launch cannot attach are refused, not silently dropped. Under
+    ``ros2`` they are nodes in a process of their own; the ``dds`` transport cannot list
+    its topics for the recorder and the bridge, and around a launch file's simulator in
+    process there is no page: there they are nodes of the launch file instead."""
     from quadmission.errors import OptionsError
 
     if not 0 <= args.domain_id <= 232:
         raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
-    dds = args.transport == "dds"
-    if not (dds or has_simulator):
+    processes = args.transport in ("ros2", "dds")
+    if not (processes or has_simulator):
         return
+    dds = args.transport == "dds"
     # in process, the recorder and the Foxglove bridge tap the executor around the
     # simulator as they do around a scenario; pacing and the page need the sim loop's parts
     asked = [flag for flag, on in (("--record", args.record and dds),
                                    ("--foxglove", args.foxglove and dds),
-                                   ("--gcs", args.gcs),
-                                   ("--rtf", args.rtf is not None and not dds)) if on]
+                                   ("--gcs", args.gcs and not processes),
+                                   ("--rtf", args.rtf is not None and not processes)) if on]
     if asked:
-        where = "--transport dds" if dds else "a launch file with a simulator, in process"
+        where = ("--transport dds (Cyclone cannot list its topics; use --transport ros2)"
+                 if dds else "a launch file with a simulator, in process")
         raise OptionsError(
             f"{' '.join(asked)}: not available with {where}; add the nodes to the launch "
-            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder', "
-            "ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
+            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder' and "
+            "its 'topics', ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
-def _launch_dds(args: argparse.Namespace, description: Any) -> int:
-    from runtime.dds.launcher import process_specs, run_launch
+def _launch_processes(args: argparse.Namespace, description: Any) -> int:
+    from ground_station.server import TOKEN_ENV
+    from runtime.launch import LaunchDescription
+    from runtime.processes.launcher import process_specs, run_launch
 
+    services = _run_services(args)  # --record, --foxglove, --gcs: a process of their own
+    if services.gcs is not None:
+        os.environ[TOKEN_ENV] = services.gcs.token  # the page's process inherits it
+    description = LaunchDescription((*description.nodes, *services.process_nodes(args.out)),
+                                    description.simulator)
     specs = process_specs(
-        description, domain_id=args.domain_id, rtf=1.0 if args.rtf is None else args.rtf,
-        duration_s=args.duration or 600.0,
+        description, transport=args.transport, domain_id=args.domain_id,
+        loopback_only=not args.network, use_sim_time=not args.wall_clock,
+        rtf=1.0 if args.rtf is None else args.rtf,
+        duration_s=args.duration or SIMULATOR_TIME_LIMIT_S,
         config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
     result = run_launch(specs)
     print(f"launch: {result.reason}", file=sys.stderr)
@@ -182,13 +207,13 @@ def _launch_run(args: argparse.Namespace) -> int:
 
     description = LaunchDescription.from_yaml(args.file)
     _refuse_ignored_services(args, description.simulator is not None)
-    if args.transport == "dds":
-        return _launch_dds(args, description)
+    if args.transport in ("ros2", "dds"):
+        return _launch_processes(args, description)
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))
     if description.simulator is not None:
         with _run_services(args).attach(ex, [], args.out):
-            outcome = run_in_process(description, ex, args.duration or 600.0)
+            outcome = run_in_process(description, ex, args.duration or SIMULATOR_TIME_LIMIT_S)
         print(f"launch: {outcome.reason} at {outcome.sim_time_s:.1f} s", file=sys.stderr)
         print(json.dumps({"exit_code": outcome.exit_code, "reason": outcome.reason,
                           "sim_time_s": outcome.sim_time_s}))

@@ -161,8 +161,7 @@ class Publisher(Generic[T]):
         self.qos_profile = qos
         self._node = node
         self._writer = node.context.transport.create_writer(
-            Endpoint(self.topic_name, self.type_name, qos)
-        )
+            Endpoint(self.topic_name, self.type_name, qos, node=node.get_fully_qualified_name()))
         self._send = _sender(self._writer, self.type_name)
 
     def publish(self, msg: Any) -> None:
@@ -212,8 +211,8 @@ class Subscription(Generic[T]):
         self._inbox = _Inbox(node, qos, (node.get_name(), "subscription", self.topic_name),
                              self._handle)
         self._reader = node.context.transport.create_reader(
-            Endpoint(self.topic_name, self.type_name, qos), self._inbox.on_sample
-        )
+            Endpoint(self.topic_name, self.type_name, qos, node=node.get_fully_qualified_name()),
+            self._inbox.on_sample)
 
     @property
     def dropped(self) -> int:
@@ -315,13 +314,15 @@ class Service:
         self._rep_name = interfaces.type_name(srv_type.Response)
         transport = node.context.transport
         self._writer = transport.create_writer(
-            Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY)
+            Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY,
+                     node.get_fully_qualified_name())
         )
         self._send = _sender(self._writer, self._rep_name)
         self._inbox = _Inbox(node, qos, (node.get_name(), "service", self.service_name),
                              self._handle)
         self._reader = transport.create_reader(
-            Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST),
+            Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST,
+                     node.get_fully_qualified_name()),
             self._inbox.on_sample,
         )
 
@@ -377,13 +378,15 @@ class Client:
         self._pending: dict[int, Future[Any]] = {}
         transport = node.context.transport
         self._writer = transport.create_writer(
-            Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST)
+            Endpoint(self.service_name, self._req_name, qos, EndpointKind.REQUEST,
+                     node.get_fully_qualified_name())
         )
         self._send = _sender(self._writer, self._req_name)
         self._inbox = _Inbox(node, qos, (node.get_name(), "client", self.service_name),
                              self._handle)
         self._reader = transport.create_reader(
-            Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY),
+            Endpoint(self.service_name, self._rep_name, qos, EndpointKind.REPLY,
+                     node.get_fully_qualified_name()),
             self._on_reply,
         )
 

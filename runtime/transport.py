@@ -42,6 +42,7 @@ class Endpoint:
     type_name: str  # e.g. px4_msgs/msg/VehicleOdometry
     qos: QoSProfile
     kind: EndpointKind = EndpointKind.TOPIC
+    node: str = ""  # fully qualified name of the node that owns it ("" for none)
 
 
 @dataclass(frozen=True)

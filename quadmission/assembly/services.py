@@ -28,12 +28,14 @@ if TYPE_CHECKING:
     from ground_station.gcs_node import GroundStationNode
     from ground_station.recorder_node import BagRecorderNode
     from ground_station.server import GroundStationServer
+    from runtime.launch import NodeSpec
     from sim.arena import ArenaSpec
     from sim.world import Part, Scene
 
 BAG_DIR = "bag"  # the run's recording: OUT/bag/bag_0.mcap + metadata.yaml
 COMMAND_LOG = "gcs_commands.jsonl"
 FIELD_JSON = "field.json"  # the run's FieldLayout, for GroundStationServerNode's layout_file
+PROCESS_GROUP = "ground_station"  # where process_nodes() run in a launch over processes
 
 
 def field_layout(arena: ArenaSpec) -> FieldLayout:
@@ -158,6 +160,32 @@ class RunServices:
         self.say(f"  ground station: {self.server.operator_url()}")
         self.say(f"  command token: {config.token}")
 
+    def process_nodes(self, out: Path) -> tuple[NodeSpec, ...]:
+        """The recorder, the Foxglove bridge and the page as launch-file nodes, in a
+        process group of their own (:data:`PROCESS_GROUP`), for a launch over processes:
+        there they discover the graph's topics like any other node. The bag goes to
+        ``out/bag``; the page's command token comes from ``$QUADMISSION_GCS_TOKEN`` (the
+        caller sets it to ``gcs.token``)."""
+        from runtime.launch import NodeSpec
+
+        nodes = []
+        if self.record:
+            folder = out / BAG_DIR
+            _clear_old_bag(folder)
+            nodes.append(NodeSpec("ground_station.recorder_node:BagRecorderNode",
+                                  process=PROCESS_GROUP,
+                                  parameters={"folder": str(folder.resolve())}))
+        if self.foxglove:
+            nodes.append(NodeSpec("ground_station.foxglove_bridge_node:FoxgloveBridgeNode",
+                                  process=PROCESS_GROUP, parameters={
+                                      "host": self.foxglove_host, "port": self.foxglove_port}))
+        if self.gcs is not None:
+            where = {k: v for k, v in (("host", self.gcs.host), ("port", self.gcs.port))
+                     if v is not None}
+            nodes.append(NodeSpec("ground_station.gcs_server_node:GroundStationServerNode",
+                                  process=PROCESS_GROUP, parameters=where))
+        return tuple(nodes)
+
     def close(self) -> None:
         if self.server is not None:
             self.server.stop()
@@ -191,5 +219,5 @@ def _nothing() -> Iterator[None]:
     yield None
 
 
-__all__ = ["BAG_DIR", "COMMAND_LOG", "FIELD_JSON", "GcsOptions", "RunServices", "attach_services",
-           "field_layout"]
+__all__ = ["BAG_DIR", "COMMAND_LOG", "FIELD_JSON", "PROCESS_GROUP", "GcsOptions", "RunServices",
+           "attach_services", "field_layout"]

@@ -1,7 +1,6 @@
 """The Cyclone DDS transport: ROS 2 wire conventions over the cyclonedds wheel."""
 
 from runtime.dds.config import DdsConfig
-from runtime.dds.executor import ClockedExecutor
 from runtime.dds.transport import DdsTransport
 
-__all__ = ["ClockedExecutor", "DdsConfig", "DdsTransport"]
+__all__ = ["DdsConfig", "DdsTransport"]

@@ -266,10 +266,23 @@ def test_generated_cmakelists_name_the_repository_files(interface_copy: Path) ->
     base = (interface_copy / "quadmission_interfaces").resolve()
     assert f'"{base}:action/Reach.action"' in cmake
     assert f'"{base}:msg/ModuleHealth.msg"' in cmake
+    # what rclpy uses only: the C++ generators are filtered out before generating
+    assert cmake.index('EXCLUDE REGEX "_cpp:"') < cmake.index("rosidl_generate_interfaces(")
     # ModuleHealth uses diagnostic_msgs/KeyValue: the package must depend on it
     assert "diagnostic_msgs" in specs["quadmission_interfaces"].dependencies
     assert "<depend>diagnostic_msgs</depend>" in ros_packages.package_xml(
         specs["quadmission_interfaces"])
+
+
+def test_a_build_tree_of_another_cmake_generator_is_started_afresh(tmp_path: Path) -> None:
+    build = tmp_path / "build"
+    for pkg, generator in (("made", "Unix Makefiles"), ("ninja", "Ninja")):
+        (build / pkg).mkdir(parents=True)
+        (build / pkg / "CMakeCache.txt").write_text(
+            f"CMAKE_BUILD_TYPE:STRING=\nCMAKE_GENERATOR:INTERNAL={generator}\n",
+            encoding="utf-8")
+    ros_packages._drop_other_generators_trees(build, "Ninja")
+    assert sorted(p.name for p in build.iterdir()) == ["ninja"]
 
 
 @needs_colcon

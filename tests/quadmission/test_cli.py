@@ -252,8 +252,8 @@ def test_quadmission_launch_runs_the_example() -> None:
 @pytest.mark.parametrize(("extra", "named"), [
     (["--gcs"], "--gcs: not available with a launch file with a simulator"),
     (["--rtf", "2"], "--rtf: not available with a launch file with a simulator"),
-    (["--transport", "dds", "--gcs", "--record"], "--record --gcs: not available with "
-                                                  "--transport dds"),
+    (["--transport", "dds", "--foxglove", "--record"], "--record --foxglove: not available "
+                                                       "with --transport dds (Cyclone"),
     (["--transport", "dds", "--domain-id", "300"], "--domain-id 300 is outside 0..232"),
 ])
 def test_launch_refuses_services_it_would_ignore(

@@ -15,8 +15,8 @@ import interfaces
 from interfaces.qos import qos_profile_default
 from runtime import Node
 from runtime.dds.config import DdsConfig
-from runtime.dds.executor import ClockedExecutor
 from runtime.dds.transport import DdsTransport
+from runtime.processes.executor import ClockedExecutor
 
 
 class Talker(Node):

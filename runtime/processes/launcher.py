@@ -1,6 +1,6 @@
-"""A launch over DDS: each process group (and the simulator) in its own process.
+"""A launch over processes: each process group (and the simulator) in its own process.
 
-:func:`run_launch` starts the children (:mod:`runtime.dds.process`), then watches them:
+:func:`run_launch` starts the children (:mod:`runtime.processes.child`), then watches them:
 the first to exit ends the launch (a finishing node's process exiting 0 after the
 mission, or any process dying), the others get SIGINT, then SIGKILL if they do not stop
 within a grace period. Ctrl-C (or SIGTERM) does the same and returns 130. What ended the launch is
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from runtime.dds.process import ProcessSpec
 from runtime.launch import LaunchDescription
+from runtime.processes.child import ProcessSpec
 
 __all__ = ["LaunchResult", "process_specs", "run_launch"]
 
@@ -39,7 +39,7 @@ def process_specs(description: LaunchDescription, **common: Any) -> list[Process
     groups: dict[str, list[dict[str, Any]]] = {}
     for spec in description.nodes:
         if not isinstance(spec.factory, str):
-            raise ValueError(f"node {spec.name or spec.factory}: a DDS launch needs the "
+            raise ValueError(f"node {spec.name or spec.factory}: a launch over processes needs the "
                              "factory as 'package.module:Class'")
         groups.setdefault(spec.process_name(), []).append(
             {"factory": spec.factory, "name": spec.name, "namespace": spec.namespace,
@@ -79,7 +79,7 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr) -> LaunchR
     try:
         for spec in specs:
             procs[spec.name] = subprocess.Popen(
-                [sys.executable, "-m", "runtime.dds.process", spec.to_json()], env=env)
+                [sys.executable, "-m", "runtime.processes.child", spec.to_json()], env=env)
             print(f"launch: started {spec.name} (pid {procs[spec.name].pid})", file=log,
                   flush=True)
         while True:

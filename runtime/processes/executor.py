@@ -1,10 +1,10 @@
-"""The executor of a node process on DDS: the same event loop, in real time.
+"""The executor of a node process: the same event loop, in real time.
 
 :class:`ClockedExecutor` is the deterministic executor's loop driven from outside: samples
-come from the DDS transport (taken in this thread, handed to the nodes' queues), and time
-comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a simulation: timers fire when
-the simulator's clock passes them) or from the host's clock. Node code is the same as in
-process; only who moves the clock differs.
+come from a process transport (ROS 2 or DDS; taken in this thread, handed to the nodes'
+queues), and time comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a
+simulation: timers fire when the simulator's clock passes them) or from the host's
+clock. Node code is the same as in process; only who moves the clock differs.
 
 Between two ``/clock`` samples the time is interpolated at the rate the clock has been
 running (simulated over wall time), at most one ``/clock`` interval ahead of the last
@@ -17,15 +17,17 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Protocol, runtime_checkable
 
 import interfaces
 from interfaces.qos import QoSProfile, ReliabilityPolicy
 from runtime.clock import Time
-from runtime.dds.transport import DdsTransport
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
-from runtime.transport import Endpoint, Reader, RequestId
+from runtime.node import Node
+from runtime.transport import Endpoint, Reader, RequestId, Transport
 
-__all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CLOCK_TYPE", "ClockedExecutor"]
+__all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CLOCK_TYPE", "ClockedExecutor", "ParameterMirror",
+           "ProcessTransport", "TimeFollower"]
 
 CLOCK_TOPIC = "/clock"
 CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
@@ -34,16 +36,44 @@ CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 _POLL_S = 0.05  # longest wait before looking at the stop condition again [s]
 
 
+class ProcessTransport(Transport, Protocol):
+    """A transport whose samples a process takes in its own thread: :meth:`wait` blocks
+    until something arrived (or :meth:`wake`, from any thread or a signal handler),
+    :meth:`dispatch` hands what arrived to the readers' callbacks."""
+
+    def wait(self, timeout_s: float) -> bool: ...
+
+    def wake(self) -> None: ...
+
+    def dispatch(self) -> int: ...
+
+    def close(self) -> None: ...
+
+
+@runtime_checkable
+class TimeFollower(Protocol):
+    """A transport with clocks of its own (rcl nodes'), moved to each ``/clock`` sample."""
+
+    def set_time(self, t_ns: int) -> None: ...
+
+
+@runtime_checkable
+class ParameterMirror(Protocol):
+    """A transport whose nodes show our nodes' parameters to foreign tools."""
+
+    def mirror_parameters(self, node: Node) -> None: ...
+
+
 class ClockedExecutor(DeterministicExecutor):
-    """Runs one process's nodes on a :class:`DdsTransport`, following ``/clock`` or the
+    """Runs one process's nodes on a :class:`ProcessTransport`, following ``/clock`` or the
     host's clock. ``spin(until=...)`` returns when ``until()`` holds or :meth:`stop` is
     called (from a signal handler too)."""
 
-    def __init__(self, transport: DdsTransport, *, use_sim_time: bool = True,
+    def __init__(self, transport: ProcessTransport, *, use_sim_time: bool = True,
                  config_dir: Path | _Default | None = DEFAULT_CONFIG_DIR) -> None:
         super().__init__(start_ns=0 if use_sim_time else time.time_ns(),
                          config_dir=config_dir, transport=transport)
-        self.dds = transport
+        self.process_transport = transport
         self.use_sim_time = use_sim_time
         self._clock_ns: int | None = None
         self._clock_wall_ns = 0  # host monotonic time the last /clock arrived
@@ -51,13 +81,14 @@ class ClockedExecutor(DeterministicExecutor):
         self._clock_rate = 0.0  # simulated ns per wall ns, smoothed
         self._stopping = False
         self._clock_reader: Reader | None = None
+        self._follower = transport if isinstance(transport, TimeFollower) else None
 
     def follow_clock(self) -> None:
         """Subscribe to ``/clock`` (with ``use_sim_time``). The simulator starts its clock
         once every node process has subscribed, so a process calls this when its nodes
         exist: no simulated time passes while it boots."""
         if self.use_sim_time and self._clock_reader is None:
-            self._clock_reader = self.dds.create_reader(
+            self._clock_reader = self.process_transport.create_reader(
                 Endpoint(CLOCK_TOPIC, CLOCK_TYPE, CLOCK_QOS), self._on_clock)
 
     def _on_clock(self, data: bytes, _request_id: RequestId | None) -> None:
@@ -72,6 +103,8 @@ class ClockedExecutor(DeterministicExecutor):
                 self._clock_rate = rate if self._clock_rate == 0.0 else (
                     0.9 * self._clock_rate + 0.1 * rate)
             self._clock_ns, self._clock_wall_ns, self._clock_step_ns = t_ns, wall_ns, step
+        if self._follower is not None:
+            self._follower.set_time(t_ns)
 
     def _target_ns(self) -> int:
         if not self.use_sim_time:
@@ -92,8 +125,8 @@ class ClockedExecutor(DeterministicExecutor):
             left = deadline - time.monotonic()
             if left <= 0:
                 return False
-            self.dds.wait(min(left, _POLL_S))
-            self.dds.dispatch()
+            self.process_transport.wait(min(left, _POLL_S))
+            self.process_transport.dispatch()
         if self._clock_ns is not None:
             self.spin_until(self._clock_ns)
         return self._clock_ns is not None
@@ -101,7 +134,7 @@ class ClockedExecutor(DeterministicExecutor):
     def stop(self) -> None:
         """Make :meth:`spin` return soon (safe from a signal handler)."""
         self._stopping = True
-        self.dds.wake()
+        self.process_transport.wake()
 
     @property
     def stopping(self) -> bool:
@@ -114,9 +147,9 @@ class ClockedExecutor(DeterministicExecutor):
             t_next = self.next_event_ns()
             if t_next is not None:
                 timeout = min(timeout, max(0.0, (t_next - time.time_ns()) / 1e9))
-        self.dds.wait(timeout)
+        self.process_transport.wait(timeout)
         self.spin_until(max(self._target_ns(), self.now().nanoseconds))  # arrival time
-        self.dds.dispatch()
+        self.process_transport.dispatch()
         self.spin_until(max(self._target_ns(), self.now().nanoseconds))
 
     def spin(self, until: Callable[[], bool] | None = None) -> None:

@@ -1,7 +1,9 @@
-"""One process of a DDS launch: a group of nodes, or the simulator.
+"""One process of a launch over processes: a group of nodes, or the simulator.
 
-Started by :mod:`runtime.dds.launcher` as ``python -m runtime.dds.process SPEC_JSON``
-(:class:`ProcessSpec`). A node process waits for the first ``/clock`` (``use_sim_time``),
+Started by :mod:`runtime.processes.launcher` as ``python -m runtime.processes.child
+SPEC_JSON`` (:class:`ProcessSpec`), on the transport the spec names (``ros2``: rclpy on
+Fast DDS; ``dds``: our Cyclone DDS mapping; :data:`TRANSPORTS`). A node process waits
+for the first ``/clock`` (``use_sim_time``),
 creates its nodes and spins them until one of them finishes (its exit code is the
 process's) or SIGINT/SIGTERM. The simulator process builds the simulation around an
 executor on the same transport and, about every millisecond of simulated time, publishes
@@ -41,14 +43,18 @@ from typing import Any
 import interfaces
 from interfaces.qos import QoSProfile
 from runtime.clock import Time
-from runtime.dds.config import DdsConfig
-from runtime.dds.executor import CLOCK_TOPIC, CLOCK_TYPE, ClockedExecutor
-from runtime.dds.transport import DdsTransport
 from runtime.executor import DeterministicExecutor
 from runtime.launch import LaunchDescription, NodeSpec, SimulatorSpec, finished, launch
 from runtime.node import Node
+from runtime.processes.executor import (
+    CLOCK_TOPIC,
+    CLOCK_TYPE,
+    ClockedExecutor,
+    ParameterMirror,
+    ProcessTransport,
+)
 
-__all__ = ["ProcessSpec", "main"]
+__all__ = ["TRANSPORTS", "ProcessSpec", "main"]
 
 #: exit codes of a process besides its nodes' own
 EXIT_NO_CLOCK = 3  # no /clock arrived in time
@@ -71,8 +77,9 @@ class ProcessSpec:
     name: str
     nodes: tuple[Mapping[str, Any], ...] = ()
     simulator: Mapping[str, Any] | None = None
+    transport: str = "dds"  # a key of TRANSPORTS
     domain_id: int = 0
-    loopback_only: bool = True
+    loopback_only: bool = True  # discovery and traffic stay on this machine
     use_sim_time: bool = True
     config_dir: str | None = None
     rtf: float = 1.0  # simulator: simulated seconds per wall second (0: as fast as it can)
@@ -85,6 +92,9 @@ class ProcessSpec:
     log_level: str = "INFO"
 
     def __post_init__(self) -> None:
+        if self.transport not in TRANSPORTS:
+            raise ValueError(f"transport {self.transport!r}: expected one of "
+                             f"{', '.join(sorted(TRANSPORTS))}")
         if not 0 < self.ack_period_s < self.max_lead_s:
             raise ValueError(f"ack_period_s {self.ack_period_s:g} must be positive and "
                              f"below max_lead_s {self.max_lead_s:g} (else the simulator "
@@ -100,8 +110,29 @@ class ProcessSpec:
         raw["followers"] = tuple(raw.get("followers") or ())
         return cls(**raw)
 
-    def dds_config(self) -> DdsConfig:
-        return DdsConfig(self.domain_id, self.loopback_only)
+    def make_transport(self) -> ProcessTransport:
+        return TRANSPORTS[self.transport](self)
+
+
+def _dds(spec: ProcessSpec) -> ProcessTransport:
+    from runtime.dds.config import DdsConfig
+    from runtime.dds.transport import DdsTransport
+    return DdsTransport(DdsConfig(spec.domain_id, spec.loopback_only), name=spec.name)
+
+
+def _ros2(spec: ProcessSpec) -> ProcessTransport:
+    from runtime.ros2.config import Ros2Config
+    from runtime.ros2.transport import Ros2Transport
+    return Ros2Transport(Ros2Config(spec.domain_id, spec.loopback_only), name=spec.name,
+                         use_sim_time=spec.use_sim_time)
+
+
+#: How a process makes its transport, by name (imported only when chosen).
+TRANSPORTS: dict[str, Callable[[ProcessSpec], ProcessTransport]] = {"dds": _dds, "ros2": _ros2}
+
+
+def _node_name(process: str) -> str:
+    return "".join(c if c.isalnum() or c == "_" else "_" for c in process)
 
 
 def _say(name: str, text: str) -> None:
@@ -115,14 +146,18 @@ def _config_dir(spec: ProcessSpec) -> Any:
 
 def run_nodes(spec: ProcessSpec) -> int:
     """A node group: follow /clock, spin until a node finishes or a signal comes."""
-    ex = ClockedExecutor(DdsTransport(spec.dds_config(), name=spec.name),
-                         use_sim_time=spec.use_sim_time, config_dir=_config_dir(spec))
+    transport = spec.make_transport()
+    ex = ClockedExecutor(transport, use_sim_time=spec.use_sim_time,
+                         config_dir=_config_dir(spec))
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: ex.stop())
     description = LaunchDescription(tuple(NodeSpec(**dict(n)) for n in spec.nodes))
     nodes = launch(description, ex)  # at time 0; the simulator waits for us
+    if isinstance(transport, ParameterMirror):  # declared on the transport's nodes too
+        for node in nodes:
+            transport.mirror_parameters(node)
     if spec.use_sim_time:
-        reporter = Node("launch_clock_ack", context=ex.context)
+        reporter = Node(f"launch_{_node_name(spec.name)}_clock", context=ex.context)
         ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _CLOCK_PUB_QOS)
         reporter.create_timer(spec.ack_period_s, lambda: ack.publish(
             interfaces.new(CLOCK_TYPE, clock=reporter.now().to_msg())))
@@ -132,7 +167,11 @@ def run_nodes(spec: ProcessSpec) -> int:
         _say(spec.name, f"no {CLOCK_TOPIC} after {spec.startup_timeout_s:g} s; is the "
                         "simulator running on this domain?")
         return EXIT_NO_CLOCK
-    ex.spin(until=lambda: finished(nodes) is not None)
+    try:
+        ex.spin(until=lambda: finished(nodes) is not None)
+    finally:  # what a node holds outside the graph is let go: a bag's index, a server
+        for node in reversed(nodes):
+            node.destroy_node()
     done = finished(nodes)
     if done is None:
         return 0
@@ -144,7 +183,7 @@ def run_nodes(spec: ProcessSpec) -> int:
 def run_simulator(spec: ProcessSpec) -> int:
     """The simulated world: publishes /clock, paced to ``rtf``."""
     assert spec.simulator is not None
-    transport = DdsTransport(spec.dds_config(), name=spec.name)
+    transport = spec.make_transport()
     ex = DeterministicExecutor(transport=transport, config_dir=_config_dir(spec))
     stop = {"now": False}
 
@@ -156,6 +195,9 @@ def run_simulator(spec: ProcessSpec) -> int:
         signal.signal(sig, on_signal)
     simulation = SimulatorSpec(str(spec.simulator["factory"]),
                                dict(spec.simulator.get("parameters") or {})).build(ex)
+    if isinstance(transport, ParameterMirror):
+        for node in list(ex.context.nodes):
+            transport.mirror_parameters(node)
     clock_node = Node("simulator_clock", context=ex.context)
     clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, _CLOCK_PUB_QOS)
     reached = dict.fromkeys(spec.followers, 0)
@@ -204,6 +246,9 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     result = simulation.run(spec.duration_s, stop=lambda: stop["now"], tick=tick,
                             tick_hz=_TICK_HZ)
+    sim_s, wall_s = (ex.now().nanoseconds - sim0) / 1e9, time.perf_counter() - wall0
+    _say(spec.name, f"ran {sim_s:.3f} s simulated in {wall_s:.3f} s "
+                    f"(real-time factor {sim_s / max(wall_s, 1e-9):.2f})")
     if stop["now"]:
         return 0
     _say(spec.name, result.reason)
@@ -213,7 +258,7 @@ def run_simulator(spec: ProcessSpec) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 1:
-        print("usage: python -m runtime.dds.process SPEC_JSON", file=sys.stderr)
+        print("usage: python -m runtime.processes.child SPEC_JSON", file=sys.stderr)
         return 2
     spec = ProcessSpec.from_json(args[0])
     logging.basicConfig(level=spec.log_level, stream=sys.stderr,
