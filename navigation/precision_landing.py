@@ -35,8 +35,9 @@ On top of the seed, selectable (:class:`LandingStrategy`) so the two can be comp
   * levels each measurement with the roll and pitch **at capture**
     (:func:`level_offset`): the camera looks along the tilted body axis, so a tilt of
     0.03 rad at 1 m puts the pad 3 cm off; the seed only gates the tilt (a 0.06 rad gate
-    lets 4-9 cm through), and with the latest attitude, 50 ms younger than the image,
-    levelling would add error rather than remove it;
+    lets 4-9 cm through at 0.8-1.5 m). The latest attitude would not do: hovering, roll
+    and pitch change by about 0.02 rad from one frame to the next, as much as the tilt
+    itself, so 50 ms of latency leave most of the error in;
   * averages the pad's (static) map position over the frames since it was found: a
     running mean whose gain falls as 1/n to ``pad_filter_gain``;
   * decides only on ``min_fresh_frames`` frames **exposed** after the last move ended
