@@ -171,6 +171,8 @@ class PrecisionLandParams:
     height_tolerance: float = param(unit="m", range=(0.01, 5.0))
     max_rejections: int = param(range=(1, 100))
     min_fresh_frames: int = param(range=(1, 100))
+    pad_filter_gain: float = param(range=(0.0, 1.0), lo_open=True)
+    land_radius: float = param(unit="m", range=(0.001, 1.0))
     reach_speed: float = param(unit="m/s", range=(0.05, 2.0))
     reach_radius: float = param(unit="m", range=(0.02, 1.0))
     land_speed: float = param(unit="m/s", range=(0.05, 2.0))

@@ -206,7 +206,7 @@ class PrecisionLandNode(Node):
                 r = reach_result.result().result
                 reach_result = None
                 ended = policy.reach_ended(r.success, r.result == REACH_RESULT.RESULT_TIMEOUT,
-                                           r.message)
+                                           r.message, self.now().nanoseconds)
                 if isinstance(ended, Finish):
                     return self._result(handle, ended, policy)
                 if ended.why:
@@ -223,7 +223,7 @@ class PrecisionLandNode(Node):
                 if pose is None:
                     continue  # no pose at its capture time: the frame says nothing
                 command = policy.frame(self.now().nanoseconds, frame.marker, pose,
-                                       latest[0].position, latest[1])
+                                       latest[0].position, latest[1], frame.stamp_ns)
                 self._feedback(handle, policy, frame.marker is not None)
                 if isinstance(command, Finish):
                     return self._result(handle, command, policy)

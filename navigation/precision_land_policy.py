@@ -176,12 +176,15 @@ class PrecisionLandPolicy:
         return self.lander.capture and marker is not None
 
     def frame(self, now_ns: int, marker: Measurement | None, pose: Pose,
-              position: tuple[float, float, float], speed: float) -> FrameCommand:
+              position: tuple[float, float, float], speed: float,
+              captured_ns: int | None = None) -> FrameCommand:
         """One frame the scanner looked at: ``marker`` the pad's (None: not in it),
         ``pose`` the vehicle's for it, ``position`` [m] and horizontal ``speed`` [m/s]
-        the latest."""
+        the latest, ``captured_ns`` the image's exposure stamp (None: ``now_ns``)."""
         command = self.lander.on_frame(now_ns / 1e9, marker, pose, position, speed,
-                                       busy=self.moving)
+                                       busy=self.moving,
+                                       captured_s=None if captured_ns is None
+                                       else captured_ns / 1e9)
         if isinstance(command, Fail):
             return Finish(_FAILURE_OUTCOME[command.failure],
                           f"pad {self.pad_id}: {command.failure.value}: {command.message}")
@@ -192,10 +195,14 @@ class PrecisionLandPolicy:
             return Touchdown()
         return command
 
-    def reach_ended(self, success: bool, timed_out: bool, message: str) -> Finish | Wait:
-        """The running move ended. A timeout (seen: stalled 3.0 cm from the target with a
-        3 cm radius) is no flight error: Wait says why, for the log."""
+    def reach_ended(self, success: bool, timed_out: bool, message: str,
+                    now_ns: int | None = None) -> Finish | Wait:
+        """The running move ended (at ``now_ns``: frames exposed before then do not count
+        as fresh). A timeout (seen: stalled 3.0 cm from the target with a 3 cm radius) is
+        no flight error: Wait says why, for the log."""
         self.moving = False
+        if now_ns is not None:
+            self.lander.move_ended(now_ns / 1e9)
         if success:
             return Wait()
         if timed_out:

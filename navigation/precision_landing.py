@@ -29,7 +29,23 @@ On top of the seed, selectable (:class:`LandingStrategy`) so the two can be comp
   and a retry count when the marker is lost during the descent (climb back, search);
 - outlier rejection: a pad estimate that jumps more than ``outlier_distance`` from the
   filtered one, or a PnP height that disagrees with the vehicle's, is dropped (a flipped
-  or misread marker).
+  or misread marker);
+- with the camera's latency in mind (the frame a decision reads was exposed
+  ``latency`` before it is read), CAPTURE
+  * levels each measurement with the roll and pitch **at capture**
+    (:func:`level_offset`): the camera looks along the tilted body axis, so a tilt of
+    0.03 rad at 1 m puts the pad 3 cm off; the seed only gates the tilt (a 0.06 rad gate
+    lets 4-9 cm through at 0.8-1.5 m). The latest attitude would not do: hovering, roll
+    and pitch change by about 0.02 rad from one frame to the next, as much as the tilt
+    itself, so 50 ms of latency leave most of the error in;
+  * averages the pad's (static) map position over the frames since it was found: a
+    running mean whose gain falls as 1/n to ``pad_filter_gain``;
+  * decides only on ``min_fresh_frames`` frames **exposed** after the last move ended
+    (:meth:`PrecisionLander.move_ended`), not merely read after it;
+  * hands the final landing over only when the pad is within ``land_radius`` of the
+    vehicle by the filtered error itself (untruncated: truncation towards zero lets a
+    4.2 cm error pass a 3 cm gate), else it corrects at the lowest step first: the
+    flight controller's landing descends where the vehicle is.
 
 :class:`PrecisionLander` is the whole decision as a step function: the node feeds it
 each measurement (or "no marker in this frame") and carries out the command it returns.
@@ -93,7 +109,9 @@ class LandingParams:
     outlier_distance: float = 0.25  # m, a pad estimate this far from the filtered one is dropped
     height_tolerance: float = 0.3  # m, PnP height vs the vehicle's height above the pad
     max_rejections: int = 6  # consecutive drops before the filter restarts from the data
-    min_fresh_frames: int = 2  # frames after a move before deciding (CAPTURE)
+    min_fresh_frames: int = 2  # frames exposed after a move before deciding (CAPTURE)
+    pad_filter_gain: float = 0.5  # CAPTURE: floor of the pad average's gain 1/n, (0, 1]
+    land_radius: float = 0.04  # m, CAPTURE: the final landing only this close (untruncated)
 
     def __post_init__(self) -> None:
         checks = {
@@ -115,6 +133,8 @@ class LandingParams:
             "height_tolerance": self.height_tolerance > 0.0,
             "max_rejections": self.max_rejections >= 1,
             "min_fresh_frames": self.min_fresh_frames >= 1,
+            "pad_filter_gain": 0.0 < self.pad_filter_gain <= 1.0,
+            "land_radius": self.land_radius > 0.0,
         }
         bad = [k for k, ok in checks.items() if not ok]
         if bad:
@@ -126,6 +146,23 @@ class LandingParams:
 def attitude_ok(roll: float, pitch: float, max_tilt: float) -> bool:
     """The attitude gate: both angles [rad] within ``max_tilt``."""
     return abs(roll) <= max_tilt and abs(pitch) <= max_tilt
+
+
+def level_offset(offset_body: npt.ArrayLike, height: float, roll: float, pitch: float,
+                 ) -> FloatArray:
+    """The camera's measurement levelled by the attitude at its exposure (CAPTURE).
+
+    ``offset_body`` (FLU x, y) [m] and ``height`` [m] along the optical axis are the pad
+    centre in the body frame as the camera saw it, ``(x, y, -height)`` (the down camera
+    looks along body -z). Rotated by pitch then roll (the ZYX attitude without its yaw:
+    ``R_y(pitch) R_x(roll)``), its x, y are the pad's horizontal offset in the level frame
+    that eq. 3 then turns by the yaw. Level, it is ``offset_body`` itself."""
+    x, y = np.asarray(offset_body, dtype=np.float64).reshape(2)
+    z = -height
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    y1, z1 = cr * y - sr * z, sr * y + cr * z  # R_x(roll)
+    return np.array([cp * x + sp * z1, y1])  # R_y(pitch), x and y
 
 
 def body_to_map(error_body: npt.ArrayLike, yaw: float) -> FloatArray:
@@ -240,7 +277,9 @@ class PrecisionLander:
     error: FloatArray | None = None  # m, map frame, last truncated error
     retries_left: int = 0
     rejected: int = 0  # consecutive outliers
-    fresh_frames: int = 0  # frames seen since the last command finished
+    fresh_frames: int = 0  # frames exposed since the last command finished
+    estimates: int = 0  # CAPTURE: pad estimates in the running mean since it (re)started
+    _move_ended_s: float = -math.inf  # frames exposed before this say nothing new (CAPTURE)
     _last_seen_s: float | None = None
     _search_started_s: float = 0.0
     _search_points: list[FloatArray] = field(default_factory=list)
@@ -259,6 +298,11 @@ class PrecisionLander:
         above the pad, at least ``min_altitude``."""
         self.reference_altitude = max(position[2] - self.pad_position[2],
                                       self.params.min_altitude)
+
+    def move_ended(self, now_s: float) -> None:
+        """The last move ended at ``now_s``: only frames exposed from then on count as
+        fresh (a frame read after the end may have been exposed before it)."""
+        self._move_ended_s = now_s
 
     def _height_ok(self, m: Measurement, pose: Pose) -> bool:
         expected = pose.position[2] - self.pad_position[2]
@@ -296,6 +340,7 @@ class PrecisionLander:
             self.retries_left -= 1
             self.phase = Phase.SEARCH
             self.filtered = None
+            self.estimates = 0
             self._search_points = []
             self._search_started_s = now_s
             self._last_seen_s = None
@@ -304,13 +349,16 @@ class PrecisionLander:
                                   f"{self.reference_altitude:.2f} m above the pad")
 
     def on_frame(self, now_s: float, marker: Measurement | None, pose: Pose,
-                 position: tuple[float, float, float], speed: float, busy: bool) -> Command:
+                 position: tuple[float, float, float], speed: float, busy: bool,
+                 captured_s: float | None = None) -> Command:
         """One image looked at. ``pose``: the vehicle's pose for ``marker``; ``position``,
-        ``speed``: the latest [m, m/s]; ``busy``: a reach is still being flown."""
+        ``speed``: the latest [m, m/s]; ``busy``: a reach is still being flown;
+        ``captured_s``: the image's exposure (None: ``now_s``, no latency)."""
         p = self.params
         if now_s - self.start_s > p.timeout_s:
             return Fail(Failure.TIMEOUT, f"not landed after {p.timeout_s:g} s")
-        if not busy:
+        exposed_s = now_s if captured_s is None else captured_s
+        if not busy and (not self.capture or exposed_s >= self._move_ended_s):
             self.fresh_frames += 1
         if marker is None:
             if self.phase is Phase.SEARCH:
@@ -326,8 +374,10 @@ class PrecisionLander:
         # 1. attitude gate
         if not attitude_ok(pose.roll, pose.pitch, p.max_tilt):
             return Wait("attitude gate: not level")
-        # 2. eq. 3
-        error_w = body_to_map(marker.offset_body, pose.yaw)
+        # 2. eq. 3 (CAPTURE: levelled first with the attitude at capture)
+        offset = (level_offset(marker.offset_body, marker.height, pose.roll, pose.pitch)
+                  if self.capture else marker.offset_body)
+        error_w = body_to_map(offset, pose.yaw)
         # 3. filter (with outlier rejection for CAPTURE)
         if self.capture:
             pad = np.array([pose.position[0], pose.position[1]]) + error_w
@@ -338,8 +388,11 @@ class PrecisionLander:
                 if self.rejected < p.max_rejections:
                     return Wait("outlier dropped")
                 self.filtered = None  # the data disagree with us for long: trust the data
+                self.estimates = 0
             self.rejected = 0
-            self.filtered = low_pass(self.filtered, pad, p.filter_gain)
+            self.estimates += 1  # the pad is still: a running mean, then a slow filter
+            self.filtered = low_pass(self.filtered, pad,
+                                     max(p.pad_filter_gain, 1.0 / self.estimates))
             raw_error = self.filtered - np.array([position[0], position[1]])
         else:
             self.filtered = low_pass(self.filtered, error_w, p.filter_gain)
@@ -355,12 +408,18 @@ class PrecisionLander:
         self.fresh_frames = 0
         # 5. radius + velocity -> step down, land at the bottom
         if aligned(self.error, speed, p):
-            self.reference_altitude -= p.descent_step
-            if self.reference_altitude < p.min_altitude:
-                self.phase = Phase.FINAL_LAND
-                return LandNow()
-            self.phase = Phase.DESCEND
+            if self.reference_altitude - p.descent_step < p.min_altitude:
+                if not self.capture or float(np.hypot(*raw_error)) < p.land_radius:
+                    self.reference_altitude -= p.descent_step
+                    self.phase = Phase.FINAL_LAND
+                    return LandNow()
+                # CAPTURE: the landing descends where the vehicle is: centre it first
+            else:
+                self.reference_altitude -= p.descent_step
+                self.phase = Phase.DESCEND
         # 6. reach the current position plus the error
+        if self.capture:
+            self._move_ended_s = max(self._move_ended_s, exposed_s)  # until move_ended
         return ReachTo(self._target(position, self.error))
 
 
@@ -380,6 +439,7 @@ __all__ = [
     "aligned",
     "attitude_ok",
     "body_to_map",
+    "level_offset",
     "low_pass",
     "search_pattern",
     "truncate",

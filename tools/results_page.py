@@ -172,13 +172,20 @@ def _landing_scenario(d: Json) -> list[str]:
 def _precision_landing(d: Json) -> list[str]:
     rows = []
     for name, key in (("seed 003 (latest pose, no phases)", "seed_algorithm"),
-                      ("ours (pose at capture time, phases, outlier rejection)", "ours")):
+                      ("ours (pose and attitude at capture time, phases, outlier rejection)",
+                       "ours")):
         r = d[key]
         rows.append([name, f"{r['landed']} / {'all' if r['all_inside'] else 'not all'} inside",
                      cm(r["rmse_m"], 2), cm(r["max_error_m"], 1)])
     lines = table(["strategy", "landed / inside", "touchdown RMSE", "max"], rows)
-    return [*lines, f"Ratio ours / seed (RMSE): {num(d['rmse_ratio_ours_over_seed'])}, over "
-                    f"{d['flown']} of {d['landings']} landings flown, {d['lighting']} preset.", ""]
+    worst = d.get("max_ratio_ours_over_seed")
+    latency = d.get("camera_latency_s")
+    return [*lines, f"Ratio ours / seed: RMSE {num(d['rmse_ratio_ours_over_seed'])}"
+                    + ("" if worst is None else f", worst case {num(worst)}")
+                    + f", over {d['flown']} of {d['landings']} landings flown, "
+                    f"{d['lighting']} preset"
+                    + ("" if latency is None else
+                       f", down camera latency {1000 * latency:.0f} ms") + ".", ""]
 
 
 def _aruco_table1(d: Json) -> list[str]:
@@ -578,8 +585,8 @@ SECTIONS: dict[str, Section] = {
     "precision_landing": Section(
         "Precision landing: ours against the seed's algorithm", "bench_precision_landing.py",
         "The same seeded landings on random arenas flown by both strategies: the seed's (the "
-        "marker error added to the latest pose, no phases) and ours (the pose at the frame's "
-        "capture time, phases, outlier rejection).",
+        "marker error added to the latest pose, no phases) and ours (the pose and attitude at "
+        "the frame's capture time, phases, outlier rejection).",
         _precision_landing),
     "aruco_table1": Section(
         "ArUco recognition: seed 003 Table 1 in the simulator", "bench_aruco_table1.py",

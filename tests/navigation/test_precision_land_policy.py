@@ -345,3 +345,24 @@ def test_a_rejected_move_is_a_flight_error():
 def test_cancel():
     finish = _policy(_World((4.6, 3.0, 1.5))).cancel()
     assert finish == Finish(Outcome.CANCELED, "canceled") and not finish.success
+
+
+def test_a_move_ends_at_its_time_so_frames_exposed_during_it_are_not_fresh():
+    """The camera publishes 50 ms after the exposure. The move ends; the frame read 30 ms
+    later was exposed 20 ms before the end, so the decision waits for two frames exposed
+    after it (min_fresh_frames 2)."""
+    world = _World((4.6, 3.0, 1.5))
+    policy = _policy(world)
+    move = _until_command(world, policy)
+    world.position = move.position
+    end_ns = world.now_ns + S
+    assert policy.reach_ended(True, False, "", end_ns) == Wait()
+    latency_ns = 50_000_000
+
+    def read(at_ns: int):
+        return policy.frame(at_ns, world.marker(), world.pose(), world.position, 0.0,
+                            at_ns - latency_ns)
+
+    assert isinstance(read(end_ns + 30_000_000), Wait), "exposed during the move"
+    assert isinstance(read(end_ns + 30_000_000 + FRAME_NS), Wait), "one fresh frame"
+    assert isinstance(read(end_ns + 30_000_000 + 2 * FRAME_NS), Move), "two fresh frames"

@@ -25,6 +25,7 @@ from navigation.precision_landing import (
     aligned,
     attitude_ok,
     body_to_map,
+    level_offset,
     low_pass,
     search_pattern,
     truncate,
@@ -85,12 +86,14 @@ def _lander(strategy=LandingStrategy.CAPTURE, **kw) -> PrecisionLander:
     return lander
 
 
-def _seen(lander, t, at, *, speed=0.0, busy=False, height=None, roll=0.0):
-    """A frame from ``at`` (x, y, z) with the pad where it is, yaw 0."""
+def _seen(lander, t, at, *, speed=0.0, busy=False, height=None, roll=0.0, captured=None):
+    """A frame from ``at`` (x, y, z) with the pad where it is, yaw 0, exposed at
+    ``captured`` (None: ``t``)."""
     offset = (PAD[0] - at[0], PAD[1] - at[1])
     h = at[2] if height is None else height
     pose = Pose(at, 0.0, roll, 0.0)
-    return lander.on_frame(t, Measurement(offset, h), pose, at, speed, busy)
+    return lander.on_frame(t, Measurement(offset, h), pose, at, speed, busy,
+                           captured_s=captured)
 
 
 def test_off_centre_it_reaches_position_plus_error_at_the_same_altitude():
@@ -462,3 +465,127 @@ def test_capture_goes_round_the_whole_spiral_then_starts_again():
         targets.append(cmd.position[:2])
     spiral = search_pattern(PAD[:2], 0.5, 1)
     assert np.array(targets) == pytest.approx(np.array(spiral + spiral[:2]))
+
+
+# -- with the camera's latency (issue 21) ---------------------------------------------------
+def _rotation(roll: float, pitch: float) -> np.ndarray:
+    """Body -> level frame: R_y(pitch) R_x(roll), the ZYX attitude without its yaw."""
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    return ry @ rx
+
+
+def _camera_sees(level: tuple[float, float, float], roll: float, pitch: float) -> Measurement:
+    """What the down camera measures of a point ``level`` (x, y, z) [m] from it in the
+    level frame: the point in the body frame, its height along the optical axis (-z)."""
+    b = _rotation(roll, pitch).T @ np.array(level)
+    return Measurement((float(b[0]), float(b[1])), float(-b[2]))
+
+
+def test_a_pitched_camera_sees_the_pad_ahead_and_levelling_puts_it_back_below():
+    """Right over the pad at 1 m, nose down by 0.05 rad (inside the 0.06 rad gate): the
+    camera looks back, so the pad shows 5 cm ahead. Levelled, it is below again."""
+    m = _camera_sees((0.0, 0.0, -1.0), 0.0, 0.05)
+    assert m.offset_body == pytest.approx((math.sin(0.05), 0.0), abs=1e-12)
+    assert level_offset(m.offset_body, m.height, 0.0, 0.05) == pytest.approx([0.0, 0.0],
+                                                                              abs=1e-12)
+    rolled = _camera_sees((0.0, 0.0, -1.0), 0.05, 0.0)  # left side up: looks left
+    assert rolled.offset_body[1] == pytest.approx(-math.sin(0.05), abs=1e-12), "pad right"
+    assert level_offset(rolled.offset_body, rolled.height, 0.05, 0.0) == pytest.approx(
+        [0.0, 0.0], abs=1e-12)
+
+
+@given(st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(0.3, 3.0),
+       st.floats(-0.3, 0.3), st.floats(-0.3, 0.3))
+def test_levelling_inverts_the_cameras_tilt(x, y, height, roll, pitch):
+    m = _camera_sees((x, y, -height), roll, pitch)
+    assert level_offset(m.offset_body, m.height, roll, pitch) == pytest.approx([x, y],
+                                                                               abs=1e-9)
+
+
+@pytest.mark.parametrize("roll, pitch", [(0.05, 0.0), (0.0, -0.05), (-0.04, 0.04)])
+def test_capture_levels_each_frame_with_the_attitude_at_its_capture(roll, pitch):
+    """Over the pad at 1 m, tilted within the gate at the exposure (the pose paired with
+    the frame): CAPTURE finds the pad below and steps down without a correction; the
+    seed, which only gates the tilt, takes it for 4-7 cm off and corrects instead."""
+    at = (PAD[0], PAD[1], 1.0)
+    m = _camera_sees((0.0, 0.0, -1.0), roll, pitch)
+    pose = Pose(at, 0.0, roll, pitch)
+    ours = _lander(min_fresh_frames=1)
+    cmd = ours.on_frame(0.1, m, pose, at, 0.0, False)
+    assert ours.filtered == pytest.approx(PAD[:2], abs=1e-9)
+    assert ours.phase is Phase.DESCEND and isinstance(cmd, ReachTo)
+    assert cmd.position[:2] == pytest.approx(at[:2], abs=1e-9)
+    seed = _lander(LandingStrategy.SEED, min_fresh_frames=1)
+    seed.on_frame(0.1, m, pose, at, 0.0, False)
+    assert float(np.hypot(*seed.error)) >= 0.04 and seed.phase is Phase.ALIGN
+
+
+def test_capture_decides_only_on_frames_exposed_after_the_move_ended():
+    """The camera publishes 50 ms after the exposure, 12 frames a second. The move ends
+    at 1.0 s; the frame read at 1.03 s was exposed at 0.98 s, still during the move, so
+    it is no fresh frame: the decision waits for two frames exposed from 1.0 s on."""
+    lander = _lander()  # min_fresh_frames 2
+    at = (4.9, 3.0, 1.5)
+    _seen(lander, 0.1, at, captured=0.05)
+    assert isinstance(_seen(lander, 0.2, at, captured=0.15), ReachTo)
+    assert _seen(lander, 0.6, at, busy=True, captured=0.55) == Wait("a move is being flown")
+    lander.move_ended(1.0)
+    assert _seen(lander, 1.03, at, captured=0.98) == Wait("a move is being flown")
+    assert _seen(lander, 1.11, at, captured=1.06) == Wait("a move is being flown")
+    assert isinstance(_seen(lander, 1.19, at, captured=1.14), ReachTo)
+    # the seed strategy reads frames as they come, as the paper does
+    seed = _lander(LandingStrategy.SEED)
+    _seen(seed, 0.1, at, captured=0.05)
+    assert isinstance(_seen(seed, 0.2, at, captured=0.15), ReachTo)
+    seed.move_ended(1.0)
+    _seen(seed, 1.03, at, captured=0.98)
+    assert isinstance(_seen(seed, 1.11, at, captured=1.06), ReachTo)
+
+
+def test_frames_exposed_before_a_move_was_sent_never_count_for_the_next_decision():
+    """Without ``move_ended`` (the move's end unknown), a frame exposed before the move
+    was commanded is still stale."""
+    lander = _lander()
+    at = (4.9, 3.0, 1.5)
+    _seen(lander, 0.1, at)
+    assert isinstance(_seen(lander, 0.2, at), ReachTo)
+    assert _seen(lander, 0.3, at, captured=0.15) == Wait("a move is being flown")
+    assert _seen(lander, 0.4, at, captured=0.25) == Wait("a move is being flown")
+    assert isinstance(_seen(lander, 0.5, at, captured=0.35), ReachTo)
+
+
+def test_capture_hands_the_final_landing_over_only_within_land_radius_untruncated():
+    """At the lowest step, 2.9 cm off in x and y (4.1 cm): truncated to (2, 2) cm it is
+    2.8 cm, inside the 3 cm align radius, and the seed lands there, 4 cm off, since the
+    flight controller descends where the vehicle is. CAPTURE compares the error itself
+    with land_radius (2 cm): it centres at the same altitude first, then lands."""
+    kw = {"min_fresh_frames": 1, "align_radius": 0.03, "land_radius": 0.02}
+    at = (PAD[0] - 0.029, PAD[1] - 0.029, 0.8)
+    seed = _lander(LandingStrategy.SEED, **kw)
+    seed.reference_altitude = 0.8
+    assert isinstance(_seen(seed, 0.1, at), LandNow)
+    ours = _lander(**kw)
+    ours.reference_altitude = 0.8
+    cmd = _seen(ours, 0.1, at)
+    assert cmd == ReachTo((pytest.approx(at[0] + 0.02), pytest.approx(at[1] + 0.02), 0.8))
+    assert ours.phase is not Phase.FINAL_LAND and ours.reference_altitude == 0.8
+    centred = (cmd.position[0], cmd.position[1], 0.8)  # 1.3 cm off
+    assert isinstance(_seen(ours, 0.2, centred), LandNow)
+    assert ours.phase is Phase.FINAL_LAND
+
+
+def test_capture_averages_the_pad_position_since_it_was_found_then_filters_slowly():
+    """The pad does not move: its estimates are averaged (gain 1/n) down to
+    ``pad_filter_gain``; a restart after a loss starts the average again."""
+    lander = _lander(min_fresh_frames=1, pad_filter_gain=0.25)
+    at = (4.5, 3.0, 1.5)
+    pose = Pose(at, 0.0)
+    xs = [0.50, 0.56, 0.44, 0.54]
+    for k, x in enumerate(xs):
+        lander.on_frame(0.1 * k, Measurement((x, 0.0), 1.5), pose, at, 0.0, True)
+    assert lander.filtered == pytest.approx([4.5 + sum(xs) / 4, 3.0])
+    before = lander.filtered.copy()
+    lander.on_frame(0.5, Measurement((0.6, 0.0), 1.5), pose, at, 0.0, True)
+    assert lander.filtered == pytest.approx(before + 0.25 * (np.array([5.1, 3.0]) - before))
