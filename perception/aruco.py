@@ -585,12 +585,12 @@ def annotate(image: npt.ArrayLike, markers: Sequence[Marker]) -> Image:
 __all__ = [
     "DICTIONARY_NAME",
     "PAD_IDS",
-    "Region",
     "ROBOT_IDS",
     "ArucoScanner",
     "Marker",
     "MarkerKind",
     "Preprocess",
+    "Region",
     "ScanMode",
     "ScannerSettings",
     "SmallHit",

@@ -10,7 +10,6 @@ from perception.tracking import TrackerSettings
 from runtime import param
 from runtime.parameters import validate_parameters
 
-
 MIN_SIDE_SAFETY = 0.6
 """A marker's side seen at ``max_range_m`` is at least this share of its pinhole size:
 tilted by up to ~50 deg (cos), or seen obliquely at the frame's edge."""
@@ -63,8 +62,8 @@ class ScannerParams:
         if self.max_range_m <= 0.0:
             return 0.0
         sides = [side for kind, side in self.side_lengths.items()
-                 if kind is MarkerKind.PAD and mode is not ScanMode.ROBOTS
-                 or kind is MarkerKind.ROBOT and mode is not ScanMode.PADS]
+                 if (kind is MarkerKind.PAD and mode is not ScanMode.ROBOTS)
+                 or (kind is MarkerKind.ROBOT and mode is not ScanMode.PADS)]
         return MIN_SIDE_SAFETY * focal_px * min(sides) / self.max_range_m
 
     def scanner_settings(self) -> ScannerSettings:

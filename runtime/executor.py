@@ -133,7 +133,7 @@ class DeterministicExecutor:
             done: concurrent.futures.Future[T] = concurrent.futures.Future()
             try:
                 done.set_result(work())
-            except Exception as exc:  # noqa: BLE001 - the future carries it
+            except Exception as exc:
                 done.set_exception(exc)
             return done
         if self._worker is None:

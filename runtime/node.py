@@ -605,7 +605,7 @@ class Node:
             try:
                 value = work()
                 outcome = lambda: value  # noqa: E731
-            except Exception as exc:  # noqa: BLE001 - the future carries it
+            except Exception as exc:
                 error = exc
 
                 def outcome() -> T:
@@ -616,7 +616,7 @@ class Node:
             sleeps.discard(handle)
             try:
                 result = outcome()
-            except Exception as exc:  # noqa: BLE001 - the future carries it
+            except Exception as exc:
                 if not future.done():
                     future.set_exception(exc)
                 return
