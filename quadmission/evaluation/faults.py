@@ -3,7 +3,9 @@
 The mission's reactions are not restated: a kind the mission must notice names the
 :class:`~fsm.mission_table.ErrorCause` it shows as, and the reaction is that cause's in
 :data:`~fsm.mission_table.ERROR_POLICY`. A lost link is the FCU's to handle (its
-offboard-loss failsafe: hold, then ``offboard_loss_action``); a gust is ridden out.
+offboard-loss failsafe: hold, then ``offboard_loss_action``); a gust is ridden out. The
+VIO lost for good is the mission's (HOLD) and then the FCU's: without a position it
+cannot hold, and its position-loss failsafe descends to the floor.
 
 What happened is read from what the mission published (its ``/mission/events``: an error
 event carries its cause and reaction) and from the FCU's modes; where the vehicle ended
@@ -43,6 +45,10 @@ class Handler(Enum):
 class Expectation:
     handler: Handler
     cause: ErrorCause | None = None  # what the mission must report (Handler.MISSION)
+    fcu_follows: bool = False
+    """A fault that lasts to the end leaves the vehicle to the FCU's failsafe after the
+    mission's reaction (VIO lost for good: HOLD, then the position-loss descent), and
+    the run must end on the ground."""
 
     @property
     def reaction(self) -> str:
@@ -53,7 +59,8 @@ class Expectation:
 
 
 EXPECTED: dict[FaultKind, Expectation] = {
-    FaultKind.VIO_STOP: Expectation(Handler.MISSION, ErrorCause.LOCALISATION_LOST),
+    FaultKind.VIO_STOP: Expectation(Handler.MISSION, ErrorCause.LOCALISATION_LOST,
+                                    fcu_follows=True),
     FaultKind.BATTERY_LOW: Expectation(Handler.MISSION, ErrorCause.BATTERY_LOW),
     FaultKind.BATTERY_CRITICAL: Expectation(Handler.MISSION, ErrorCause.BATTERY_CRITICAL),
     FaultKind.OPERATOR_ABORT: Expectation(Handler.MISSION, ErrorCause.OPERATOR_ABORT),
@@ -133,10 +140,17 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
             policy = ERROR_POLICY[expected.cause].reaction
             handled = (handled and hit is not None and hit[1] == (want, policy.name)
                        and end in _END_STATES_OF[policy])
+    expected_text = (expected.reaction if expected.cause is None
+                     else f"{expected.cause.value}: {expected.reaction}")
+    if expected.fcu_follows and not math.isfinite(fault.end_s):
+        expected_text += ", then FAILSAFE"
+        t = next((t for t in fcu_failsafes if t >= fault.at_s), None)
+        if t is not None:
+            observed += ", then FAILSAFE"
+        handled = handled and t is not None and end in _END_STATES_OF[Reaction.LAND_NOW]
     return {"kind": fault.kind.value, "at_s": fault.at_s, "duration_s": fault.duration_s,
             "spec": fault.spec(),
-            "expected": (expected.reaction if expected.cause is None
-                         else f"{expected.cause.value}: {expected.reaction}"),
+            "expected": expected_text,
             "observed": observed,
             "reaction_s": None if reaction_s is None else round(reaction_s, 3),
             "end_state": end.value, "handled": handled}
