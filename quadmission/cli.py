@@ -246,10 +246,11 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                    help="mission: remove this pad from the field, which the mission still "
                         "believes is there (seed 003, 4.2: the pad-search branch)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
-                   help="mission: inject a fault, KIND@T[:DURATION][,key=value...] in "
-                        "simulated seconds (repeatable; docs/scenarios.md)")
+                   help="inject a fault, KIND@T[:DURATION][,key=value...] in simulated "
+                        "seconds (repeatable; the kinds each scenario takes: "
+                        "docs/scenarios.md)")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
-                   help="mission: inject the faults listed in this YAML file")
+                   help="inject the faults listed in this YAML file")
     _run_services_args(p)
 
 
@@ -258,7 +259,8 @@ def _stderr(line: str) -> None:
 
 
 def _sim_run(args: argparse.Namespace) -> int:
-    from quadmission.errors import OptionsError, ScenarioRefused
+    from quadmission.assembly.faults import check_faults
+    from quadmission.errors import ScenarioRefused
     from quadmission.reports.report import REPORT_NAME
     from quadmission.scenarios import SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
@@ -266,9 +268,7 @@ def _sim_run(args: argparse.Namespace) -> int:
 
     # a bad spec is a SimError: one line naming the bad part, exit code 2
     faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
-    if faults and args.scenario != "mission":
-        raise OptionsError(f"--fault/--faults act in the mission scenario, not "
-                           f"{args.scenario!r}")
+    check_faults(args.scenario, faults)  # the kinds this scenario takes, or why not
     services = _run_services(args)
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               faults=faults,

@@ -6,7 +6,13 @@ from __future__ import annotations
 import pytest
 
 from fsm.mission_machine import EventKind, MissionEvent, Severity
-from quadmission.evaluation.faults import EXPECTED, EndState, judge_fault
+from quadmission.evaluation.faults import (
+    EXPECTED,
+    EndState,
+    FaultExpectationError,
+    expectation,
+    judge_fault,
+)
 from sim.fault_spec import FaultKind, parse_fault
 
 
@@ -55,3 +61,27 @@ def test_a_ridden_out_fault_must_raise_no_error() -> None:
     assert judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD)["handled"]
     hit = judge_fault(fault, [(26.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING)
     assert not hit["handled"]
+
+
+def test_an_occluded_pad_must_be_skipped_with_its_reason() -> None:
+    fault = parse_fault("pad_occluded@0,pad=4")
+    skipped = [(120.0, 4, "marker not seen within the search radius")]
+    judged = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, skipped)
+    assert judged["expected"] == "SKIP" and judged["handled"]
+    assert judged["observed"] == "SKIP pad 4: marker not seen within the search radius"
+    other = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, [(120.0, 5, "x")])
+    assert not other["handled"], "another pad skipped is not this one"
+    err = judge_fault(fault, [(90.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING,
+                      skipped)
+    assert not err["handled"]
+
+
+def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None:
+    fc = judge_fault(parse_fault("node_stop@30,name=flight_control"), [], [31.0],
+                     EndState.LANDED)
+    assert fc["expected"] == "FAILSAFE" and fc["handled"]
+    mapping = judge_fault(parse_fault("node_stop@30,name=mapping"),
+                          [(33.2, _error("module_silent", "HOLD"))], [], EndState.HOLDING)
+    assert mapping["expected"] == "module_silent: HOLD" and mapping["handled"]
+    with pytest.raises(FaultExpectationError, match="node 'mission'.*flight_control"):
+        expectation(parse_fault("node_stop@30,name=mission"))
