@@ -23,8 +23,8 @@ def test_a_kind_a_scenario_cannot_take_is_refused_naming_both_and_why() -> None:
     with pytest.raises(OptionsError, match=r"the navigate scenario cannot take pad_occluded "
                                            r"\(it lands on no pad\); it takes: .*clock_jump"):
         check_faults("navigate", parse_faults(["pad_occluded@0,pad=3"]))
-    with pytest.raises(OptionsError, match="precision-landing scenario cannot take "
-                                           "battery_low .*mission's RETURN_AND_LAND"):
+    with pytest.raises(OptionsError, match=r"precision-landing scenario cannot take "
+                                           r"battery_low .*mission's RETURN_AND_LAND"):
         check_faults("precision-landing", parse_faults(["battery_low@3"]))
     with pytest.raises(OptionsError, match="the arena-tour scenario takes no faults"):
         check_faults("arena-tour", parse_faults(["light_drop@1"]))
@@ -35,7 +35,7 @@ def test_robot_absent_takes_the_target_and_node_stop_a_node_of_the_run() -> None
     arena = default_arena()
     (f,) = resolve_faults(parse_faults(["robot_absent@0"]), arena, 19, ["mapping"])
     assert f.value("robot") == 19
-    with pytest.raises(OptionsError, match="no node 'mapper' in this run .*mapping"):
+    with pytest.raises(OptionsError, match=r"no node 'mapper' in this run .*mapping"):
         resolve_faults([parse_fault("node_stop@3,name=mapper")], arena, 19, ["mapping"])
     with pytest.raises(OptionsError, match="no expected reaction for node 'mission'"):
         resolve_faults([parse_fault("node_stop@3,name=mission")], arena, 19, ["mission"])

@@ -83,5 +83,5 @@ def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None
     mapping = judge_fault(parse_fault("node_stop@30,name=mapping"),
                           [(33.2, _error("module_silent", "HOLD"))], [], EndState.HOLDING)
     assert mapping["expected"] == "module_silent: HOLD" and mapping["handled"]
-    with pytest.raises(FaultExpectationError, match="node 'mission'.*flight_control"):
+    with pytest.raises(FaultExpectationError, match=r"node 'mission'.*flight_control"):
         expectation(parse_fault("node_stop@30,name=mission"))

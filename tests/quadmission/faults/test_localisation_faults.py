@@ -58,3 +58,31 @@ def test_a_short_vio_gap_resumes_offboard_where_it_was() -> None:
     st = h.sitl.firmware.status
     assert st is not None and st.failsafe_reason is FailsafeReason.NONE
     assert abs(h.position()[2] - HOVER_Z_M) < 0.3
+
+
+def test_a_vio_jump_goes_unnoticed_and_moves_the_vehicle_by_the_jump() -> None:
+    """Expected: nobody reacts (nothing checks the odometry's consistency). The FCU fuses
+    the jumped poses and flies its estimate back to the hold: in truth the vehicle moves
+    by minus the jump, in OFFBOARD all along, no failsafe."""
+    h = hover(seed=23)
+    at = h.t() + 0.5
+    start = h.position()
+    h.inject(parse_fault(f"vio_jump@{at},x=0.6,y=-0.4"))
+    result = h.fly(6.0)
+    assert result.crash is None
+    assert [n for _, n, _ in h.modes.changes if _ >= at] == []  # never left OFFBOARD
+    moved = h.position() - start
+    assert abs(moved[0] + 0.6) < 0.1 and abs(moved[1] - 0.4) < 0.1, moved
+
+
+def test_late_vio_within_the_estimator_buffer_is_ridden_out() -> None:
+    """Expected: nobody reacts. 200 ms late, each pose is fused at its sample time (the
+    estimator's buffer): the hold stays put."""
+    h = hover(seed=24)
+    at = h.t() + 0.5
+    start = h.position()
+    h.inject(parse_fault(f"vio_delay@{at}:4,delay_ms=200"))
+    result = h.fly(6.0)
+    assert result.crash is None
+    assert [n for t, n, _ in h.modes.changes if t >= at] == []
+    assert float(abs(h.position() - start).max()) < 0.15
