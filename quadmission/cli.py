@@ -135,6 +135,12 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--domain-id", type=int, default=0, help="dds: the DDS domain id")
     p.add_argument("--out", type=Path, default=Path("runs/launch"),
                    help="folder for the recording (--record writes OUT/bag)")
+    p.add_argument("--fault", action="append", default=[], metavar="SPEC",
+                   help="inject a fault into the launch file's simulator, "
+                        "KIND@T[:DURATION][,key=value...] (repeatable; node_stop under "
+                        "--transport dds kills the node's process, T in wall seconds x rtf)")
+    p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
+                   help="inject the faults listed in this YAML file")
     _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
 
 
@@ -163,14 +169,60 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
-def _launch_dds(args: argparse.Namespace, description: Any) -> int:
+def _launch_faults(args: argparse.Namespace, description: Any) -> tuple[Any, list[Any]]:
+    """The description with ``--fault``/``--faults`` handed to its simulator, and over DDS
+    the (wall time, process) kills of the ``node_stop`` faults; a fault the launch cannot
+    play is refused naming it."""
+    import dataclasses
+    import inspect
+
+    from quadmission.errors import OptionsError
+    from runtime.launch import _resolve
+    from sim.fault_spec import FaultKind, load_faults, parse_faults
+
+    faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
+    if not faults:
+        return description, []
+    sim = description.simulator
+    if sim is None:
+        raise OptionsError("--fault: the launch file has no simulator to inject it into")
+    if "faults" not in inspect.signature(_resolve(sim.factory, "simulator")).parameters:
+        raise OptionsError(f"--fault: the simulator {sim.factory} takes no faults "
+                           "(quadmission.scenarios.mission.launch:sitl does)")
+    dds = args.transport == "dds"
+    kills: list[tuple[float, str]] = []
+    given: list[str] = []
+    for f in faults:
+        if f.kind is FaultKind.OPERATOR_ABORT or (dds and f.kind is FaultKind.OPERATOR_SILENT):
+            raise OptionsError(f"--fault {f.spec()}: not in a launch"
+                               f"{' over DDS' if dds else ''}; quadmission sim --scenario "
+                               "mission plays it")
+        if dds and f.kind is FaultKind.NODE_STOP:
+            name = f.text("name")
+            named = {n.name: n.process_name() for n in description.nodes if n.name}
+            processes = sorted({n.process_name() for n in description.nodes})
+            process = named.get(name, name if name in processes else None)
+            if process is None:
+                raise OptionsError(f"--fault {f.spec()}: over DDS, name= a process of the "
+                                   f"launch file ({', '.join(processes)}) or a node's name: in it "
+                                   f"({', '.join(sorted(named)) or 'none'})")
+            kills.append((f.at_s / (1.0 if args.rtf is None else args.rtf), process))
+        else:
+            given.append(f.spec())
+    params = dict(sim.parameters) | {"faults": given}
+    return dataclasses.replace(description, simulator=dataclasses.replace(
+        sim, parameters=params)), kills
+
+
+def _launch_dds(args: argparse.Namespace, description: Any,
+                kills: list[Any] | None = None) -> int:
     from runtime.dds.launcher import process_specs, run_launch
 
     specs = process_specs(
         description, domain_id=args.domain_id, rtf=1.0 if args.rtf is None else args.rtf,
         duration_s=args.duration or 600.0,
         config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
-    result = run_launch(specs)
+    result = run_launch(specs, kills=kills or ())
     print(f"launch: {result.reason}", file=sys.stderr)
     print(json.dumps({"exit_code": result.exit_code, "reason": result.reason}))
     return result.exit_code
@@ -182,8 +234,9 @@ def _launch_run(args: argparse.Namespace) -> int:
 
     description = LaunchDescription.from_yaml(args.file)
     _refuse_ignored_services(args, description.simulator is not None)
+    description, kills = _launch_faults(args, description)
     if args.transport == "dds":
-        return _launch_dds(args, description)
+        return _launch_dds(args, description, kills)
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))
     if description.simulator is not None:
