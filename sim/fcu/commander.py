@@ -552,9 +552,12 @@ class CommanderParams:
     """``COM_OBL_RC_ACT``: action after the hold (hold, land, return)."""
     failsafe_hold_s: float = param(5.0, unit="s", range=(0.0, 60.0))
     """``COM_FAIL_ACT_T``: hold after offboard loss before the action."""
-    position_loss_delay_s: float = param(1.0, unit="s", range=(0.0, 60.0))
+    position_loss_delay_s: float = param(4.5, unit="s", range=(0.0, 60.0))
     """``COM_POS_FS_DELAY``: local position invalid this long in a mode that needs it ->
-    the position-loss failsafe (descend)."""
+    the position-loss failsafe (descend). Not PX4's 1 s: PX4's EKF2 dead-reckons for
+    ``EKF2_NOAID_TOUT`` (5 s) before it calls the position invalid, ours after its
+    ``vision_timeout_us`` (0.5 s), so this is the rest of PX4's 5 s from the last aiding
+    to the failsafe (``config/fcu_commander.yaml``)."""
     low_battery_action: BatteryFailsafeAction = BatteryFailsafeAction.LAND
     """``COM_LOW_BAT_ACT``: warning, land, or return at critical (land at emergency)."""
     disarm_land_s: float = param(2.0, unit="s", range=(-1.0, 20.0))
@@ -1093,9 +1096,11 @@ def _position_failsafe(ctx: _Context, s: CommanderState) -> CommanderState:
     local position falls back to RTL, which needs one too, then Land (idem), then
     Descend, which needs attitude only; the hold delay (``COM_FAIL_ACT_T``) is skipped
     because Hold cannot run either. The loss counts after ``position_loss_delay_s``
-    (PX4 <= 1.13's ``COM_POS_FS_DELAY``, 1 s). The fallback clears with its cause
-    (``ClearCondition::WhenConditionClears``): the position back, the vehicle holds and
-    returns to the mode the user chose (OFFBOARD only with its signal)."""
+    (PX4 <= 1.13's ``COM_POS_FS_DELAY``; ours is set so that with the estimator's vision
+    timeout it adds up to PX4's ``EKF2_NOAID_TOUT``, 5 s from the last vision sample).
+    The fallback clears with its cause (``ClearCondition::WhenConditionClears``): the
+    position back, the vehicle holds and returns to the mode the user chose (OFFBOARD
+    only with its signal)."""
     params, inputs, now = ctx.params, ctx.inputs, ctx.inputs.now_us
     if inputs.position_valid:
         if s.position_invalid_since_us is not None:

@@ -37,6 +37,7 @@ from sim.fcu.commander import (
     VehicleCommandData,
     render_transition_table,
 )
+from sim.fcu.estimator import ESTIMATOR_NODE_NAME, EstimatorParams
 
 MS = 1000
 S = 1_000_000
@@ -933,6 +934,20 @@ def test_the_config_file_loads_and_matches_the_code_defaults() -> None:
     assert params.offboard_loss_timeout_s == 1.0
     assert params.disarm_land_s == 2.0
     assert params.offboard_loss_action is OffboardLossAction.LAND
+
+
+EKF2_NOAID_TOUT_US = 5_000_000  # PX4's default: dead reckoning allowed after the last aiding
+
+
+def test_the_position_loss_failsafe_comes_ekf2_noaid_tout_after_the_last_vision_sample() -> None:
+    """PX4 dead-reckons for EKF2_NOAID_TOUT before its commander fails over at once; ours
+    calls the position invalid sooner (the estimator's vision timeout) and waits the rest
+    in the commander. The two files must keep adding up to PX4's total."""
+    commander = load_parameters(CommanderParams, COMMANDER_NODE_NAME)
+    estimator = load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME)
+    total_us = estimator.vision_timeout_us + round(commander.position_loss_delay_s * S)
+    assert total_us == EKF2_NOAID_TOUT_US, (
+        f"vision_timeout_us + position_loss_delay_s = {total_us} us, PX4 has 5 s")
 
 
 def test_takeoff_max_height_may_equal_the_default_height_but_not_be_below() -> None:
