@@ -66,9 +66,14 @@ class VoxelMap:
         if len(p) == 0:
             return 0
         keys = np.unique(self._key(p))
-        new = np.setdiff1d(keys, self._keys, assume_unique=True)
+        # the map's keys stay sorted: find the new ones and insert them in place, O(map)
+        # rather than re-sorting the whole map for every cloud (np.union1d)
+        at = np.searchsorted(self._keys, keys)
+        known = at < len(self._keys)
+        known[known] = self._keys[at[known]] == keys[known]
+        new = keys[~known]
         if len(new):
-            self._keys = np.union1d(self._keys, new)
+            self._keys = np.insert(self._keys, at[~known], new)
             self.version += 1
         return len(new)
 

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 import interfaces
-from flight_control.frames import quat_to_yaw
+from flight_control.frames import quat_to_yaw_f
 from flight_control.health import MODULE_HEALTH, health_report
 from flight_control.params import FIELD_SOURCE, FieldParams
 from navigation.coverage import load_explore_paths
@@ -106,7 +106,7 @@ class NavigatorNode(Node):
         self.explore_paths = load_explore_paths(
             paths_file if paths_file.startswith("/") else config_path(paths_file))
         self.position: np.ndarray | None = None
-        self.yaw = 0.0
+        self._orientation = (1.0, 0.0, 0.0, 0.0)  # wxyz, ENU <- FLU, of the last odometry
         self.markers_seen: dict[int, int] = {}  # marker id -> last capture stamp [ns]
         self.active = ""  # the running action, for health
         self.last_message = ""
@@ -130,7 +130,13 @@ class NavigatorNode(Node):
     def _on_odometry(self, msg: Any) -> None:
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
         self.position = np.array([p.x, p.y, p.z])
-        self.yaw = float(quat_to_yaw(np.array([o.w, o.x, o.y, o.z])))
+        self._orientation = (o.w, o.x, o.y, o.z)
+
+    @property
+    def yaw(self) -> float:
+        """ENU yaw [rad] of the last odometry, worked out when asked (odometry comes far
+        more often than the policy steps)."""
+        return quat_to_yaw_f(self._orientation)
 
     def _on_markers(self, msg: Any) -> None:
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec

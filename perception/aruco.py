@@ -238,12 +238,32 @@ def _detector(settings: ScannerSettings, constant: float | None = None,
     return cv2.aruco.ArucoDetector(_dictionary(), params)
 
 
-def stretch(grey: Image) -> Image:
-    """Contrast stretch: the 1st percentile to 0, the 99.5th to 255."""
-    lo, hi = np.percentile(grey, (1.0, 99.5))
-    scale = 255.0 / max(float(hi - lo), 1.0)
-    out = np.clip((grey.astype(np.float32) - float(lo)) * scale, 0, 255)
-    return np.asarray(out, dtype=np.uint8)
+STRETCH_PERCENTILES = (1.0, 99.5)  # the grey levels :func:`stretch` maps to 0 and 255
+
+
+def grey_percentiles(grey: Image, percentiles: Sequence[float]) -> list[float]:
+    """``np.percentile(grey, percentiles)`` (linear interpolation) of a uint8 image, read
+    off its 256-bin histogram: the same values, without sorting 300 k pixels."""
+    cumulative = np.cumsum(cv2.calcHist([grey], [0], None, [256], [0, 256]).ravel())
+    n = int(cumulative[-1])
+    out = []
+    for q in percentiles:
+        position = q / 100.0 * (n - 1)
+        below = math.floor(position)
+        # the k-th smallest pixel (0-based) is the first level whose count passes k
+        lo, hi = np.searchsorted(cumulative, (below + 1, min(below + 2, n)), side="left")
+        out.append(float(lo) + (position - below) * float(hi - lo))
+    return out
+
+
+def stretch(grey: Image, part: Image | None = None) -> Image:
+    """Contrast stretch: the 1st percentile to 0, the 99.5th to 255 (a lookup table).
+    ``part`` (a crop of ``grey``) is stretched by ``grey``'s percentiles instead."""
+    lo, hi = grey_percentiles(grey, STRETCH_PERCENTILES)
+    scale = 255.0 / max(hi - lo, 1.0)
+    levels = np.arange(256, dtype=np.float32)
+    table = np.clip((levels - np.float32(lo)) * np.float32(scale), 0, 255).astype(np.uint8)
+    return np.asarray(cv2.LUT(grey if part is None else part, table), dtype=np.uint8)
 
 
 def to_grey(image: npt.ArrayLike) -> Image:
@@ -305,7 +325,9 @@ class SmallHit:
     corners_px: FloatArray  # (4, 2), OpenCV's order, of the best pose
 
 
-def _side_px(quad: FloatArray) -> float:
+def side_px(quad: npt.ArrayLike) -> float:
+    """A quad's longest side [px] of its corners (4, 2)."""
+    quad = np.asarray(quad, dtype=np.float64).reshape(4, 2)
     return float(np.max(np.linalg.norm(quad - np.roll(quad, 1, axis=0), axis=1)))
 
 
@@ -370,30 +392,47 @@ def decode_small(image: npt.NDArray[np.float32], quad: npt.ArrayLike,
                     corners_px=np.roll(corners, j % 4, axis=0))
 
 
+Region = tuple[int, int, int, int]
+"""``(x0, y0, x1, y1)`` [px]: the pixels ``[y0:y1, x0:x1]`` of an image."""
+
+
 class ArucoScanner:
     """Detects DICT_7X7_1000 markers and measures them (see the module docstring)."""
 
     def __init__(self, settings: ScannerSettings | None = None) -> None:
         self.settings = settings or ScannerSettings()
-        self._detector = _detector(self.settings)
-        self._candidates = _detector(self.settings, constant=3.0,
-                                     windows=(self.settings.stretch_win_min,
-                                              self.settings.stretch_win_max))
+        # the detectors by the smallest perimeter they accept [px]: one per crop size seen
+        self._detectors: dict[tuple[str, int], cv2.aruco.ArucoDetector] = {}
+
+    def _detector_for(self, stretched: bool, min_perimeter_px: float,
+                      larger_side: int) -> cv2.aruco.ArucoDetector:
+        """The NONE (or STRETCH) pass's detector for a crop whose larger side is
+        ``larger_side`` [px], accepting perimeters from ``min_perimeter_px``: OpenCV
+        takes that bound as a share of the image's larger side."""
+        key = ("stretch" if stretched else "none", larger_side * 1000 + round(min_perimeter_px))
+        detector = self._detectors.get(key)
+        if detector is None:
+            rate = min(min_perimeter_px / larger_side, 3.9)
+            s = self.settings
+            detector = self._detectors[key] = (
+                _detector(s, constant=3.0, min_perimeter_rate=rate,
+                          windows=(s.stretch_win_min, s.stretch_win_max))
+                if stretched else _detector(s, min_perimeter_rate=rate))
+        return detector
 
     @staticmethod
     def _collect(found: dict[int, FloatArray], mode: ScanMode, corners: Any, ids: Any,
-                 scale: float = 1.0, origin: tuple[float, float] = (0.0, 0.0)) -> None:
+                 origin: tuple[int, int]) -> None:
         if ids is None:
             return
         for marker_id, c in zip(ids.ravel(), corners, strict=True):
             mid = int(marker_id)
             if mode.accepts(mid) and mid not in found:
-                # pixel centres: (u + 0.5) / s - 0.5 maps the scaled grid back
-                pts = (np.asarray(c, dtype=np.float64).reshape(4, 2) + 0.5) / scale - 0.5
-                found[mid] = pts + np.asarray(origin)
+                found[mid] = np.asarray(c, dtype=np.float64).reshape(4, 2) + np.asarray(origin)
 
     def _small_pass(self, grey: Image, rejected: Sequence[Any], mode: ScanMode,
-                    found: dict[int, FloatArray], want: set[int] | None) -> None:
+                    found: dict[int, FloatArray], want: set[int] | None,
+                    origin: tuple[int, int]) -> None:
         s = self.settings
         ids = sorted(want if want is not None else
                      (i for i in PAD_IDS | ROBOT_IDS if mode.accepts(i)))
@@ -401,7 +440,7 @@ class ArucoScanner:
         if not ids:
             return
         quads = [np.asarray(q, dtype=np.float64).reshape(4, 2) for q in rejected]
-        quads = [q for q in quads if _side_px(q) <= s.small_max_px]
+        quads = [q for q in quads if side_px(q) <= s.small_max_px]
         quads += small_candidates(grey, s.small_max_px)
         h, w = grey.shape
         centre = np.array([(w - 1) / 2.0, (h - 1) / 2.0])
@@ -412,32 +451,52 @@ class ArucoScanner:
             if hit is None or hit.correlation < s.small_min_correlation \
                     or hit.margin < s.small_min_margin or hit.id in found:
                 continue
-            found[hit.id] = hit.corners_px
+            found[hit.id] = hit.corners_px + np.asarray(origin)
             if want is not None and want <= found.keys():
                 return
 
     def find(self, image: npt.ArrayLike, mode: ScanMode = ScanMode.BOTH,
-             wanted: Iterable[int] | None = None) -> dict[int, FloatArray]:
+             wanted: Iterable[int] | None = None, *, region: Region | None = None,
+             min_side_px: float = 0.0) -> dict[int, FloatArray]:
         """``{id: corners (4, 2) px}`` of the accepted markers in ``image``.
 
         Passes run in order; the search stops once every ``wanted`` ID is found (any
-        accepted marker when ``wanted`` is None)."""
+        accepted marker when ``wanted`` is None). ``region`` limits the search to those
+        pixels (corners stay in the whole image's pixels; the contrast stretch is the
+        whole image's). ``min_side_px`` ignores outlines shorter than four such sides
+        (OpenCV's ``minMarkerPerimeterRate`` of the whole image is the floor): a marker
+        of known printed size seen from a known range is never smaller, and the noise's
+        small outlines are what the detector spends its time on."""
         grey = to_grey(image)
+        height, width = grey.shape
+        x0, y0, x1, y1 = (0, 0, width, height) if region is None else region
+        if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+            raise ValueError(f"region {region} is not inside the {width}x{height} image")
+        crop, origin = grey[y0:y1, x0:x1], (x0, y0)
+        larger = max(crop.shape)
+        min_perimeter = max(self.settings.min_perimeter_rate * max(width, height),
+                            4.0 * min_side_px)
         want = None if wanted is None else set(wanted)
         found: dict[int, FloatArray] = {}
         rejected: list[Any] = []
+        stretched: Image | None = None
         for how in self.settings.passes:
             if how is Preprocess.NONE:
-                corners, ids, rej = self._detector.detectMarkers(grey)
-                self._collect(found, mode, corners, ids)
+                detector = self._detector_for(False, min_perimeter, larger)
+                corners, ids, rej = detector.detectMarkers(crop)
+                self._collect(found, mode, corners, ids, origin)
                 rejected.extend(rej)
-            elif how is Preprocess.STRETCH:
-                smooth = cv2.GaussianBlur(stretch(grey), (0, 0), self.settings.stretch_blur_px)
-                corners, ids, rej = self._candidates.detectMarkers(smooth)
-                self._collect(found, mode, corners, ids)
-                rejected = list(rej) + rejected
             else:
-                self._small_pass(stretch(grey), rejected, mode, found, want)
+                if stretched is None:
+                    stretched = stretch(grey, crop)
+                if how is Preprocess.STRETCH:
+                    smooth = cv2.GaussianBlur(stretched, (0, 0), self.settings.stretch_blur_px)
+                    detector = self._detector_for(True, min_perimeter, larger)
+                    corners, ids, rej = detector.detectMarkers(smooth)
+                    self._collect(found, mode, corners, ids, origin)
+                    rejected = list(rej) + rejected
+                else:
+                    self._small_pass(stretched, rejected, mode, found, want, origin)
             if found and (want is None or want <= found.keys()):
                 break
         return found
@@ -447,15 +506,21 @@ class ArucoScanner:
                wanted: Iterable[int] | None = None) -> list[Marker]:
         """Every accepted marker, measured (``camera`` is the 3x3 K, no distortion;
         ``side_lengths`` the printed side [m] of each kind). Sorted by ID."""
-        k = np.asarray(camera, dtype=np.float64).reshape(3, 3)
-        markers = []
-        for marker_id, corners in sorted(self.find(image, mode, wanted).items()):
-            kind = MarkerKind.of(marker_id)
-            side = side_lengths.get(kind)
-            if side is None or side <= 0.0:
-                continue
-            markers.append(measure(marker_id, corners, k, side))
-        return markers
+        return measure_all(self.find(image, mode, wanted), camera, side_lengths)
+
+
+def measure_all(found: dict[int, FloatArray], camera: npt.ArrayLike,
+                side_lengths: dict[MarkerKind, float]) -> list[Marker]:
+    """:func:`measure` of each ``{id: corners}`` whose kind has a printed side in
+    ``side_lengths`` [m] (``camera`` the 3x3 K), sorted by ID."""
+    k = np.asarray(camera, dtype=np.float64).reshape(3, 3)
+    markers = []
+    for marker_id, corners in sorted(found.items()):
+        side = side_lengths.get(MarkerKind.of(marker_id))
+        if side is None or side <= 0.0:
+            continue
+        markers.append(measure(marker_id, corners, k, side))
+    return markers
 
 
 def _square_points(side: float) -> FloatArray:
@@ -520,6 +585,7 @@ def annotate(image: npt.ArrayLike, markers: Sequence[Marker]) -> Image:
 __all__ = [
     "DICTIONARY_NAME",
     "PAD_IDS",
+    "Region",
     "ROBOT_IDS",
     "ArucoScanner",
     "Marker",
@@ -533,11 +599,14 @@ __all__ = [
     "camera_to_body",
     "camera_to_body_frd",
     "decode_small",
+    "grey_percentiles",
     "image_error",
     "marker_center",
     "marker_yaw_in_body",
     "measure",
+    "measure_all",
     "optical_to_body",
+    "side_px",
     "small_candidates",
     "stretch",
     "to_grey",

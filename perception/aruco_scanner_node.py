@@ -22,6 +22,7 @@ Parameters: ``config/aruco_scanner.yaml`` (:class:`perception.params.ScannerPara
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import cv2
@@ -29,9 +30,17 @@ import numpy as np
 
 import interfaces
 from flight_control.health import health_report
-from perception.aruco import DICTIONARY_NAME, ArucoScanner, Marker, MarkerKind, annotate
+from perception.aruco import (
+    DICTIONARY_NAME,
+    ArucoScanner,
+    Marker,
+    MarkerKind,
+    annotate,
+    measure_all,
+)
 from perception.params import ScannerParams
 from perception.scan_policy import Problem, ScanPolicy, marker_in_map, yaw_of
+from perception.tracking import RegionTracker
 from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sensor_data
 from runtime.parameters import SetParametersResult
 
@@ -107,8 +116,12 @@ class ArucoScannerNode(Node):
             annotated_rate_hz=self.params.annotated_rate_hz,
             robot_report_interval_s=self.params.robot_report_interval_s,
             image_timeout_s=self.params.image_timeout_s)
-        self.scanner = ArucoScanner(self.params.scanner_settings())
+        self.tracker = RegionTracker(ArucoScanner(self.params.scanner_settings()),
+                                     self.params.tracker_settings())
         self.camera: np.ndarray | None = None  # K, from camera_info
+        self._scanning = False  # a frame's scan is under way (offloaded)
+        self._waiting: Any = None  # the newest image that came meanwhile, scanned next
+        self.frames_dropped = 0  # images replaced by a newer one while they waited
         self.markers_pub = self.create_publisher(
             "quadmission_interfaces/msg/MarkerDetectionArray", MARKERS_TOPIC, qos_profile_default)
         self.robot_pub = self.create_publisher("quadmission_interfaces/msg/RobotFound",
@@ -151,7 +164,6 @@ class ArucoScannerNode(Node):
         self.camera = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
 
     def _on_image(self, msg: Any) -> None:
-        stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
         now_ns = self.now().nanoseconds
         camera = self.camera
         if not self.policy.image(now_ns, camera is not None) or camera is None:
@@ -159,9 +171,37 @@ class ArucoScannerNode(Node):
         if msg.encoding != "rgb8":
             self.get_logger().warn(f"{IMAGE_TOPIC}: expected rgb8, got {msg.encoding!r}")
             return
+        if self._scanning:  # still on the last frame: this one waits (the newest only)
+            self.frames_dropped += self._waiting is not None
+            self._waiting = msg
+            return
+        self._start_scan(msg, camera)
+
+    def _start_scan(self, msg: Any, camera: np.ndarray) -> None:
         image = np.asarray(msg.data, dtype=np.uint8).reshape(msg.height, msg.width, 3)
-        markers = self.scanner.detect(image, camera, self.params.side_lengths,
-                                      self.policy.mode)
+        mode = self.policy.mode
+        self.tracker.min_side_px = self.params.min_side_px(mode, float(camera[1, 1]))
+        sides = self.params.side_lengths
+        tracker = self.tracker
+
+        def scan() -> list[Marker]:
+            return measure_all(tracker.find(image, mode), camera, sides)
+
+        self._scanning = True
+        self.create_task(self._scan(msg, image, scan))
+
+    async def _scan(self, msg: Any, image: np.ndarray, scan: Callable[[], list[Marker]]) -> None:
+        """The frame's markers, worked out off the callbacks' thread in ``processing_s``
+        (:meth:`runtime.node.Node.offload`), then published."""
+        try:
+            markers = await self.offload(scan, self.params.processing_s)
+        finally:
+            self._scanning = False
+            waiting, self._waiting = self._waiting, None
+            if waiting is not None and self.camera is not None and self.enabled:
+                self._start_scan(waiting, self.camera)
+        now_ns = self.now().nanoseconds
+        stamp_ns = Time.from_msg(msg.header.stamp).nanoseconds
         due = self.policy.scanned(now_ns, [(m.id, m.kind) for m in markers])
         header = msg.header
         self.markers_pub.publish(interfaces.new(
@@ -223,7 +263,8 @@ class ArucoScannerNode(Node):
         policy = self.policy
         values = {"enabled": str(self.enabled).lower(), "mode": policy.mode.value,
                   "frames": policy.frames, "frames_with_markers": policy.frames_with_markers,
-                  "detections": policy.detections, "robots_seen": len(policy.robots)}
+                  "detections": policy.detections, "robots_seen": len(policy.robots),
+                  "frames_dropped": self.frames_dropped}
         self.health_pub.publish(health_report(NODE_NAME, level, message, values, now.to_msg()))
 
 

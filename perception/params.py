@@ -6,8 +6,14 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from perception.aruco import MarkerKind, Preprocess, ScanMode, ScannerSettings
+from perception.tracking import TrackerSettings
 from runtime import param
 from runtime.parameters import validate_parameters
+
+
+MIN_SIDE_SAFETY = 0.6
+"""A marker's side seen at ``max_range_m`` is at least this share of its pinhole size:
+tilted by up to ~50 deg (cos), or seen obliquely at the frame's edge."""
 
 
 @dataclass(frozen=True)
@@ -27,6 +33,16 @@ class ScannerParams:
     image_timeout_s: float = param(unit="s", range=(0.1, 10.0))
     low_light: bool = param(description="measured preprocessing passes, else OpenCV defaults")
     small_markers: bool = param(description="the SMALL pass for markers of a few px per module")
+    full_frame_interval: int = param(unit="frames", range=(1, 100),
+                                     description="while tracked markers are found again "
+                                                 "where they were, search the whole frame "
+                                                 "only every n-th frame")
+    processing_s: float = param(unit="s", range=(0.0, 1.0),
+                                description="a frame's scan on the vehicle's computer: "
+                                            "markers are published this long after the image")
+    max_range_m: float = param(unit="m", range=(0.0, 100.0),
+                               description="farthest a marker is read; whole-frame searches "
+                                           "skip smaller outlines (0: no floor)")
 
     def __post_init__(self) -> None:
         validate_parameters(self)
@@ -37,6 +53,20 @@ class ScannerParams:
     def side_lengths(self) -> dict[MarkerKind, float]:
         return {MarkerKind.PAD: self.pad_marker_size, MarkerKind.ROBOT: self.robot_marker_size}
 
+    def tracker_settings(self) -> TrackerSettings:
+        return TrackerSettings(full_frame_interval=self.full_frame_interval)
+
+    def min_side_px(self, mode: ScanMode, focal_px: float) -> float:
+        """The smallest side [px] a whole-frame search looks for: the smallest printed
+        marker ``mode`` reports, ``max_range_m`` from a camera of focal length
+        ``focal_px``, times :data:`MIN_SIDE_SAFETY` (0 when ``max_range_m`` is 0)."""
+        if self.max_range_m <= 0.0:
+            return 0.0
+        sides = [side for kind, side in self.side_lengths.items()
+                 if kind is MarkerKind.PAD and mode is not ScanMode.ROBOTS
+                 or kind is MarkerKind.ROBOT and mode is not ScanMode.PADS]
+        return MIN_SIDE_SAFETY * focal_px * min(sides) / self.max_range_m
+
     def scanner_settings(self) -> ScannerSettings:
         """The detector's passes: ``low_light`` the measured ones (SMALL only with
         ``small_markers``), else OpenCV's defaults in one pass (the seed's baseline)."""
@@ -46,4 +76,4 @@ class ScannerParams:
         return settings
 
 
-__all__ = ["ScannerParams"]
+__all__ = ["MIN_SIDE_SAFETY", "ScannerParams"]

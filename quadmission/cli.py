@@ -387,6 +387,51 @@ def _linger(services: Any, args: argparse.Namespace) -> None:
         services.close()
 
 
+# -- campaign --------------------------------------------------------------------------------
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} must be at least 1")
+    return value
+
+
+def _campaign_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", type=Path, help="campaign YAML: a matrix of scenarios x seeds x "
+                   "lighting x faults (docs/campaigns.md), e.g. config/campaigns/faults.yaml")
+    p.add_argument("--out", type=Path, required=True,
+                   help="folder for results.parquet, summary.md, the plots, and each run "
+                        "in OUT/runs/; run again into the same folder to resume")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, default=None, metavar="N",
+                       help="worker processes of the local Dask cluster (default: one a core)")
+    where.add_argument("--scheduler", default=None, metavar="ADDR",
+                       help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--limit", type=_positive_int, default=None, metavar="N",
+                   help="run only the campaign's first N runs (a quick look)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _campaign_run(args: argparse.Namespace) -> int:
+    from quadmission.campaigns.matrix import load_campaign
+    from quadmission.campaigns.results import RESULTS_NAME
+    from quadmission.campaigns.runner import SUMMARY_NAME, run_campaign
+
+    campaign = load_campaign(args.file).limited(args.limit)
+    result = run_campaign(campaign, args.out, source=str(args.file), workers=args.workers,
+                          scheduler=args.scheduler, progress=not args.no_progress,
+                          say=_stderr)
+    s = result.summary
+    print(json.dumps({"runs": len(campaign.cells), "finished": s.runs, "passed": s.passed,
+                      "failed": len(s.failed), "not_finished": result.session.lost,
+                      "requeued": s.requeued, "results": str(result.out / RESULTS_NAME),
+                      "summary": str(result.out / SUMMARY_NAME)}), flush=True)
+    _stderr(f"summary: {result.out / SUMMARY_NAME}")
+    return 0 if s.passed == len(campaign.cells) else 1
+
+
 # -- fcu-schedule ----------------------------------------------------------------------------
 def _fcu_schedule_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--offsets", default="balanced", choices=("balanced", "naive"),
@@ -564,6 +609,8 @@ def _fsm_run(args: argparse.Namespace) -> int:
 
 COMMANDS: tuple[Command, ...] = (
     Command("sim", "run a scenario in the MuJoCo arena and write a report", _sim_args, _sim_run),
+    Command("campaign", "run a matrix of scenarios x seeds x faults x lighting on Dask",
+            _campaign_args, _campaign_run),
     Command("fcu-schedule", "the flight controller's resolved schedule and measured duty",
             _fcu_schedule_args, _fcu_schedule_run),
     Command("latency", "seed 000's FCU <-> companion latency test (Table 3), with time sync",
@@ -610,8 +657,10 @@ def main(argv: Sequence[str] | None = None, commands: Sequence[Command] = COMMAN
     args = build_parser(commands).parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
-    if not args.verbose:  # the state machine library narrates every callback at INFO
+    if not args.verbose:  # the state machine library narrates every callback at INFO,
         logging.getLogger("transitions").setLevel(logging.WARNING)
+        # and Dask each connection (read when distributed is imported, workers included)
+        os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
     try:
         code = int(args.handler(args))
         sys.stdout.flush()  # a closed pipe shows here, not at exit

@@ -21,3 +21,8 @@ class SquareDoesNotFit(ScenarioRefused):
 
 class OptionsError(QuadmissionError, ValueError):
     """Scenario options that contradict each other or are out of range."""
+
+
+class CampaignError(QuadmissionError, ValueError):
+    """A campaign file that cannot be run; the message names the file, the key and the
+    bad value."""

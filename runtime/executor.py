@@ -8,8 +8,10 @@ The same nodes, parameters and inputs therefore give the same callback trace.
 
 from __future__ import annotations
 
+import concurrent.futures
 import heapq
 import itertools
+import os
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, field
 from enum import Enum
@@ -60,6 +62,16 @@ class TraceEntry:
     name: str
 
 
+THREADS_VARIABLE = "QUADMISSION_THREADS"
+"""Set to 0, work offloaded by nodes and the simulator's cameras run in line: the same run,
+on one core (for comparison and for debugging)."""
+
+
+def threads_allowed() -> bool:
+    """Whether work may leave the main thread (:data:`THREADS_VARIABLE` is not 0)."""
+    return os.environ.get(THREADS_VARIABLE, "1").strip() != "0"
+
+
 class DeterministicExecutor:
     """Runs every node of its context in one thread, in simulated time.
 
@@ -75,8 +87,13 @@ class DeterministicExecutor:
         config_dir: Path | _Default | None = DEFAULT_CONFIG_DIR,
         transport: Transport | None = None,
         record_trace: bool = False,
+        worker_thread: bool | None = None,
     ) -> None:
         self._clock = SimClock(start_ns)
+        self.worker_thread = threads_allowed() if worker_thread is None else worker_thread
+        """Work offloaded by nodes runs on a worker thread (False: in line, for comparison;
+        default: :func:`threads_allowed`)."""
+        self._worker: concurrent.futures.ThreadPoolExecutor | None = None
         self._heap: list[tuple[int, int, Handle]] = []
         self._order = itertools.count()
         self._nodes: list[Node] = []
@@ -108,6 +125,28 @@ class DeterministicExecutor:
         handle = Handle(callback, label)
         heapq.heappush(self._heap, (self._clock.nanoseconds, next(self._order), handle))
         return handle
+
+    def start_work(self, work: Callable[[], T]) -> concurrent.futures.Future[T]:
+        """Start ``work`` for :meth:`runtime.node.Node.offload`: on the worker thread (one,
+        so work runs in the order it was started), or at once in line when the executor
+        was made with ``worker_thread=False``: the same results either way."""
+        if not self.worker_thread:
+            done: concurrent.futures.Future[T] = concurrent.futures.Future()
+            try:
+                done.set_result(work())
+            except Exception as exc:  # noqa: BLE001 - the future carries it
+                done.set_exception(exc)
+            return done
+        if self._worker is None:
+            self._worker = concurrent.futures.ThreadPoolExecutor(
+                1, thread_name_prefix="executor_work")
+        return self._worker.submit(work)
+
+    def shutdown(self) -> None:
+        """Wait for the work started and stop the worker thread (made again if needed)."""
+        if self._worker is not None:
+            worker, self._worker = self._worker, None
+            worker.shutdown(wait=True)
 
     # nodes -------------------------------------------------------------------------------
     def add_node(self, node: Node) -> None:

@@ -583,6 +583,48 @@ class Node:
         sleeps.add(handle)
         return future
 
+    def offload(self, work: Callable[[], T], duration_s: float) -> Future[T]:
+        """``work()`` done off the callbacks' thread, its result ready ``duration_s`` of the
+        node's clock later: the time that work takes on the vehicle's computer
+        (``result = await node.offload(...)``). Under the deterministic executor the work
+        runs on its worker thread while the simulation goes on (OpenCV and numpy release
+        the GIL, so it overlaps on a second core) and the result is taken at exactly that
+        time, waiting for the thread if it is late: the same run as with the work in line.
+        Another executor runs it in line, now. ``work`` must not share mutable state with
+        the node's callbacks; an exception it raises is the future's."""
+        loop = self.context.loop
+        future: Future[T] = Future(loop)
+        t_ns = loop.clock.now().nanoseconds + max(0, seconds_to_ns(duration_s))
+        start = getattr(loop, "start_work", None)
+        if start is not None:
+            outcome = start(work).result
+        else:
+            try:
+                value = work()
+                outcome = lambda: value  # noqa: E731
+            except Exception as exc:  # noqa: BLE001 - the future carries it
+                error = exc
+
+                def outcome() -> T:
+                    raise error
+        sleeps = self._sleeps
+
+        def finish() -> None:
+            sleeps.discard(handle)
+            try:
+                result = outcome()
+            except Exception as exc:  # noqa: BLE001 - the future carries it
+                if not future.done():
+                    future.set_exception(exc)
+                return
+            if not future.done():
+                future.set_result(result)
+
+        handle = loop.call_at(t_ns, finish,
+                              (self._name, "work", getattr(work, "__qualname__", "work")))
+        sleeps.add(handle)
+        return future
+
     def destroy_node(self) -> None:
         """Stop everything the node does: its entities, its tasks and pending sleeps."""
         for task in self._tasks:

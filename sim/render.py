@@ -17,12 +17,14 @@ from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from types import TracebackType
+from typing import Any
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
 from runtime.errors import ParameterError
+from runtime.executor import threads_allowed
 from sim.mjcf import DEPTH_CAMERA, DOWN_CAMERA, QUAD_GEOM_GROUP, TOP_CAMERA
 from sim.quadrotor import CameraParams
 
@@ -100,6 +102,12 @@ renderer a pass each, and the cameras look down or ahead at the field, not the s
 
 #: headless backends whose GL contexts may live on any thread (GLFW's may not)
 _OFF_MAIN_THREAD_GL = os.environ.get("MUJOCO_GL", "").lower() in ("egl", "osmesa")
+
+
+def _render_thread() -> bool:
+    """Whether frames may be drawn on the render thread (a headless GL backend, and
+    threads allowed: :func:`runtime.executor.threads_allowed`)."""
+    return _OFF_MAIN_THREAD_GL and threads_allowed()
 
 
 def _rgb_camera(camera: str) -> None:
@@ -211,28 +219,30 @@ class SceneRenderer:
 
     def _capture(self, renderer: mujoco.Renderer, data: mujoco.MjData, camera: str) -> None:
         """Put ``data`` as ``camera`` sees it in ``renderer``'s scene (no GL call)."""
-        option = self._overview if camera == TOP_CAMERA else self._onboard
+        option = (self._depth_option if camera == DEPTH_CAMERA
+                  else self._overview if camera == TOP_CAMERA else self._onboard)
         renderer.update_scene(data, camera=camera, scene_option=option)
 
     def render_later(self, data: mujoco.MjData, camera: str,
-                     then: Callable[[Image], Image] | None = None) -> Future[Image]:
-        """What :meth:`rgb` gives now, rendered on the render thread: the scene is captured
-        here, at once, and drawn there while the caller goes on (MuJoCo releases the GIL
-        while it renders, so the frame costs the caller little on a second core). ``then``
-        runs on the render thread with the image (a sensor model), in frame order.
+                     then: Callable[[Any], Any] | None = None) -> Future[Any]:
+        """What :meth:`rgb` (or, for the depth camera, :meth:`depth`) gives now, rendered
+        on the render thread: the scene is captured here, at once, and drawn there while
+        the caller goes on (MuJoCo releases the GIL while it renders, so the frame costs
+        the caller little on a second core). ``then`` runs on the render thread with the
+        image (a sensor model), in the order the frames were asked for.
 
         A camera's previous frame must be drawn before its scene is captured again: this
         waits for it (a frame period longer than a render never waits). With a GL backend
         whose contexts must stay on the main thread (GLFW, MuJoCo's default on a desktop)
         the frame is drawn here, at once: the same image, only not overlapped.
         """
-        _rgb_camera(camera)
         previous = self._in_flight.get(camera)
         if previous is not None:
             previous.exception()  # its render reads the scene captured below
-        if _OFF_MAIN_THREAD_GL and self._worker is None:
+        threaded = _render_thread()
+        if threaded and self._worker is None:
             self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
-        worker = self._worker if _OFF_MAIN_THREAD_GL else None
+        worker = self._worker if threaded else None
         if worker is None:
             renderer = self._renderer(camera)
         elif (renderer := self._threaded.get(camera)) is None:
@@ -241,12 +251,12 @@ class SceneRenderer:
                                                               camera).result()
         self._capture(renderer, data, camera)
 
-        def draw() -> Image:
-            image: Image = renderer.render()
+        def draw() -> Any:
+            image = renderer.render()
             return image if then is None else then(image)
 
         if worker is None:
-            done: Future[Image] = Future()
+            done: Future[Any] = Future()
             done.set_result(draw())
             return done
         future = self._in_flight[camera] = worker.submit(draw)
@@ -297,7 +307,15 @@ class DepthPointCloud:
 
     def points(self, data: mujoco.MjData) -> Points:
         """Render the depth camera and return an ``(N, 3)`` float32 cloud [m]."""
-        depth = self._renderer.depth(data, DEPTH_CAMERA)
+        return self.to_points(self._renderer.depth(data, DEPTH_CAMERA))
+
+    def points_later(self, data: mujoco.MjData) -> Future[Points]:
+        """:meth:`points`, rendered and made on the render thread
+        (:meth:`SceneRenderer.render_later`): the same clouds, in the same order."""
+        return self._renderer.render_later(data, DEPTH_CAMERA, self.to_points)
+
+    def to_points(self, depth: DepthImage) -> Points:
+        """The noisy cloud of one rendered depth image (draws this frame's noise)."""
         if self._noise_std > 0.0:
             noise = self._rng.normal(0.0, self._noise_std, depth.shape)
             depth = (depth + noise).astype(np.float32)

@@ -141,6 +141,9 @@ class DepthCameraParams:
     """Point clouds per second (must divide the physics rate)."""
     noise_std: float = param(unit="m", range=(0.0, 1.0))
     """Gaussian noise on each pixel's depth, along its ray."""
+    latency_s: float = param(unit="s", range=(0.0, 1.0))
+    """From capture to the cloud on its topic (stamped at the capture). Above 0 the cloud
+    is rendered and made on the render thread meanwhile; 0 makes it at once, in line."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
@@ -239,11 +242,28 @@ class DepthCamera:
     cloud: DepthPointCloud
     rate_hz: float
     name: str = "depth_camera"
+    latency_s: float = 0.0
+    """Capture to publication; above 0 the cloud is made on the render thread meanwhile
+    and published ``latency_s`` later, stamped at the capture (as :class:`DownCamera`)."""
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        if self.node.depth_points.get_subscription_count():
-            points = self.cloud.points(scene.data)
-            self.node.depth_points.publish(point_cloud_msg(points, Time(t_ns), DEPTH_FRAME))
+        if not self.node.depth_points.get_subscription_count():
+            return
+        stamp = Time(t_ns)
+        if self.latency_s <= 0.0:
+            self._publish(self.cloud.points(scene.data), stamp)
+            return
+        cloud = self.cloud.points_later(scene.data)
+        self.node.context.loop.call_at(
+            t_ns + seconds_to_ns(self.latency_s), lambda: self._deliver(cloud, stamp),
+            (self.node.get_name(), "camera", DEPTH_POINTS_TOPIC))
+
+    def _deliver(self, cloud: Future[Points], stamp: Time) -> None:
+        if self.node in self.node.context.nodes:  # not destroyed while it was made
+            self._publish(cloud.result(), stamp)
+
+    def _publish(self, points: Points, stamp: Time) -> None:
+        self.node.depth_points.publish(point_cloud_msg(points, stamp, DEPTH_FRAME))
 
 
 @dataclass
@@ -294,6 +314,7 @@ def sensor_parts(
                    sensor=sensor, latency_s=params.down_camera.latency_s),
         DepthCamera(node, DepthPointCloud(renderer, scene.quad.depth_camera,
                                           noise_std=noise, seed=seed),
-                    rate_hz=rate("depth_camera.rate_hz", params.depth_camera.rate_hz, depth_hz)),
+                    rate_hz=rate("depth_camera.rate_hz", params.depth_camera.rate_hz, depth_hz),
+                    latency_s=params.depth_camera.latency_s),
         ClockPublisher(node, rate_hz=rate("clock_rate_hz", params.clock_rate_hz, None)),
     ]

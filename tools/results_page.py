@@ -517,7 +517,48 @@ def _bag_kill(d: Json) -> list[str]:
     ]) + host_line(None, d.get("load_average_1min"))
 
 
+def _campaign(d: Json) -> list[str]:
+    one, two = d["runs_per_hour_one_worker"], d["runs_per_hour_two_workers"]
+    rounds = d["ratio_2_over_1_rounds"]
+    return table(["figure", "value", "baseline"], [
+        ["missions per CPU-hour (the runs' own CPU time)",
+         f"{d['missions_per_cpu_hour']:.0f}", "-"],
+        ["runs per wall hour, 1 worker / 2 workers", f"{span(one, 0)} / {span(two, 0)}",
+         "-"],
+        ["2 workers against 1, throughput",
+         ratio(d["ratio_2_over_1"]) + (f" ({span(rounds)}x over {len(rounds)} rounds)"
+                                       if len(rounds) > 1 else ""),
+         "2.00x on 2 free cores"],
+        ["every run passed", yes(d["all_passed"]), "yes"],
+    ]) + host_line(d.get("host"))
+
+
+def _mission_speed(d: Json) -> list[str]:
+    share = d["cpu_share"]
+    return table(["figure", "value", "baseline"], [
+        ["real-time factor (simulated / wall seconds)", num(d["rtf_mission"]),
+         f"bare world loop {num(d['rtf_bare_world'], 1)} (ratio "
+         f"{num(d['ratio_mission_over_bare_world'], 3)})"],
+        ["wall / CPU time (every thread) for the simulated time",
+         f"{d['wall_s']:.0f} s / {d['cpu_s']:.0f} s for {d['sim_s']:.0f} s", "-"],
+        ["busy samples per part: scanner, down camera, depth camera, mapping, FCU, other",
+         ", ".join(pct(share[k]) for k in ("scanner", "down_camera", "depth_camera", "mapping",
+                                          "fcu", "other")), "-"],
+        ["the mission: result, score, landings inside, touchdown RMSE / max",
+         f"{d['result']}, {d['score']}/{d['max_score']}, {d['landings_inside']}/"
+         f"{d['landings']}, {cm(d['touchdown_rmse_m'])} / {cm(d['touchdown_max_m'])}",
+         "every landing inside, RMSE <= 3 cm"],
+    ]) + host_line(None, d.get("load_before"))
+
+
 SECTIONS: dict[str, Section] = {
+    "mission_speed": Section(
+        "Contest mission speed, default arena", "bench_mission_speed.py",
+        "`quadmission sim` (default arena, seed 0, every node, both cameras with their 50 ms "
+        "latency, the scanner off the callbacks' thread) in one process, with the bare world "
+        "loop measured right after on the same host. The CPU shares come from a sampling "
+        "profiler reading every thread's stack.",
+        _mission_speed),
     "mission": Section(
         "Contest mission on 20 random arenas", "bench_mission.py",
         "The whole contest (`quadmission sim --scenario mission`) on seeded random arenas. "
@@ -629,6 +670,14 @@ SECTIONS: dict[str, Section] = {
         "cyclonedds ping-pong in the same run and the in-process transport. Microseconds move "
         "with the host's load; the ratio is the figure to compare.",
         _dds),
+    "campaign": Section(
+        "Campaign throughput", "bench_campaign.py",
+        "`quadmission campaign`'s runner on a local Dask cluster of 1 worker process and of "
+        "2, the same short clean square flights (random arenas with the smallest squares, "
+        "light and dark), the two alternated over rounds. Throughput is wall clock and "
+        "moves with the host's load (recorded below); the ratio of each round is measured in "
+        "the same minutes.",
+        _campaign),
     "bag_kill": Section(
         "Crash-safe recording", "bench_bag_kill.py",
         "`quadmission sim --scenario square --rtf 1 --record` killed with SIGKILL, the bag "

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 from quadmission.errors import OptionsError
 from quadmission.evaluation.faults import (
     FaultExpectationError,
+    FcuFailsafes,
     end_state,
     expectation,
     judge_fault,
@@ -27,11 +28,10 @@ from quadmission.evaluation.faults import (
 from runtime import DeterministicExecutor
 from sim.arena import ArenaSpec
 from sim.fault_spec import Fault, FaultKind
-from sim.fcu.firmware import Firmware
 from sim.world import Crash, Scene, Trajectory
 
-__all__ = ["APP_KINDS", "SCENARIO_KINDS", "AppFaults", "FcuFailsafes", "check_faults",
-           "judge_flight", "resolve_faults"]
+__all__ = ["APP_KINDS", "SCENARIO_KINDS", "AppFaults", "check_faults", "judge_flight",
+           "resolve_faults"]
 
 APP_KINDS = frozenset({FaultKind.OPERATOR_ABORT, FaultKind.OPERATOR_SILENT,
                        FaultKind.NODE_STOP})
@@ -48,8 +48,11 @@ SCENARIO_KINDS: dict[str, frozenset[FaultKind]] = {
     "map-arena": _FLYING | {FaultKind.DEPTH_DARK, FaultKind.LIGHT_DROP},
     "precision-landing": _FLYING | {FaultKind.CAMERA_DARK, FaultKind.PAD_OCCLUDED,
                                     FaultKind.LIGHT_DROP},
+    # no mission: vio_stop is judged not handled (nobody holds), and lost for good it
+    # shows the FCU's position-loss descent on its own
+    "square": _FLYING | {FaultKind.VIO_STOP},
 }
-"""What each scenario takes (``square``'s faults are wired by its own module)."""
+"""What each scenario takes; the others take none."""
 
 _WHY_NOT = {
     FaultKind.VIO_STOP: "its expected reaction is the mission's HOLD",
@@ -135,24 +138,6 @@ class AppFaults:
             else:
                 self.executor.stop_node(fault.text("name"))
             self.played.append((t_ns / 1e9, fault))
-
-
-@dataclass
-class FcuFailsafes:
-    """A world part that notes when the FCU enters a failsafe (truth, for the report)."""
-
-    firmware: Firmware
-    name: str = "fcu_failsafes"
-    rate_hz: float = 50.0
-    entered_s: list[float] = field(default_factory=list)
-    _was: bool = False
-
-    def update(self, t_ns: int, scene: Scene) -> None:
-        status = self.firmware.status
-        now = bool(status is not None and status.failsafe)
-        if now and not self._was:
-            self.entered_s.append(t_ns / 1e9)
-        self._was = now
 
 
 def judge_flight(faults: Sequence[Fault], failsafes: FcuFailsafes, truth: Trajectory,

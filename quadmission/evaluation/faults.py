@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -24,13 +24,16 @@ from fsm.mission_machine import MissionEvent
 from fsm.mission_table import ERROR_POLICY, ErrorCause, Reaction
 from sim.arena import PAD_SIZE, ArenaSpec
 from sim.fault_spec import Fault, FaultKind
-from sim.world import Crash, Trajectory
+from sim.fcu.firmware import Firmware
+from sim.world import Crash, Scene, Trajectory
 
-__all__ = ["EXPECTED", "NODE_STOP_EXPECTED", "EndState", "Expectation", "FaultExpectationError",
-           "Handler", "end_state", "expectation", "judge_fault"]
+__all__ = ["EXPECTED", "FAULT_SETTLE_S", "NODE_STOP_EXPECTED", "EndState", "Expectation",
+           "FaultExpectationError", "FcuFailsafes", "Handler", "end_state", "expectation",
+           "judge_fault"]
 
 AT_REST_M_S = 0.15  # m/s: slower than this, the vehicle is at rest (landed or holding)
 ON_GROUND_M = 0.1  # m: the body this close to its resting height on the pad is down
+FAULT_SETTLE_S = 10.0  # s flown on after a fault stopped a run: where the vehicle comes to rest
 SETTLE_WINDOW_S = 2.0  # s after a gust in which an error still counts as its doing
 
 
@@ -144,6 +147,24 @@ def end_state(truth: Trajectory, arena: ArenaSpec, resting_height_m: float,
     if abs(x - sx) <= half and abs(y - sy) <= half:
         return EndState.LANDED_ON_START_PAD
     return EndState.LANDED
+
+
+@dataclass
+class FcuFailsafes:
+    """A world part that notes when the FCU enters a failsafe (truth, for the report)."""
+
+    firmware: Firmware
+    name: str = "fcu_failsafes"
+    rate_hz: float = 50.0
+    entered_s: list[float] = field(default_factory=list)
+    _was: bool = False
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        status = self.firmware.status
+        now = bool(status is not None and status.failsafe)
+        if now and not self._was:
+            self.entered_s.append(t_ns / 1e9)
+        self._was = now
 
 
 _END_STATES_OF: dict[Reaction, set[EndState]] = {

@@ -30,7 +30,8 @@ from navigation.mapping_node import MappingNode
 from navigation.navigator_node import NAVIGATE, TAKEOFF, NavigatorNode
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
 from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
-from quadmission.assembly.faults import FcuFailsafes, check_faults, judge_flight
+from quadmission.assembly.faults import check_faults, judge_flight
+from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
 from quadmission.reports.report import write_report
 from runtime import ActionClient, Node, qos_profile_default, qos_profile_sensor_data

@@ -296,5 +296,5 @@ def test_a_stopped_node_runs_nothing_more_and_the_others_run_on(
     ex.spin_for(0.5)
     assert heard == [1, 2, 3, 4, 5] and len(ticks) == 10
     assert ex.stopped_nodes == {"listener"}
-    with pytest.raises(ValueError, match="no node 'nobody' to stop .*listener, talker"):
+    with pytest.raises(ValueError, match=r"no node 'nobody' to stop .*listener, talker"):
         ex.stop_node("nobody")

@@ -46,10 +46,10 @@ from navigation.path_finder_node import PathFinderNode
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
-from quadmission.assembly.faults import AppFaults, FcuFailsafes, check_faults, resolve_faults
+from quadmission.assembly.faults import AppFaults, check_faults, resolve_faults
 from quadmission.assembly.services import attach_services
 from quadmission.errors import OptionsError
-from quadmission.evaluation.faults import end_state, judge_fault
+from quadmission.evaluation.faults import FAULT_SETTLE_S, FcuFailsafes, end_state, judge_fault
 from quadmission.evaluation.mission import Landing, distance_m, landing, score, touchdown_summary
 from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
 from quadmission.reports.mission_plots import (
@@ -73,7 +73,6 @@ if TYPE_CHECKING:
 
 MISSION_LIMIT_S = 1800.0  # s of simulated time before the run is declared stuck
 SETTLE_S = 3.0  # s flown on after the end, so the last touchdown is judged at rest
-FAULT_SETTLE_S = 10.0  # s flown on after a fault stopped the mission: where it comes to rest
 PROGRESS_EVERY_S = 10.0  # s of simulated time between progress lines
 PICTURES = {"path": "path.png", "altitude": "altitude.png", "timeline": "timeline.png"}
 

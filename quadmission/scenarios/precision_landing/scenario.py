@@ -30,7 +30,8 @@ from matplotlib.patches import Rectangle
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import start_companion
-from quadmission.assembly.faults import FcuFailsafes, check_faults, judge_flight
+from quadmission.assembly.faults import check_faults, judge_flight
+from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.reports.report import write_report
 from quadmission.scenarios.precision_landing.pilot import LandingPilot
 from sim.arena import (

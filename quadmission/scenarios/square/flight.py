@@ -25,9 +25,12 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from quadmission.assembly.companion import start_companion
 from quadmission.assembly.services import attach_services
 from quadmission.errors import SquareDoesNotFit
+from quadmission.evaluation.faults import FAULT_SETTLE_S, FcuFailsafes, end_state, judge_fault
 from quadmission.evaluation.tracking import SetpointRecorder, outline_tracking, rounded
 from quadmission.reports.plots import FlightPicture, save_path_figure
 from quadmission.reports.report import write_report
@@ -35,9 +38,10 @@ from quadmission.scenarios.square.fit import CLEARANCE, SquarePlan, fit_square
 from quadmission.scenarios.square.pilot import PilotPhase, SquarePilot
 from quadmission.scenarios.square.status import SquareStatusNode
 from sim.arena import ArenaSpec
+from sim.faults import install_faults
 from sim.fcu.link import LinkDirection
 from sim.fcu.sitl import Sitl, build_sitl
-from sim.world import Scene, StopWhen
+from sim.world import Scene, StopWhen, Trajectory
 
 if TYPE_CHECKING:
     from quadmission.scenarios import ScenarioOptions
@@ -129,9 +133,19 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     sitl.extra_parts.append(_Progress(pilot, options.progress))
     if setup is not None:
         setup(sitl)
+    failsafes = FcuFailsafes(sitl.firmware)
+    if options.faults:  # as the mission does; a run without faults keeps the parts it had
+        install_faults(sitl, options.faults)
+        sitl.extra_parts.append(failsafes)
     with attach_services(options, sitl.executor, sitl.extra_parts, arena, sitl.scene):
-        result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))
-    truth, crash = result.trajectory, result.crash
+        runs = [sitl.run(limit_s, stop=StopWhen(lambda: pilot.done))]
+        landed = pilot.outcome is not None and pilot.outcome.success
+        if options.faults and runs[0].crash is None and not landed:
+            runs.append(sitl.run(FAULT_SETTLE_S))  # as the mission: where it comes to rest
+    result = runs[0]
+    truth = Trajectory(*(np.concatenate([getattr(r.trajectory, f) for r in runs])
+                         for f in ("t", "position", "quaternion", "velocity")))
+    crash = next((r.crash for r in runs if r.crash is not None), None)
     end_s = crash.t_s if crash is not None else result.sim_time_s
 
     started = {phase: ns / 1e9 for phase, ns in pilot.phase_started_ns.items()}
@@ -187,7 +201,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
                   "success": None if outcome is None else outcome.success,
                   "message": None if outcome is None else outcome.message},
         "flight_time_s": None if takeoff_s is None else rounded(flight_end_s - takeoff_s, 3),
-        "sim_time_s": rounded(result.sim_time_s, 3),
+        "sim_time_s": rounded(sum(r.sim_time_s for r in runs), 3),
         "link": {d.name.lower(): {"sent": c.sent, "lost": c.lost, "spikes": c.spikes}
                  for d in LinkDirection for c in [sitl.link.counters(d)]},
         "path_image": PATH_IMAGE,
@@ -196,6 +210,10 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
                  "cpu_time_s": rounded(result.cpu_time_s, 2),
                  "fcu_overruns": sitl.firmware.scheduler.report().overruns},
     }
+    if options.faults:  # no mission here: the FCU's failsafes and riding it out
+        ended = end_state(truth, arena, sitl.scene.quad.leg_height, crash)
+        report["faults"] = [judge_fault(f, (), failsafes.entered_s, ended)
+                            for f in options.faults]
     write_report(options.out, report)
     return report
 

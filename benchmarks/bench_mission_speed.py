@@ -1,0 +1,159 @@
+"""Mission speed: the default contest mission's real-time factor, where its CPU goes, and
+the bare world's real-time factor measured beside it (issue 21).
+
+    python benchmarks/bench_mission_speed.py --out benchmarks/results/mission_speed.json
+
+Flies ``quadmission sim`` (default arena, seed 0, every node, the cameras with their
+configured rates and latency) once in this process and reports:
+
+- ``rtf_mission``: simulated seconds per wall second; ``wall_s``, ``cpu_s`` (this
+  process, every thread) and ``sim_s``;
+- ``cpu_share``: the share of the busy samples of every thread in each part (scanner,
+  down camera, depth camera, mapping, FCU, other), from a sampling profiler that reads
+  every thread's stack ``--sample-hz`` times a second (a thread waiting on a lock or a
+  queue is not busy; a thread in a C call that released the GIL is);
+- the mission's result: completed, score, landings inside, touchdown RMSE;
+- ``rtf_bare_world``: the world loop without companion or cameras (hover actuation,
+  robots, crash detector, executor in lockstep; ``bench_sim.bench_physics``), measured
+  right after on the same host, so the ratio ``rtf_mission / rtf_bare_world`` compares
+  across hosts and loads better than either figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import tempfile
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+sys.path.insert(0, str(Path(__file__).parent))
+
+PARTS = ("scanner", "down_camera", "depth_camera", "mapping", "fcu", "other")
+
+# (part, path fragment, function name or "" for any): a stack's innermost frame that
+# matches a rule names its part (the world loop and the SITL runner hold every stack, so
+# they are "other" only when nothing inside them matches)
+_RULES: tuple[tuple[str, str, str], ...] = (
+    ("scanner", "perception/", ""),
+    ("depth_camera", "sim/sensors.py", "DepthCamera.update"),
+    ("depth_camera", "sim/sensors.py", "DepthCamera._deliver"),
+    ("depth_camera", "sim/render.py", "DepthPointCloud."),
+    ("down_camera", "sim/sensors.py", "DownCamera."),
+    ("down_camera", "sim/camera_model.py", ""),
+    ("down_camera", "sim/render.py", "SceneRenderer."),
+    ("mapping", "navigation/mapping", ""),
+    ("fcu", "sim/fcu/", ""),
+)
+_OUTER = ("sim/fcu/sitl.py", "sim/world.py")  # loops that run every part
+# innermost frames of a thread that is waiting, not working
+_IDLE = ("threading.py", "queue.py", "selectors.py")
+_POOL = "concurrent/futures/thread.py"  # a pool thread's loop: idle when innermost
+
+
+def classify(frame: FrameType | None) -> str | None:
+    """The part a thread's stack is in, or None when the thread is idle."""
+    if frame is None or frame.f_code.co_filename.endswith(_IDLE) or (
+            frame.f_code.co_filename.endswith(_POOL) and frame.f_code.co_name == "_worker"):
+        return None
+    while frame is not None:
+        filename, qualname = frame.f_code.co_filename, frame.f_code.co_qualname
+        if not filename.endswith(_OUTER):
+            for part, path, function in _RULES:
+                if path in filename and qualname.startswith(function):
+                    return part
+        frame = frame.f_back
+    return "other"
+
+
+class Sampler:
+    """Reads every other thread's stack ``hz`` times a second (see :func:`classify`)."""
+
+    def __init__(self, hz: float) -> None:
+        self.period = 1.0 / hz
+        self.counts: Counter[str] = Counter()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="sampler", daemon=True)
+
+    def _run(self) -> None:
+        me = threading.get_ident()
+        while not self._stop.wait(self.period):
+            for ident, frame in sys._current_frames().items():
+                if ident != me and (part := classify(frame)) is not None:
+                    self.counts[part] += 1
+
+    def __enter__(self) -> Sampler:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def shares(self) -> dict[str, float]:
+        total = sum(self.counts.values()) or 1
+        return {part: round(self.counts[part] / total, 3) for part in PARTS}
+
+
+def _cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def fly(out: Path, sample_hz: float) -> dict[str, Any]:
+    from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.mission.scenario import fly_mission
+
+    cpu0, wall0 = _cpu_s(), time.perf_counter()
+    with Sampler(sample_hz) as sampler:
+        report = fly_mission(ScenarioOptions(out=out, seed=0))
+    wall, cpu = time.perf_counter() - wall0, _cpu_s() - cpu0
+    sim_s = float(report["sim_time_s"])
+    landings = report["landings"]
+    return {"sim_s": round(sim_s, 3), "wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
+            "rtf_mission": round(sim_s / wall, 2), "rtf_mission_cpu": round(sim_s / cpu, 2),
+            "cpu_share": sampler.shares(), "samples": sum(sampler.counts.values()),
+            "result": report["result"], "ok": report["ok"],
+            "score": report["score"], "max_score": report["max_score"],
+            "landings_inside": sum(1 for x in landings if x["inside_pad"]),
+            "landings": len(landings),
+            "touchdown_rmse_m": report["touchdown_rmse_m"],
+            "touchdown_max_m": report["touchdown_max_m"]}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path,
+                        default=Path(__file__).parent / "results" / "mission_speed.json")
+    parser.add_argument("--sample-hz", type=float, default=100.0,
+                        help="stack samples per second (default 100)")
+    parser.add_argument("--bare-seconds", type=float, default=10.0,
+                        help="simulated seconds of the bare world (default 10)")
+    args = parser.parse_args()
+    from bench_sim import bench_physics
+
+    with tempfile.TemporaryDirectory() as tmp:
+        result: dict[str, Any] = {"benchmark": "mission_speed", "arena": "default", "seed": 0,
+                                  "cores": os.cpu_count(),
+                                  "load_before": round(os.getloadavg()[0], 2)}
+        result |= fly(Path(tmp) / "mission", args.sample_hz)
+    bare = bench_physics(args.bare_seconds)
+    result["rtf_bare_world"] = bare["real_time_factor_no_camera"]
+    result["ratio_mission_over_bare_world"] = round(
+        result["rtf_mission"] / result["rtf_bare_world"], 3)
+    result["load_after"] = round(os.getloadavg()[0], 2)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()
