@@ -147,6 +147,12 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
                         "without a simulator, e.g. the companion of a real vehicle)")
     p.add_argument("--out", type=Path, default=Path("runs/launch"),
                    help="folder for the recording (--record writes OUT/bag)")
+    p.add_argument("--fault", action="append", default=[], metavar="SPEC",
+                   help="inject a fault into the launch file's simulator, "
+                        "KIND@T[:DURATION][,key=value...] (repeatable; node_stop under "
+                        "--transport dds kills the node's process, T in wall seconds x rtf)")
+    p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
+                   help="inject the faults listed in this YAML file")
     _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
 
 
@@ -179,7 +185,53 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
-def _launch_processes(args: argparse.Namespace, description: Any) -> int:
+def _launch_faults(args: argparse.Namespace, description: Any) -> tuple[Any, list[Any]]:
+    """The description with ``--fault``/``--faults`` handed to its simulator, and over DDS
+    the (wall time, process) kills of the ``node_stop`` faults; a fault the launch cannot
+    play is refused naming it."""
+    import dataclasses
+    import inspect
+
+    from quadmission.errors import OptionsError
+    from runtime.launch import _resolve
+    from sim.fault_spec import FaultKind, load_faults, parse_faults
+
+    faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
+    if not faults:
+        return description, []
+    sim = description.simulator
+    if sim is None:
+        raise OptionsError("--fault: the launch file has no simulator to inject it into")
+    if "faults" not in inspect.signature(_resolve(sim.factory, "simulator")).parameters:
+        raise OptionsError(f"--fault: the simulator {sim.factory} takes no faults "
+                           "(quadmission.scenarios.mission.launch:sitl does)")
+    dds = args.transport in ("ros2", "dds")  # a process transport: node_stop kills
+    kills: list[tuple[float, str]] = []
+    given: list[str] = []
+    for f in faults:
+        if f.kind is FaultKind.OPERATOR_ABORT or (dds and f.kind is FaultKind.OPERATOR_SILENT):
+            raise OptionsError(f"--fault {f.spec()}: not in a launch"
+                               f"{' over DDS' if dds else ''}; quadmission sim --scenario "
+                               "mission plays it")
+        if dds and f.kind is FaultKind.NODE_STOP:
+            name = f.text("name")
+            named = {n.name: n.process_name() for n in description.nodes if n.name}
+            processes = sorted({n.process_name() for n in description.nodes})
+            process = named.get(name, name if name in processes else None)
+            if process is None:
+                raise OptionsError(f"--fault {f.spec()}: over DDS, name= a process of the "
+                                   f"launch file ({', '.join(processes)}) or a node's name: in it "
+                                   f"({', '.join(sorted(named)) or 'none'})")
+            kills.append((f.at_s / (1.0 if args.rtf is None else args.rtf), process))
+        else:
+            given.append(f.spec())
+    params = dict(sim.parameters) | {"faults": given}
+    return dataclasses.replace(description, simulator=dataclasses.replace(
+        sim, parameters=params)), kills
+
+
+def _launch_processes(args: argparse.Namespace, description: Any,
+                      kills: list[Any] | None = None) -> int:
     from ground_station.server import TOKEN_ENV
     from runtime.launch import LaunchDescription
     from runtime.processes.launcher import process_specs, run_launch
@@ -195,7 +247,7 @@ def _launch_processes(args: argparse.Namespace, description: Any) -> int:
         rtf=1.0 if args.rtf is None else args.rtf,
         duration_s=args.duration or SIMULATOR_TIME_LIMIT_S,
         config_dir=None if args.config_dir is None else str(args.config_dir.resolve()))
-    result = run_launch(specs)
+    result = run_launch(specs, kills=kills or ())
     print(f"launch: {result.reason}", file=sys.stderr)
     print(json.dumps({"exit_code": result.exit_code, "reason": result.reason}))
     return result.exit_code
@@ -207,8 +259,9 @@ def _launch_run(args: argparse.Namespace) -> int:
 
     description = LaunchDescription.from_yaml(args.file)
     _refuse_ignored_services(args, description.simulator is not None)
+    description, kills = _launch_faults(args, description)
     if args.transport in ("ros2", "dds"):
-        return _launch_processes(args, description)
+        return _launch_processes(args, description, kills)
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))
     if description.simulator is not None:
@@ -271,10 +324,11 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                    help="mission: remove this pad from the field, which the mission still "
                         "believes is there (seed 003, 4.2: the pad-search branch)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
-                   help="mission, square: inject a fault, KIND@T[:DURATION][,key=value...] in "
-                        "simulated seconds (repeatable; docs/scenarios.md)")
+                   help="inject a fault, KIND@T[:DURATION][,key=value...] in simulated "
+                        "seconds (repeatable; the kinds each scenario takes: "
+                        "docs/scenarios.md)")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
-                   help="mission, square: inject the faults listed in this YAML file")
+                   help="inject the faults listed in this YAML file")
     _run_services_args(p)
 
 
@@ -283,17 +337,16 @@ def _stderr(line: str) -> None:
 
 
 def _sim_run(args: argparse.Namespace) -> int:
-    from quadmission.errors import OptionsError, ScenarioRefused
+    from quadmission.assembly.faults import check_faults
+    from quadmission.errors import ScenarioRefused
     from quadmission.reports.report import REPORT_NAME
-    from quadmission.scenarios import FAULTED_SCENARIOS, SCENARIOS, ScenarioOptions
+    from quadmission.scenarios import SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
     from sim.fault_spec import load_faults, parse_faults
 
     # a bad spec is a SimError: one line naming the bad part, exit code 2
     faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
-    if faults and args.scenario not in FAULTED_SCENARIOS:
-        raise OptionsError(f"--fault/--faults act in the {', '.join(sorted(FAULTED_SCENARIOS))} "
-                           f"scenarios, not {args.scenario!r}")
+    check_faults(args.scenario, faults)  # the kinds this scenario takes, or why not
     services = _run_services(args)
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
                               faults=faults,

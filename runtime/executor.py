@@ -97,6 +97,7 @@ class DeterministicExecutor:
         self._heap: list[tuple[int, int, Handle]] = []
         self._order = itertools.count()
         self._nodes: list[Node] = []
+        self._stopped: frozenset[str] = frozenset()  # nodes no longer executed
         self.trace: list[TraceEntry] | None = [] if record_trace else None
         self.callbacks_run = 0
         self.context = Context(
@@ -166,6 +167,19 @@ class DeterministicExecutor:
     def get_nodes(self) -> list[Node]:
         return list(self._nodes)
 
+    def stop_node(self, name: str) -> None:
+        """Stop executing the node named ``name``, as if its process had died (a fault):
+        every callback of it (timers, messages, services, actions, tasks) due from now on
+        is dropped; the rest of the graph runs on. ``name`` must be a node of the context."""
+        names = sorted(n.get_name() for n in self.context.nodes)
+        if name not in names:
+            raise ValueError(f"no node {name!r} to stop (nodes: {', '.join(names)})")
+        self._stopped = self._stopped | {name}
+
+    @property
+    def stopped_nodes(self) -> frozenset[str]:
+        return self._stopped
+
     def create_task(self, coro: Coroutine[Any, Any, T]) -> Task[T]:
         return Task(coro, self, ("", "task", getattr(coro, "__qualname__", "")))
 
@@ -185,6 +199,8 @@ class DeterministicExecutor:
 
     def _run(self, t_ns: int, handle: Handle) -> None:
         self._clock.advance_to(t_ns)
+        if self._stopped and handle.label[0] in self._stopped:
+            return  # a stopped node's callback: dropped
         if self.trace is not None:
             self.trace.append(TraceEntry(t_ns, *handle.label))
         self.callbacks_run += 1

@@ -44,6 +44,18 @@ class FaultKind(Enum):
     BATTERY_CRITICAL = "battery_critical"  # ... below BAT_CRIT_THR
     WIND_GUST = "wind_gust"  # a horizontal force on the quadrotor's body
     OPERATOR_ABORT = "operator_abort"  # the operator presses ABORT
+    VIO_JUMP = "vio_jump"  # the visual odometry jumps by an offset (a relocalisation)
+    VIO_DELAY = "vio_delay"  # the visual odometry comes late
+    LATENCY_SPIKE = "latency_spike"  # every FCU link message is late
+    PACKET_BURST = "packet_burst"  # a burst of lost FCU link messages
+    CLOCK_JUMP = "clock_jump"  # the companion's clock (the XRCE agent's) jumps
+    CAMERA_DARK = "camera_dark"  # the down camera publishes black images
+    DEPTH_DARK = "depth_dark"  # the depth camera publishes empty clouds
+    PAD_OCCLUDED = "pad_occluded"  # a pad's marker is gone (the pad is still there)
+    LIGHT_DROP = "light_drop"  # the arena's light drops to the dark preset
+    ROBOT_ABSENT = "robot_absent"  # no robot carries the target marker
+    OPERATOR_SILENT = "operator_silent"  # the operator never sends a landing sequence
+    NODE_STOP = "node_stop"  # a companion node stops (its process dies)
 
 
 class Duration(Enum):
@@ -64,6 +76,8 @@ class Key:
     lo: float
     hi: float
     doc: str
+    required: bool = False  # the spec must give it
+    text: bool = False  # a name (checked where it is used), not a number
 
 
 @dataclass(frozen=True)
@@ -90,6 +104,37 @@ KINDS: dict[FaultKind, KindSpec] = {
             "where the force pushes, from map +x (east) towards +y (north)"),),
         "a gust pushes the quadrotor for DURATION s"),
     FaultKind.OPERATOR_ABORT: KindSpec(Duration.NONE, (), "the operator presses ABORT"),
+    FaultKind.VIO_JUMP: KindSpec(Duration.NONE, tuple(
+        Key(axis, 0.0, "m", -20.0, 20.0, f"jump along map {axis}") for axis in "xyz"),
+        "the visual odometry jumps by (x, y, z) and stays offset (a relocalisation)"),
+    FaultKind.VIO_DELAY: KindSpec(Duration.REQUIRED, (
+        Key("delay_ms", 200.0, "ms", 0.0, 10_000.0, "extra processing delay"),),
+        "the visual odometry is published delay_ms late for DURATION s"),
+    FaultKind.LATENCY_SPIKE: KindSpec(Duration.REQUIRED, (
+        Key("latency_ms", 300.0, "ms", 0.0, 10_000.0, "extra latency, both ways"),),
+        "every FCU link message is latency_ms late for DURATION s"),
+    FaultKind.PACKET_BURST: KindSpec(Duration.REQUIRED, (
+        Key("loss", 0.5, "", 0.0, 1.0, "chance a message is lost, both ways"),),
+        "FCU link messages are lost with probability loss for DURATION s"),
+    FaultKind.CLOCK_JUMP: KindSpec(Duration.NONE, (
+        Key("offset_ms", 1000.0, "ms", -1e7, 1e7, "the jump (positive: ahead)"),),
+        "the companion's clock, as the XRCE agent answers the FCU's time sync, jumps"),
+    FaultKind.CAMERA_DARK: KindSpec(Duration.OPTIONAL, (), "the down camera publishes "
+                                    "black images for DURATION s (to the end without one)"),
+    FaultKind.DEPTH_DARK: KindSpec(Duration.OPTIONAL, (), "the depth camera publishes empty "
+                                   "clouds for DURATION s (to the end without one)"),
+    FaultKind.PAD_OCCLUDED: KindSpec(Duration.NONE, (
+        Key("pad", math.nan, "", 1.0, 1000.0, "the pad's marker id", required=True),),
+        "the pad's marker is gone (covered), the pad itself still there"),
+    FaultKind.LIGHT_DROP: KindSpec(Duration.NONE, (), "the light drops to the dark preset"),
+    FaultKind.ROBOT_ABSENT: KindSpec(Duration.NONE, (
+        Key("robot", math.nan, "", 1.0, 1000.0, "the marker to take away (default: the "
+            "mission's target)"),), "no robot carries the marker any more"),
+    FaultKind.OPERATOR_SILENT: KindSpec(Duration.NONE, (), "the operator answers nothing "
+                                        "from then on (no landing sequence)"),
+    FaultKind.NODE_STOP: KindSpec(Duration.NONE, (
+        Key("name", math.nan, "", 0.0, 0.0, "the node's name", required=True, text=True),),
+        "a companion node stops (in process: no longer executed; over DDS: killed)"),
 }
 
 
@@ -102,6 +147,8 @@ class Fault:
     at_s: float
     duration_s: float | None = None
     values: tuple[tuple[str, float], ...] = ()
+    texts: tuple[tuple[str, str], ...] = ()
+    """The kind's text keys (a node's name)."""
 
     def __post_init__(self) -> None:
         name = self.spec()
@@ -118,19 +165,32 @@ class Fault:
             raise FaultSpecError(f"fault {name!r}: {self.kind.value} needs a duration "
                                  f"({self.kind.value}@T:DURATION)")
         known = {k.name: k for k in spec.keys}
-        for key, value in self.values:
+        given = dict(self.values) | dict(self.texts)
+        for key in given:
             k = known.get(key)
             if k is None:
                 names = ", ".join(sorted(known)) or "none"
                 raise FaultSpecError(f"fault {name!r}: unknown key {key!r} for "
                                      f"{self.kind.value} (known: {names})")
-            if not (k.lo <= value <= k.hi) and not (math.isnan(value) and math.isnan(k.default)):
+            if k.text != (key in dict(self.texts)):
+                raise FaultSpecError(f"fault {name!r}: {key} must be "
+                                     f"{'a name' if k.text else 'a number'}")
+        for k in spec.keys:
+            missing = k.name not in given or (not k.text and math.isnan(float(given[k.name])))
+            if k.required and missing:
+                raise FaultSpecError(f"fault {name!r}: {self.kind.value} needs {k.name}=...")
+            if k.text and k.name in given and not str(given[k.name]).strip():
+                raise FaultSpecError(f"fault {name!r}: {k.name} is empty")
+        for key, value in self.values:
+            k = known[key]
+            if not (k.lo <= value <= k.hi) and not (math.isnan(value) and math.isnan(k.default)
+                                                     and not k.required):
                 raise FaultSpecError(f"fault {name!r}: {key}={value:g} is outside "
                                      f"[{k.lo:g}, {k.hi:g}] {k.unit}".rstrip())
 
     @classmethod
     def of(cls, kind: FaultKind, at_s: float, duration_s: float | None = None,
-           **values: float) -> Fault:
+           **values: float | str) -> Fault:
         """A fault with the kind's defaults for the keys not given (checked)."""
         spec = KINDS[kind]
         names = sorted(k.name for k in spec.keys)
@@ -138,8 +198,20 @@ class Fault:
         if unknown:
             raise FaultSpecError(f"fault {kind.value}@{at_s:g}: unknown key {unknown[0]!r} for "
                                  f"{kind.value} (known: {', '.join(names) or 'none'})")
-        filled = tuple((k.name, float(values.get(k.name, k.default))) for k in spec.keys)
-        return cls(kind, float(at_s), None if duration_s is None else float(duration_s), filled)
+        filled, texts = [], []
+        for k in spec.keys:
+            v = values.get(k.name, k.default)
+            if k.text:
+                if k.name in values:
+                    texts.append((k.name, str(v)))
+                continue
+            try:
+                filled.append((k.name, float(v)))
+            except ValueError:
+                raise FaultSpecError(f"fault {kind.value}@{at_s:g}: {k.name}={v!r} is not a "
+                                     "number") from None
+        return cls(kind, float(at_s), None if duration_s is None else float(duration_s),
+                   tuple(filled), tuple(texts))
 
     def value(self, key: str) -> float:
         """The value of ``key`` (NaN: the kind's computed default)."""
@@ -147,6 +219,13 @@ class Fault:
             if name == key:
                 return value
         raise KeyError(f"{self.kind.value} has no key {key!r}")
+
+    def text(self, key: str) -> str:
+        """The text of ``key`` (a node's name)."""
+        for name, value in self.texts:
+            if name == key:
+                return value
+        raise KeyError(f"{self.kind.value} has no text key {key!r}")
 
     @property
     def end_s(self) -> float:
@@ -159,11 +238,12 @@ class Fault:
         if self.duration_s is not None:
             out += f":{self.duration_s:g}"
         given = [f"{k}={v:g}" for k, v in self.values if not math.isnan(v)]
+        given += [f"{k}={v}" for k, v in self.texts]
         return ",".join([out, *given])
 
     def to_json(self) -> dict[str, Any]:
         return {"kind": self.kind.value, "at_s": self.at_s, "duration_s": self.duration_s,
-                **{k: v for k, v in self.values if not math.isnan(v)}}
+                **{k: v for k, v in self.values if not math.isnan(v)}, **dict(self.texts)}
 
 
 def _kind(name: str, where: str) -> FaultKind:
@@ -193,11 +273,15 @@ def parse_fault(text: str) -> Fault:
     at, _, duration = when.partition(":")
     at_s = _seconds(at, "time", text)
     duration_s = _seconds(duration, "duration", text) if duration else None
-    values: dict[str, float] = {}
+    values: dict[str, float | str] = {}
+    texts = {k.name for k in KINDS[kind].keys if k.text}
     for pair in pairs:
         key, eq, raw = pair.partition("=")
         if not eq:
             raise FaultSpecError(f"fault {text!r}: {pair!r} is not key=value")
+        if key.strip() in texts:
+            values[key.strip()] = raw.strip()
+            continue
         try:
             values[key.strip()] = float(raw)
         except ValueError:
@@ -224,8 +308,9 @@ def _from_mapping(entry: Any, where: str) -> Fault:
     kind = _kind(str(fields.pop("kind")), where)
     at = fields.pop("at_s")
     duration = fields.pop("duration_s", None)
+    texts = {k.name for k in KINDS[kind].keys if k.text}
     try:
-        values = {str(k): float(v) for k, v in fields.items()}
+        values = {str(k): (str(v) if k in texts else float(v)) for k, v in fields.items()}
         at_s = float(at)
         duration_s = None if duration is None else float(duration)
     except (TypeError, ValueError):

@@ -10,7 +10,21 @@ time; nothing here touches the companion:
 - ``battery_low`` / ``battery_critical``: the pack (and with it PX4's estimate) sags to a
   charge below ``BAT_LOW_THR`` / ``BAT_CRIT_THR`` of the FCU's battery parameters;
 - ``wind_gust``: a horizontal force on the quadrotor's body (:class:`Gusts`, the
-  actuation's :class:`~sim.world.Wind`), exactly over ``[at_s, at_s + duration_s)``.
+  actuation's :class:`~sim.world.Wind`), exactly over ``[at_s, at_s + duration_s)``;
+- ``vio_jump`` / ``vio_delay``: the visual odometry shifts by an offset for good, or is
+  published later for the duration (:class:`~sim.vision.VisionPose`'s ``offset`` and
+  ``extra_latency_s``);
+- ``latency_spike`` / ``packet_burst``: every link message, both ways, is later, or lost
+  with a probability, for the duration (:class:`~sim.fcu.link.Link`);
+- ``clock_jump``: the companion's clock as the XRCE agent reads it to answer the FCU's
+  time sync jumps (:class:`~sim.fcu.agent.FcuAgentNode`'s ``clock_offset_ns``): the
+  FCU's offset estimate must follow, and the bridge's conversions with it;
+- ``camera_dark`` / ``depth_dark``: the sensors node's image (point-cloud) publisher is
+  wrapped (:class:`Blackout`): black images (empty clouds) for the duration, the
+  sensors' code untouched;
+- ``pad_occluded`` / ``robot_absent``: the pad's (robot's) marker geom loses its texture
+  (a plain pad, a plain robot top): the marker is gone, the thing is still there;
+- ``light_drop``: the lights go to the ``dark`` preset (:data:`~sim.mjcf.LIGHTING_PRESETS`).
 
 The switches run in a world part (:class:`FaultSwitches`) at ``rate_hz``, before the
 other parts of a tick: a fault starts at the first tick at or after its time (on time
@@ -21,25 +35,50 @@ elsewhere (the operator's) are left to the app. Same faults, same seed: same run
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
+import mujoco
 import numpy as np
 
+import interfaces
 from runtime.clock import NS_PER_S
+from sim.arena import Lighting
+from sim.errors import SimError
 from sim.fault_spec import Fault, FaultKind
+from sim.fcu.agent import FcuAgentNode
 from sim.fcu.battery import BatteryEstimatorParams
 from sim.fcu.firmware import Firmware
 from sim.fcu.link import Link
 from sim.fcu.sitl import Sitl
+from sim.mjcf import LIGHTING_PRESETS, pad_geom_name, robot_body_name
 from sim.vision import VisionPose
 from sim.world import FloatArray, Scene, Wind
 
-__all__ = ["SIM_KINDS", "FaultSwitches", "Gusts", "Switched", "install_faults", "sag_level"]
+if TYPE_CHECKING:
+    from sim.sensors import SimSensorsNode
 
-SIM_KINDS = frozenset({FaultKind.VIO_STOP, FaultKind.LINK_LOST, FaultKind.BATTERY_LOW,
-                       FaultKind.BATTERY_CRITICAL, FaultKind.WIND_GUST})
+__all__ = ["SIM_KINDS", "Blackout", "FaultInstallError", "FaultSwitches", "Gusts", "Switched",
+           "install_faults", "sag_level"]
+
+SIM_KINDS = frozenset({
+    FaultKind.VIO_STOP, FaultKind.LINK_LOST, FaultKind.BATTERY_LOW,
+    FaultKind.BATTERY_CRITICAL, FaultKind.WIND_GUST, FaultKind.VIO_JUMP, FaultKind.VIO_DELAY,
+    FaultKind.LATENCY_SPIKE, FaultKind.PACKET_BURST, FaultKind.CLOCK_JUMP,
+    FaultKind.CAMERA_DARK, FaultKind.DEPTH_DARK, FaultKind.PAD_OCCLUDED,
+    FaultKind.LIGHT_DROP, FaultKind.ROBOT_ABSENT})
 """The kinds this module injects."""
+CAMERA_KINDS = frozenset({FaultKind.CAMERA_DARK, FaultKind.DEPTH_DARK})
+"""The kinds that need the sensors node."""
+_WINDOWED = frozenset({FaultKind.VIO_STOP, FaultKind.LINK_LOST, FaultKind.VIO_DELAY,
+                       FaultKind.LATENCY_SPIKE, FaultKind.PACKET_BURST, *CAMERA_KINDS})
+PLAIN_PAD_RGBA = (0.55, 0.8, 0.95, 1.0)  # the pad's light blue, without its marker
+PLAIN_ROBOT_RGBA = (0.3, 0.3, 0.3, 1.0)
+
+
+class FaultInstallError(SimError, ValueError):
+    """A fault that cannot act in this run; the message names the kind and why."""
 
 
 def _ns(t_s: float) -> int:
@@ -87,6 +126,54 @@ class Switched:
     on: bool
 
 
+def _black_image(msg: Any) -> Any:
+    return interfaces.new("sensor_msgs/msg/Image", header=msg.header, height=msg.height,
+                          width=msg.width, encoding=msg.encoding, step=msg.step,
+                          data=np.zeros_like(msg.data))
+
+
+def _empty_cloud(msg: Any) -> Any:
+    return interfaces.new("sensor_msgs/msg/PointCloud2", header=msg.header, height=1,
+                          width=0, fields=msg.fields, is_bigendian=msg.is_bigendian,
+                          point_step=msg.point_step, row_step=0,
+                          data=np.zeros(0, dtype=np.uint8), is_dense=True)
+
+
+class Blackout:
+    """Stands in for a sensor's publisher: passes every message through, blanked (black
+    image, empty cloud) while ``dark``; anything else is the publisher's."""
+
+    def __init__(self, publisher: Any, blank: Callable[[Any], Any]) -> None:
+        self.publisher = publisher
+        self.blank = blank
+        self.dark = False
+
+    def publish(self, msg: Any) -> None:
+        self.publisher.publish(self.blank(msg) if self.dark else msg)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.publisher, name)
+
+
+def _plain(scene: Scene, geom: str, rgba: tuple[float, ...]) -> None:
+    """Take the texture (the marker) off ``geom``: a plain colour instead."""
+    gid = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_GEOM, geom)
+    if gid < 0:
+        raise FaultInstallError(f"no geom {geom!r} in the arena")
+    scene.model.geom_matid[gid] = -1
+    scene.model.geom_rgba[gid] = rgba
+
+
+def _lights_to(scene: Scene, lighting: Lighting) -> None:
+    preset = LIGHTING_PRESETS[lighting]
+    vis = scene.model.vis.headlight
+    vis.ambient[:] = preset.headlight_ambient
+    vis.diffuse[:] = preset.headlight_diffuse
+    lid = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_LIGHT, "overhead")
+    if lid >= 0:
+        scene.model.light_diffuse[lid] = preset.overhead_diffuse
+
+
 @dataclass
 class FaultSwitches:
     """The world part that switches the faults on and off at their times."""
@@ -95,6 +182,9 @@ class FaultSwitches:
     vision: VisionPose
     link: Link
     firmware: Firmware
+    agent: FcuAgentNode | None = None
+    image: Blackout | None = None
+    cloud: Blackout | None = None
     rate_hz: float = 100.0
     name: str = "faults"
     switched: list[Switched] = field(default_factory=list)
@@ -105,28 +195,59 @@ class FaultSwitches:
         for f in self.faults:
             if f.kind in SIM_KINDS and f.kind is not FaultKind.WIND_GUST:
                 events.append((_ns(f.at_s), True, f))
-                if math.isfinite(f.end_s) and f.kind in (FaultKind.VIO_STOP,
-                                                         FaultKind.LINK_LOST):
+                if math.isfinite(f.end_s) and f.kind in _WINDOWED:
                     events.append((_ns(f.end_s), False, f))
         # in time order; at the same time an end before a start (windows are half-open)
         self._pending = sorted(events, key=lambda e: (e[0], e[1]))
-        self._vio_down = 0  # overlapping outages: counted, so the first end does not
-        self._link_down = 0  # restore what a later one still holds
+        self._active: list[Fault] = []  # the windowed faults on now (they may overlap)
 
     def update(self, t_ns: int, scene: Scene) -> None:
         while self._pending and self._pending[0][0] <= t_ns:
             _, on, fault = self._pending.pop(0)
-            self._apply(fault, on)
+            if fault.kind in _WINDOWED:
+                if on:
+                    self._active.append(fault)
+                else:
+                    self._active.remove(fault)
+                self._windows()
+            else:
+                self._step(fault, scene)
             self.switched.append(Switched(t_ns / NS_PER_S, fault, on))
 
-    def _apply(self, fault: Fault, on: bool) -> None:
-        step = 1 if on else -1
-        if fault.kind is FaultKind.VIO_STOP:
-            self._vio_down += step
-            self.vision.tracking = self._vio_down == 0
-        elif fault.kind is FaultKind.LINK_LOST:
-            self._link_down += step
-            self.link.down = self._link_down > 0
+    def _windows(self) -> None:
+        """What the windowed faults on now add up to (an end restores what no other
+        fault still holds)."""
+        kinds = [f.kind for f in self._active]
+        self.vision.tracking = FaultKind.VIO_STOP not in kinds
+        self.link.down = FaultKind.LINK_LOST in kinds
+        self.vision.extra_latency_s = sum(f.value("delay_ms") for f in self._active
+                                          if f.kind is FaultKind.VIO_DELAY) / 1e3
+        self.link.extra_latency_us = sum(f.value("latency_ms") for f in self._active
+                                         if f.kind is FaultKind.LATENCY_SPIKE) * 1e3
+        self.link.extra_loss_probability = max(
+            (f.value("loss") for f in self._active if f.kind is FaultKind.PACKET_BURST),
+            default=0.0)
+        if self.image is not None:
+            self.image.dark = FaultKind.CAMERA_DARK in kinds
+        if self.cloud is not None:
+            self.cloud.dark = FaultKind.DEPTH_DARK in kinds
+
+    def _step(self, fault: Fault, scene: Scene) -> None:
+        kind = fault.kind
+        if kind is FaultKind.VIO_JUMP:
+            o = self.vision.offset
+            self.vision.offset = (o[0] + fault.value("x"), o[1] + fault.value("y"),
+                                  o[2] + fault.value("z"))
+        elif kind is FaultKind.CLOCK_JUMP:
+            assert self.agent is not None
+            self.agent.clock_offset_ns += round(fault.value("offset_ms") * 1e6)
+        elif kind is FaultKind.PAD_OCCLUDED:
+            _plain(scene, pad_geom_name(int(fault.value("pad"))), PLAIN_PAD_RGBA)
+        elif kind is FaultKind.ROBOT_ABSENT:
+            _plain(scene, f"{robot_body_name(int(fault.value('robot')))}_marker",
+                   PLAIN_ROBOT_RGBA)
+        elif kind is FaultKind.LIGHT_DROP:
+            _lights_to(scene, Lighting.DARK)
         else:  # a battery sag
             fw = self.firmware
             params = fw.battery_estimator.params
@@ -137,16 +258,40 @@ class FaultSwitches:
             fw.battery_estimator.sag_to(level)
 
 
-def install_faults(sitl: Sitl, faults: Sequence[Fault]) -> FaultSwitches | None:
+def install_faults(sitl: Sitl, faults: Sequence[Fault],
+                   sensors: SimSensorsNode | None = None) -> FaultSwitches | None:
     """Schedule the simulator's faults of ``faults`` in ``sitl``: the switches as an
-    extra part, the gusts in the actuation's wind. None (and ``sitl`` untouched) when
-    none of them acts in the simulator, so a run without faults is the run it was."""
+    extra part, the gusts in the actuation's wind, the cameras' blackouts around
+    ``sensors``' publishers. None (and ``sitl`` untouched) when none of them acts in the
+    simulator, so a run without faults is the run it was. A fault that cannot act in
+    this run (a camera without ``sensors``, a marker the arena lacks, a robot not named)
+    raises :class:`FaultInstallError` naming it."""
     ours = [f for f in faults if f.kind in SIM_KINDS]
     if not ours:
         return None
+    kinds = {f.kind for f in ours}
+    if kinds & CAMERA_KINDS and sensors is None:
+        names = ", ".join(sorted(k.value for k in kinds & CAMERA_KINDS))
+        raise FaultInstallError(f"{names}: this run has no cameras to darken")
+    arena = sitl.scene.arena
+    for f in ours:
+        if f.kind is FaultKind.PAD_OCCLUDED and int(f.value("pad")) not in arena.pad_ids:
+            raise FaultInstallError(f"{f.spec()}: arena {arena.name!r} has pads "
+                                    f"{list(arena.pad_ids)}")
+        if f.kind is FaultKind.ROBOT_ABSENT:
+            robots = [r.marker_id for r in arena.robots]
+            if math.isnan(f.value("robot")) or int(f.value("robot")) not in robots:
+                raise FaultInstallError(f"{f.spec()}: name the robot's marker, one of "
+                                        f"{robots} (robot=ID)")
     gusts = [f for f in ours if f.kind is FaultKind.WIND_GUST]
     if gusts:
         sitl.actuation.wind = Gusts(sitl.actuation.wind, gusts)
-    switches = FaultSwitches(ours, sitl.vision, sitl.link, sitl.firmware)
+    image = cloud = None
+    if sensors is not None and kinds & CAMERA_KINDS:
+        image = Blackout(sensors.down_image, _black_image)
+        cloud = Blackout(sensors.depth_points, _empty_cloud)
+        sensors.down_image, sensors.depth_points = image, cloud  # type: ignore[assignment]
+    switches = FaultSwitches(ours, sitl.vision, sitl.link, sitl.firmware, sitl.agent,
+                             image, cloud)
     sitl.first_parts.append(switches)
     return switches

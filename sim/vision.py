@@ -4,7 +4,8 @@
 adds white noise and a slowly drifting offset (a random walk, as odometry drifts), and
 publishes it on ``/sim/vision/pose`` (geometry_msgs/PoseWithCovarianceStamped, ``map``
 frame, ENU/FLU) after a processing ``latency_s``, stamped with the time the pose was
-true. Setting ``tracking`` to False cuts the stream, as a lost SLAM track does. The
+true. Setting ``tracking`` to False cuts the stream, as a lost SLAM track does;
+``offset`` shifts it (a relocalisation jump), ``extra_latency_s`` delays it. The
 companion node that forwards it to the flight controller sees only this topic.
 """
 
@@ -78,6 +79,10 @@ class VisionPose:
     seed: int = 0
     name: str = "vision"
     tracking: bool = True
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Added to every position [m, map] (a fault: the odometry jumped)."""
+    extra_latency_s: float = 0.0
+    """Added to the processing delay [s] (a fault: the odometry is late)."""
     published: int = 0
 
     def __post_init__(self) -> None:
@@ -112,8 +117,10 @@ class VisionPose:
         if not self.tracking:
             return
         px, py, pz, w, x, y, z = scene.views.quad_qpos.tolist()  # position, quaternion
-        position = (px + d[0] + (0.0 + white * zs[3]), py + d[1] + (0.0 + white * zs[4]),
-                    pz + d[2] + (0.0 + white * zs[5]))
+        o = self.offset
+        position = (px + d[0] + (0.0 + white * zs[3]) + o[0],
+                    py + d[1] + (0.0 + white * zs[4]) + o[1],
+                    pz + d[2] + (0.0 + white * zs[5]) + o[2])
         half = dyaw / 2.0  # yaw noise: rotate about world z
         cw, sz = math.cos(half), math.sin(half)
         q = (cw * w - sz * z, cw * x - sz * y, cw * y + sz * x, cw * z + sz * w)
@@ -137,7 +144,7 @@ class VisionPose:
                                                y=q[2], z=q[3], w=q[0])),
                 covariance=cov),
         )
-        publish_at = t_ns + seconds_to_ns(n.latency_s)
+        publish_at = t_ns + seconds_to_ns(n.latency_s + self.extra_latency_s)
         self.node.context.loop.call_at(publish_at, lambda: self.node.pose.publish(msg),
                                        (self.node.get_name(), "vision", VISION_POSE_TOPIC))
         self.published += 1

@@ -36,7 +36,7 @@ import yaml
 
 from quadmission.errors import CampaignError
 from sim.arena import Lighting
-from sim.fault_spec import Fault, FaultSpecError, parse_fault
+from sim.fault_spec import Fault, FaultKind, FaultSpecError, parse_fault
 
 __all__ = ["ARENA_LIGHTING", "DEFAULT_TIMEOUT_S", "RANDOM_ARENA", "Campaign", "Cell",
            "load_campaign", "parse_campaign"]
@@ -196,7 +196,7 @@ def _check_keys(data: Any, keys: frozenset[str], where: str) -> None:
 
 
 def _block_cells(block: Any, where: str, *, scenarios: Collection[str],
-                 faulted: Collection[str], base: Path) -> list[Cell]:
+                 faulted: Mapping[str, Collection[FaultKind]], base: Path) -> list[Cell]:
     _check_keys(block, BLOCK_KEYS, where)
     for required in ("scenarios", "seeds"):
         if required not in block:
@@ -213,19 +213,25 @@ def _block_cells(block: Any, where: str, *, scenarios: Collection[str],
     lighting = _lighting(block.get("lighting", ARENA_LIGHTING), f"{where}.lighting")
     fault_sets = _fault_sets(block.get("faults", [[]]), f"{where}.faults")
     for name in names:
-        if name not in faulted and any(fault_sets):
+        takes = faulted.get(name, ())
+        if not takes and any(fault_sets):
             raise CampaignError(f"{where}.faults: scenario {name!r} takes no faults (those "
                                 f"that do: {', '.join(sorted(faulted))})")
+        for fault in (f for fs in fault_sets for f in fs):
+            if fault.kind not in takes:
+                raise CampaignError(
+                    f"{where}.faults: scenario {name!r} cannot take {fault.kind.value} "
+                    f"(it takes: {', '.join(sorted(k.value for k in takes))})")
     return [Cell(name, seed, arena, light, faults)
             for name, seed, light, faults in product(names, seeds, lighting, fault_sets)]
 
 
 def parse_campaign(data: Any, where: str, *, scenarios: Collection[str],
-                   faulted: Collection[str], base: Path = Path("."),
+                   faulted: Mapping[str, Collection[FaultKind]], base: Path = Path("."),
                    default_name: str = "campaign") -> Campaign:
     """A campaign from its parsed YAML. ``where`` prefixes every error (the file);
-    ``scenarios``: the names that exist; ``faulted``: those that take faults; ``base``:
-    the folder arena paths may be relative to."""
+    ``scenarios``: the names that exist; ``faulted``: those that take faults, with the
+    kinds each takes; ``base``: the folder arena paths may be relative to."""
     _check_keys(data, TOP_KEYS, where)
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name.strip():

@@ -3,7 +3,9 @@
 The mission's reactions are not restated: a kind the mission must notice names the
 :class:`~fsm.mission_table.ErrorCause` it shows as, and the reaction is that cause's in
 :data:`~fsm.mission_table.ERROR_POLICY`. A lost link is the FCU's to handle (its
-offboard-loss failsafe: hold, then ``offboard_loss_action``); a gust is ridden out.
+offboard-loss failsafe: hold, then ``offboard_loss_action``); a gust is ridden out. The
+VIO lost for good is the mission's (HOLD) and then the FCU's: without a position it
+cannot hold, and its position-loss failsafe descends to the floor.
 
 What happened is read from what the mission published (its ``/mission/events``: an error
 event carries its cause and reaction) and from the FCU's modes; where the vehicle ended
@@ -25,8 +27,9 @@ from sim.fault_spec import Fault, FaultKind
 from sim.fcu.firmware import Firmware
 from sim.world import Crash, Scene, Trajectory
 
-__all__ = ["EXPECTED", "FAULT_SETTLE_S", "EndState", "Expectation", "FcuFailsafes", "Handler",
-           "end_state", "judge_fault"]
+__all__ = ["EXPECTED", "FAULT_SETTLE_S", "NODE_STOP_EXPECTED", "EndState", "Expectation",
+           "FaultExpectationError", "FcuFailsafes", "Handler", "end_state", "expectation",
+           "judge_fault"]
 
 AT_REST_M_S = 0.15  # m/s: slower than this, the vehicle is at rest (landed or holding)
 ON_GROUND_M = 0.1  # m: the body this close to its resting height on the pad is down
@@ -40,29 +43,81 @@ class Handler(Enum):
     MISSION = "mission"  # the mission's error policy
     FCU = "fcu"  # the flight controller's failsafe
     NOBODY = "nobody"  # ride it out: no error, no crash
+    SKIP = "skip"  # the mission skips the pad (after its search), with the reason
 
 
 @dataclass(frozen=True)
 class Expectation:
     handler: Handler
     cause: ErrorCause | None = None  # what the mission must report (Handler.MISSION)
+    fcu_follows: bool = False
+    """A fault that lasts to the end leaves the vehicle to the FCU's failsafe after the
+    mission's reaction (VIO lost for good: HOLD, then the position-loss descent), and
+    the run must end on the ground."""
 
     @property
     def reaction(self) -> str:
         """The expected reaction's name: the policy's for the cause, else the handler's."""
         if self.cause is not None:
             return ERROR_POLICY[self.cause].reaction.name
-        return "FAILSAFE" if self.handler is Handler.FCU else "NONE"
+        return {Handler.FCU: "FAILSAFE", Handler.SKIP: "SKIP"}.get(self.handler, "NONE")
 
 
 EXPECTED: dict[FaultKind, Expectation] = {
-    FaultKind.VIO_STOP: Expectation(Handler.MISSION, ErrorCause.LOCALISATION_LOST),
+    FaultKind.VIO_STOP: Expectation(Handler.MISSION, ErrorCause.LOCALISATION_LOST,
+                                    fcu_follows=True),
     FaultKind.BATTERY_LOW: Expectation(Handler.MISSION, ErrorCause.BATTERY_LOW),
     FaultKind.BATTERY_CRITICAL: Expectation(Handler.MISSION, ErrorCause.BATTERY_CRITICAL),
     FaultKind.OPERATOR_ABORT: Expectation(Handler.MISSION, ErrorCause.OPERATOR_ABORT),
     FaultKind.LINK_LOST: Expectation(Handler.FCU),
     FaultKind.WIND_GUST: Expectation(Handler.NOBODY),
+    # the FCU follows the jumped odometry (nothing checks it): the vehicle moves by the
+    # jump, unnoticed; a consistency check is a policy the mission lacks (docs/scenarios.md)
+    FaultKind.VIO_JUMP: Expectation(Handler.NOBODY),
+    FaultKind.VIO_DELAY: Expectation(Handler.NOBODY),  # fused at its sample time (EKF buffer)
+    FaultKind.LATENCY_SPIKE: Expectation(Handler.NOBODY),  # below COM_OF_LOSS_T: ride it out
+    FaultKind.PACKET_BURST: Expectation(Handler.NOBODY),  # enough heartbeats get through
+    FaultKind.CLOCK_JUMP: Expectation(Handler.NOBODY),  # the time sync resets and follows
+    # no marker seen in the dark: the pad's search, then its skip; no module reports a
+    # black camera (a policy the mission lacks)
+    FaultKind.CAMERA_DARK: Expectation(Handler.SKIP),
+    FaultKind.DEPTH_DARK: Expectation(Handler.NOBODY),  # the map keeps what it had
+    FaultKind.PAD_OCCLUDED: Expectation(Handler.SKIP),
+    FaultKind.LIGHT_DROP: Expectation(Handler.NOBODY),  # the contest's dark condition
+    FaultKind.ROBOT_ABSENT: Expectation(Handler.MISSION, ErrorCause.ROBOT_NOT_FOUND),
+    FaultKind.OPERATOR_SILENT: Expectation(Handler.MISSION, ErrorCause.SEQUENCE_TIMEOUT),
+    # a module that stops reporting its health (see NODE_STOP_EXPECTED for the others)
+    FaultKind.NODE_STOP: Expectation(Handler.MISSION, ErrorCause.MODULE_SILENT),
 }
+
+NODE_STOP_EXPECTED: dict[str, Expectation] = {
+    # the offboard setpoint stream stops: the FCU's offboard-loss failsafe, before the
+    # mission's watchdog could call the module silent
+    "flight_control": Expectation(Handler.FCU),
+    "fcu_bridge": Expectation(Handler.FCU),
+    # the vision to the FCU stops: as vio_stop for good
+    "vio": EXPECTED[FaultKind.VIO_STOP],
+    **{name: EXPECTED[FaultKind.NODE_STOP] for name in (
+        "aruco_scanner", "mapping", "path_finder", "navigator", "precision_land")},
+}
+"""``node_stop``'s reaction by node. The mission node and the operator have none: no
+module watches the mission (a policy the mission lacks), the operator is not on board."""
+
+
+def expectation(fault: Fault) -> Expectation:
+    """The expected reaction to ``fault`` (``node_stop``: by the node's name)."""
+    if fault.kind is FaultKind.NODE_STOP:
+        name = fault.text("name")
+        if name not in NODE_STOP_EXPECTED:
+            raise FaultExpectationError(
+                f"{fault.spec()}: no expected reaction for node {name!r} (nodes: "
+                f"{', '.join(sorted(NODE_STOP_EXPECTED))})")
+        return NODE_STOP_EXPECTED[name]
+    return EXPECTED[fault.kind]
+
+
+class FaultExpectationError(ValueError):
+    """A fault with no expected reaction; the message names it."""
 
 
 class EndState(Enum):
@@ -127,18 +182,31 @@ def _cause_of(event: MissionEvent) -> tuple[str, str] | None:
 
 
 def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
-                fcu_failsafes: Sequence[float], end: EndState) -> dict[str, Any]:
+                fcu_failsafes: Sequence[float], end: EndState,
+                skipped: Sequence[tuple[float, int, str]] = ()) -> dict[str, Any]:
     """One fault's entry of the report: ``{kind, at_s, expected, observed, reaction_s,
     end_state, handled}``. ``events``: the mission's (time, event); ``fcu_failsafes``:
-    the times the FCU entered a failsafe."""
-    expected = EXPECTED[fault.kind]
+    the times the FCU entered a failsafe; ``skipped``: the pads the mission skipped
+    (time, pad, reason)."""
+    expected = expectation(fault)
     observed, reaction_s = "none", None
     handled = end is not EndState.CRASHED
-    if expected.handler is Handler.FCU:
-        t = next((t for t in fcu_failsafes if fault.at_s <= t <= fault.end_s + 1e-9), None)
-        if t is not None:
-            observed, reaction_s = "FAILSAFE", t - fault.at_s
-        handled = handled and t is not None
+    if expected.handler is Handler.SKIP:
+        pad = fault.value("pad") if fault.kind is FaultKind.PAD_OCCLUDED else math.nan
+        hit_skip = next(((t, p, r) for t, p, r in skipped if t >= fault.at_s
+                         and (math.isnan(pad) or p == int(pad))), None)
+        if hit_skip is not None:
+            observed = f"SKIP pad {hit_skip[1]}: {hit_skip[2]}"
+            reaction_s = hit_skip[0] - fault.at_s
+        causes = [e for te, e in events if te >= fault.at_s and _cause_of(e) is not None]
+        # a dark camera may miss no pad (it came back in time); an occluded pad must go
+        must_skip = fault.kind is FaultKind.PAD_OCCLUDED
+        handled = handled and not causes and (hit_skip is not None or not must_skip)
+    elif expected.handler is Handler.FCU:
+        fs = next((t for t in fcu_failsafes if fault.at_s <= t <= fault.end_s + 1e-9), None)
+        if fs is not None:
+            observed, reaction_s = "FAILSAFE", fs - fault.at_s
+        handled = handled and fs is not None
     else:
         until = fault.end_s + SETTLE_WINDOW_S if expected.handler is Handler.NOBODY else math.inf
         errors = [(t, c) for t, e in events if fault.at_s <= t <= until
@@ -154,10 +222,17 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
             policy = ERROR_POLICY[expected.cause].reaction
             handled = (handled and hit is not None and hit[1] == (want, policy.name)
                        and end in _END_STATES_OF[policy])
+    expected_text = (expected.reaction if expected.cause is None
+                     else f"{expected.cause.value}: {expected.reaction}")
+    if expected.fcu_follows and not math.isfinite(fault.end_s):
+        expected_text += ", then FAILSAFE"
+        then = next((t for t in fcu_failsafes if t >= fault.at_s), None)
+        if then is not None:
+            observed += ", then FAILSAFE"
+        handled = handled and then is not None and end in _END_STATES_OF[Reaction.LAND_NOW]
     return {"kind": fault.kind.value, "at_s": fault.at_s, "duration_s": fault.duration_s,
             "spec": fault.spec(),
-            "expected": (expected.reaction if expected.cause is None
-                         else f"{expected.cause.value}: {expected.reaction}"),
+            "expected": expected_text,
             "observed": observed,
             "reaction_s": None if reaction_s is None else round(reaction_s, 3),
             "end_state": end.value, "handled": handled}

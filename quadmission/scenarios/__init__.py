@@ -9,12 +9,16 @@ stderr).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
+from quadmission.assembly.faults import SCENARIO_KINDS
 from quadmission.scenarios.arena_tour import arena_tour
 from quadmission.scenarios.mission.scenario import mission_scenario
 from quadmission.scenarios.navigate import map_arena, navigate
 from quadmission.scenarios.options import ARENA_NAME, Scenario, ScenarioOptions
 from quadmission.scenarios.precision_landing.scenario import precision_landing
 from quadmission.scenarios.square.flight import square
+from sim.fault_spec import FaultKind
 
 __all__ = ["ARENA_NAME", "DEFAULT_SCENARIO", "FAULTED_SCENARIOS", "SCENARIOS", "Scenario",
            "ScenarioOptions"]
@@ -27,7 +31,8 @@ SCENARIOS: dict[str, Scenario] = {
     "precision-landing": precision_landing,
     "square": square,
 }
-#: The scenarios that inject ``ScenarioOptions.faults`` (issue 22); the others refuse them.
-FAULTED_SCENARIOS = frozenset({"mission", "square"})
+#: The scenarios that inject ``ScenarioOptions.faults`` (issue 22), each with the kinds it
+#: takes (``quadmission.assembly.faults.SCENARIO_KINDS``); the others refuse them.
+FAULTED_SCENARIOS: Mapping[str, frozenset[FaultKind]] = SCENARIO_KINDS
 #: The most complete scenario there is; ``make sim`` runs it.
 DEFAULT_SCENARIO = "mission"

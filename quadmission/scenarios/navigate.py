@@ -30,10 +30,13 @@ from navigation.mapping_node import MappingNode
 from navigation.navigator_node import NAVIGATE, TAKEOFF, NavigatorNode
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
 from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
+from quadmission.assembly.faults import check_faults, judge_flight
+from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
 from quadmission.reports.report import write_report
 from runtime import ActionClient, Node, qos_profile_default, qos_profile_sensor_data
 from sim.arena import ArenaSpec
+from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
 from sim.render import SceneRenderer
 from sim.sensors import SimSensorsNode, sensor_parts
@@ -200,6 +203,7 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
              pads: list[int] | None = None) -> dict[str, Any]:
     """Fly from the start pad to every other pad (seeded order; or to ``pads`` in that
     order); write report.json and path.png into ``options.out``; return the report."""
+    check_faults(scenario, options.faults)
     sitl = build_sitl(arena, seed=options.seed)
     start_companion(sitl)
     context = sitl.executor.context
@@ -227,6 +231,10 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
         sitl.extra_parts.extend(sensor_parts(sensors, renderer, sitl.scene, seed=options.seed,
                                              depth_hz=mapping.params.process_rate_hz))
         sitl.extra_parts.append(_Progress(pilot, options.progress))
+        failsafes = FcuFailsafes(sitl.firmware)
+        if options.faults:  # a run without faults keeps the parts it had
+            install_faults(sitl, options.faults, sensors=sensors)
+            sitl.extra_parts.append(failsafes)
         result = sitl.run(limit_s, stop=StopWhen(lambda: pilot.script.done))
     truth, crash = result.trajectory, result.crash
     options.progress(f"  map: {len(mapping.map)} voxels from {mapping.clouds_fused} clouds "
@@ -281,6 +289,9 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
         "host": {"wall_time_s": rounded(result.wall_time_s, 2),
                  "real_time_factor": rounded(result.real_time_factor, 2)},
     }
+    if options.faults:
+        report["faults"] = judge_flight(options.faults, failsafes, truth, arena,
+                                        sitl.scene.quad.leg_height, crash)
     write_report(options.out, report)
     return report
 

@@ -3,8 +3,10 @@
 :func:`run_launch` starts the children (:mod:`runtime.processes.child`), then watches them:
 the first to exit ends the launch (a finishing node's process exiting 0 after the
 mission, or any process dying), the others get SIGINT, then SIGKILL if they do not stop
-within a grace period. Ctrl-C (or SIGTERM) does the same and returns 130. What ended the launch is
-said in one line, naming the process.
+within a grace period. ``kills`` kill chosen processes on purpose (a fault: a node's
+process dies) at given wall-clock times from the start; their death ends nothing.
+Ctrl-C (or SIGTERM) does the same and returns 130. What ended the launch is said in one
+line, naming the process.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -67,8 +70,16 @@ def _stop_all(procs: dict[str, subprocess.Popen[bytes]]) -> None:
             proc.wait()
 
 
-def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr) -> LaunchResult:
-    """Start every process, wait for the first to end, stop the rest."""
+def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr,
+               kills: Sequence[tuple[float, str]] = ()) -> LaunchResult:
+    """Start every process, wait for the first to end, stop the rest. ``kills``: (wall
+    seconds after the start, process name) to SIGKILL then, as a fault."""
+    names = [spec.name for spec in specs]
+    for _, name in kills:
+        if name not in names:
+            raise ValueError(f"no process {name!r} to kill (processes: {', '.join(names)})")
+    pending = sorted(kills)
+    killed: set[str] = set()
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(_PROJECT_ROOT), env.get("PYTHONPATH", "")) if p)
@@ -82,13 +93,20 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr) -> LaunchR
                 [sys.executable, "-m", "runtime.processes.child", spec.to_json()], env=env)
             print(f"launch: started {spec.name} (pid {procs[spec.name].pid})", file=log,
                   flush=True)
+        started = time.monotonic()
         while True:
+            while pending and time.monotonic() - started >= pending[0][0]:
+                _, name = pending.pop(0)
+                procs[name].kill()
+                killed.add(name)
+                print(f"launch: killed {name} (pid {procs[name].pid}): a node_stop fault",
+                      file=log, flush=True)
             if interrupted["yes"]:
                 _stop_all(procs)
                 return LaunchResult(EXIT_INTERRUPTED, "interrupted (Ctrl-C)")
             for name, proc in procs.items():
                 code = proc.poll()
-                if code is not None:
+                if code is not None and name not in killed:
                     _stop_all(procs)
                     how = (f"exited with code {code}" if code >= 0
                            else f"was killed by signal {-code}")

@@ -106,6 +106,9 @@ class FcuAgentNode(Node):
         self._consumers: dict[str, Callable[[Arrival], None]] = {}
         self.sent = dict.fromkeys(AGENT_OUT, 0)
         self.lost = dict.fromkeys(AGENT_OUT, 0)
+        self.clock_offset_ns = 0
+        """The companion's clock, as the agent reads it to answer the FCU's time sync,
+        minus simulated time (a fault: the companion's clock jumped)."""
 
     @property
     def malformed(self) -> int:
@@ -178,9 +181,10 @@ class FcuAgentNode(Node):
             return
 
         def answer() -> None:
-            agent_ns = self.now().nanoseconds
-            back = self.link.send(LinkDirection.TO_FCU, agent_ns, XRCE_TIMESYNC_BYTES)
+            now_ns = self.now().nanoseconds
+            back = self.link.send(LinkDirection.TO_FCU, now_ns, XRCE_TIMESYNC_BYTES)
             if back is not None:
-                self.inbox.put_timesync(AgentTimesyncReply(back, fcu_time_us, agent_ns))
+                self.inbox.put_timesync(AgentTimesyncReply(
+                    back, fcu_time_us, now_ns + self.clock_offset_ns))
 
         self.context.loop.call_at(arrival, answer, (self.get_name(), "link", "xrce_timesync"))

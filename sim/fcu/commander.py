@@ -27,6 +27,7 @@ checks must pass first, and the ack result when a check fails::
       failsafe_hold     stay
       failsafe_land     stay
       failsafe_rtl      stay
+      failsafe_descend  stay
       failsafe_cleared  stay
     AUTO_TAKEOFF (nav_state 17):
       arm               stay
@@ -41,6 +42,7 @@ checks must pass first, and the ack result when a check fails::
       failsafe_hold     go AUTO_LOITER
       failsafe_land     go AUTO_LAND
       failsafe_rtl      go AUTO_RTL
+      failsafe_descend  go DESCEND
       failsafe_cleared  stay
     AUTO_LOITER (nav_state 4):
       arm               stay
@@ -55,6 +57,7 @@ checks must pass first, and the ack result when a check fails::
       failsafe_hold     go AUTO_LOITER
       failsafe_land     go AUTO_LAND
       failsafe_rtl      go AUTO_RTL
+      failsafe_descend  go DESCEND
       failsafe_cleared  go OFFBOARD
     OFFBOARD (nav_state 14):
       arm               stay
@@ -69,6 +72,7 @@ checks must pass first, and the ack result when a check fails::
       failsafe_hold     go AUTO_LOITER
       failsafe_land     go AUTO_LAND
       failsafe_rtl      go AUTO_RTL
+      failsafe_descend  go DESCEND
       failsafe_cleared  stay
     AUTO_LAND (nav_state 18):
       arm               stay
@@ -83,6 +87,7 @@ checks must pass first, and the ack result when a check fails::
       failsafe_hold     stay
       failsafe_land     go AUTO_LAND
       failsafe_rtl      stay
+      failsafe_descend  go DESCEND
       failsafe_cleared  stay
     AUTO_RTL (nav_state 5):
       arm               stay
@@ -97,7 +102,23 @@ checks must pass first, and the ack result when a check fails::
       failsafe_hold     stay
       failsafe_land     go AUTO_LAND
       failsafe_rtl      go AUTO_RTL
+      failsafe_descend  go DESCEND
       failsafe_cleared  stay
+    DESCEND (nav_state 12):
+      arm               stay
+      disarm            go DISARMED if landed else DENIED
+      mode_offboard     go OFFBOARD if batt<emerg, signal, position else TEMP_REJECTED
+      mode_takeoff      go AUTO_TAKEOFF if batt<emerg, position, batt<crit else TEMP_REJECTED
+      mode_loiter       go AUTO_LOITER if batt<emerg, position else TEMP_REJECTED
+      mode_land         go AUTO_LAND
+      mode_rtl          go AUTO_RTL if batt<emerg, position else TEMP_REJECTED
+      takeoff_done      stay
+      auto_disarm       go DISARMED
+      failsafe_hold     stay
+      failsafe_land     stay
+      failsafe_rtl      stay
+      failsafe_descend  go DESCEND
+      failsafe_cleared  go AUTO_LOITER
 
 Actions: ``stay`` (no change; a command is ACCEPTED), ``go X`` (enter X), ``remember X``
 (disarmed: X becomes the mode entered on arming, PX4's ``nav_state_user_intention``),
@@ -132,9 +153,16 @@ Policy, each tick, in this order:
    back (established again) during the hold, ``failsafe_cleared`` returns to OFFBOARD,
    as PX4's failsafe does within its delay; after the action the failsafe is latched
    until a mode command is accepted (user takeover) or the vehicle disarms;
-5. takeoff done: in AUTO_TAKEOFF, height above home within ``takeoff_acceptance_m`` of
+5. position loss: armed in a mode that needs a local position (all but DESCEND), the
+   estimate invalid for ``position_loss_delay_s`` (``COM_POS_FS_DELAY``) fires
+   ``failsafe_descend`` at once (PX4's mode fallback: RTL and Land need a position too, so
+   Descend; no hold delay, since Hold cannot run either). DESCEND levels the vehicle and
+   sinks at the landing speed until the land detector says landed (then auto-disarm).
+   The position back, ``failsafe_cleared`` holds, then returns to the mode the user chose
+   (OFFBOARD with its signal, AUTO_LAND, AUTO_RTL);
+6. takeoff done: in AUTO_TAKEOFF, height above home within ``takeoff_acceptance_m`` of
    the target fires ``takeoff_done`` (into AUTO_LOITER);
-6. auto-disarm: armed and landed for ``disarm_land_s`` (``COM_DISARM_LAND``) after having
+7. auto-disarm: armed and landed for ``disarm_land_s`` (``COM_DISARM_LAND``) after having
    been airborne since arming, or ``disarm_preflight_s`` (``COM_DISARM_PRFLT``) if not,
    fires ``auto_disarm``; a negative time disables it.
 
@@ -221,6 +249,7 @@ class FlightState(Enum):
     OFFBOARD = "OFFBOARD"
     AUTO_LAND = "AUTO_LAND"
     AUTO_RTL = "AUTO_RTL"
+    DESCEND = "DESCEND"  # level, straight down: the landing that needs no position
 
     @property
     def nav_state(self) -> NavigationState:
@@ -239,6 +268,7 @@ _NAV_STATE = {
     FlightState.OFFBOARD: NavigationState.OFFBOARD,
     FlightState.AUTO_LAND: NavigationState.AUTO_LAND,
     FlightState.AUTO_RTL: NavigationState.AUTO_RTL,
+    FlightState.DESCEND: NavigationState.DESCEND,
 }
 
 
@@ -257,6 +287,7 @@ class Event(Enum):
     FAILSAFE_HOLD = "failsafe_hold"
     FAILSAFE_LAND = "failsafe_land"
     FAILSAFE_RTL = "failsafe_rtl"
+    FAILSAFE_DESCEND = "failsafe_descend"
     FAILSAFE_CLEARED = "failsafe_cleared"
 
     @property
@@ -416,7 +447,8 @@ def _armed_rows(state: FlightState) -> dict[Event, Reaction]:
     def go(target: FlightState, *checks: Check) -> Reaction:
         return Reaction(Action.GO, target, tuple(checks))
 
-    landing = state in (FlightState.AUTO_LAND, FlightState.AUTO_RTL)
+    landing = state in (FlightState.AUTO_LAND, FlightState.AUTO_RTL, FlightState.DESCEND)
+    descending = state is FlightState.DESCEND
     return {
         Event.ARM: Reaction(Action.STAY, note="already armed"),
         Event.DISARM: Reaction(
@@ -440,11 +472,19 @@ def _armed_rows(state: FlightState) -> dict[Event, Reaction]:
         Event.AUTO_DISARM: go(FlightState.DISARMED),
         # never interrupt a landing (or a return, which ends in one) to hold
         Event.FAILSAFE_HOLD: _STAY if landing else go(FlightState.AUTO_LOITER),
-        Event.FAILSAFE_LAND: go(FlightState.AUTO_LAND),
+        # a descent is already a landing, the one that needs no position
+        Event.FAILSAFE_LAND: _STAY if descending else go(FlightState.AUTO_LAND),
         # never climb out of a landing to return
-        Event.FAILSAFE_RTL: (_STAY if state is FlightState.AUTO_LAND else go(FlightState.AUTO_RTL)),
+        Event.FAILSAFE_RTL: (
+            _STAY if state in (FlightState.AUTO_LAND, FlightState.DESCEND)
+            else go(FlightState.AUTO_RTL)
+        ),
+        Event.FAILSAFE_DESCEND: go(FlightState.DESCEND),
+        # the cause is gone: an offboard hold resumes OFFBOARD; a descent holds (the
+        # position is back), then the commander returns to the mode the user chose
         Event.FAILSAFE_CLEARED: (
-            go(FlightState.OFFBOARD) if state is FlightState.AUTO_LOITER else _STAY
+            go(FlightState.OFFBOARD) if state is FlightState.AUTO_LOITER
+            else go(FlightState.AUTO_LOITER) if descending else _STAY
         ),
     }
 
@@ -512,6 +552,12 @@ class CommanderParams:
     """``COM_OBL_RC_ACT``: action after the hold (hold, land, return)."""
     failsafe_hold_s: float = param(5.0, unit="s", range=(0.0, 60.0))
     """``COM_FAIL_ACT_T``: hold after offboard loss before the action."""
+    position_loss_delay_s: float = param(4.5, unit="s", range=(0.0, 60.0))
+    """``COM_POS_FS_DELAY``: local position invalid this long in a mode that needs it ->
+    the position-loss failsafe (descend). Not PX4's 1 s: PX4's EKF2 dead-reckons for
+    ``EKF2_NOAID_TOUT`` (5 s) before it calls the position invalid, ours after its
+    ``vision_timeout_us`` (0.5 s), so this is the rest of PX4's 5 s from the last aiding
+    to the failsafe (``config/fcu_commander.yaml``)."""
     low_battery_action: BatteryFailsafeAction = BatteryFailsafeAction.LAND
     """``COM_LOW_BAT_ACT``: warning, land, or return at critical (land at emergency)."""
     disarm_land_s: float = param(2.0, unit="s", range=(-1.0, 20.0))
@@ -628,6 +674,7 @@ class FailsafeReason(Enum):
     OFFBOARD_LOSS = "offboard_loss"
     BATTERY_CRITICAL = "battery_critical"
     BATTERY_EMERGENCY = "battery_emergency"
+    POSITION_LOSS = "position_loss"
 
 
 class _FailsafePhase(Enum):
@@ -659,6 +706,8 @@ class CommanderState(NamedTuple):
     """Highest battery warning already acted on this flight."""
     airborne_since_arming: bool = False
     landed_since_us: int | None = None
+    position_invalid_since_us: int | None = None
+    """When the local position became invalid (None: it is valid)."""
 
 
 class CommanderStatus(NamedTuple):
@@ -1027,6 +1076,56 @@ def _offboard_failsafe(ctx: _Context, s: CommanderState) -> CommanderState:
     return s
 
 
+# The modes that need a local position: all but DESCEND (PX4's mode requirements).
+_NEEDS_POSITION = frozenset(
+    {FlightState.AUTO_TAKEOFF, FlightState.AUTO_LOITER, FlightState.OFFBOARD,
+     FlightState.AUTO_LAND, FlightState.AUTO_RTL}
+)
+# Back from a descent, after the hold: the event that returns to the mode the user chose.
+_RESUME_EVENT = {
+    FlightState.OFFBOARD: Event.FAILSAFE_CLEARED,
+    FlightState.AUTO_LAND: Event.FAILSAFE_LAND,
+    FlightState.AUTO_RTL: Event.FAILSAFE_RTL,
+}
+
+
+def _position_failsafe(ctx: _Context, s: CommanderState) -> CommanderState:
+    """PX4's position-loss failsafe for a multicopter (commander's mode fallback,
+    ``src/modules/commander/failsafe/failsafe.cpp`` ``checkModeFallback`` and
+    ``framework.cpp`` ``getSelectedAction``): a mode that cannot run for want of a
+    local position falls back to RTL, which needs one too, then Land (idem), then
+    Descend, which needs attitude only; the hold delay (``COM_FAIL_ACT_T``) is skipped
+    because Hold cannot run either. The loss counts after ``position_loss_delay_s``
+    (PX4 <= 1.13's ``COM_POS_FS_DELAY``; ours is set so that with the estimator's vision
+    timeout it adds up to PX4's ``EKF2_NOAID_TOUT``, 5 s from the last vision sample).
+    The fallback clears with its cause (``ClearCondition::WhenConditionClears``): the
+    position back, the vehicle holds and returns to the mode the user chose (OFFBOARD
+    only with its signal)."""
+    params, inputs, now = ctx.params, ctx.inputs, ctx.inputs.now_us
+    if inputs.position_valid:
+        if s.position_invalid_since_us is not None:
+            s = s._replace(position_invalid_since_us=None)
+        if s.state is FlightState.DESCEND and s.failsafe_reason is FailsafeReason.POSITION_LOSS:
+            s = s._replace(failsafe_phase=_FailsafePhase.NONE, failsafe_reason=FailsafeReason.NONE)
+            s = _fire(s, Event.FAILSAFE_CLEARED, now)
+            back = _RESUME_EVENT.get(s.intention)
+            if back is Event.FAILSAFE_CLEARED and not ctx.signal_established:
+                back = None
+            if back is not None:
+                s = _fire(s, back, now)
+        return s
+    since = s.position_invalid_since_us
+    if since is None:
+        since = now
+        s = s._replace(position_invalid_since_us=now)
+    lost = now - since >= params.position_loss_delay_s * _US_PER_S
+    if s.state in _NEEDS_POSITION and lost:
+        s = s._replace(failsafe_phase=_FailsafePhase.ACTION,
+                       failsafe_reason=FailsafeReason.POSITION_LOSS, failsafe_since_us=now)
+        s = _fire(s, Event.FAILSAFE_DESCEND, now)
+    return s
+
+
 def _takeoff_done(
     params: CommanderParams, s: CommanderState, inputs: CommanderInputs
 ) -> CommanderState:
@@ -1079,6 +1178,7 @@ def commander_step(
 
     s = _battery_failsafe(params, s, inputs.battery_warning, now)
     s = _offboard_failsafe(ctx, s)
+    s = _position_failsafe(ctx, s)
     s = _takeoff_done(params, s, inputs)
     s = _auto_disarm(params, s, inputs)
 

@@ -540,6 +540,15 @@ class Firmware:
             self.setpoint = TrajectorySetpointData(
                 position=np.array([here[0], here[1], math.nan]),
                 velocity=np.array([math.nan, math.nan, speed]), yaw=self._hold_yaw)
+        elif mode is NavigationState.DESCEND:
+            # PX4's FlightTaskDescend: level (no horizontal acceleration, so no position
+            # needed) and down at MPC_LAND_SPEED on the vertical velocity. PX4 has it from
+            # the barometer-aided estimate; this FCU has no barometer, and descends on
+            # the IMU-propagated vertical velocity its filter keeps without vision.
+            self._hold_here(mode)  # the heading to keep
+            self.setpoint = TrajectorySetpointData(
+                velocity=np.array([math.nan, math.nan, self.params.land_speed]),
+                acceleration=np.array([0.0, 0.0, math.nan]), yaw=self._hold_yaw)
         else:  # hold (AUTO_LOITER) and anything else: stay where we are
             here = self._hold_here(NavigationState.AUTO_LOITER)
             self.setpoint = TrajectorySetpointData(position=here.copy(), yaw=self._hold_yaw)

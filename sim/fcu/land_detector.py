@@ -19,9 +19,11 @@ Disarmed, all three are true (PX4: a disarmed vehicle is on the ground). ``freef
 specific-force norm below ``freefall_acc_threshold`` (``LNDMC_FFALL_THR``, 2 m/s^2)
 held for ``freefall_trigger_time_s`` (``LNDMC_FFALL_TTRI``, 0.3 s). Velocities are NED
 [m/s]; ``vz > 0`` is descending. Without valid vertical velocity the vehicle counts as
-moving vertically (never landed by thrust alone; PX4's 8 s minimal-thrust fallback is
-for flight without a velocity estimate, which this simulation does not have). Without
-valid horizontal velocity, horizontal movement counts as absent, as in PX4.
+moving vertically, so ground contact never holds; ``maybe_landed`` is then PX4's
+fallback: minimal thrust and no rotation for more than ``min_thrust_landed_s`` (8 s,
+``MulticopterLandDetector::_get_maybe_landed_state``), as after the position-loss
+descent. Without valid horizontal velocity, horizontal movement counts as absent, as in
+PX4.
 
 Pure module, no runtime, no MuJoCo; the node converts :class:`LandDetectedData` to
 ``px4_msgs/VehicleLandDetected``.
@@ -38,6 +40,7 @@ from runtime.parameters import param, validate_parameters
 
 __all__ = [
     "LAND_DETECTOR_NODE_NAME",
+    "MIN_THRUST_LANDED_US",
     "Hysteresis",
     "LandDetectedData",
     "LandDetector",
@@ -49,6 +52,9 @@ LAND_DETECTOR_NODE_NAME = "fcu_land_detector"
 """The land detector's section in its ROS 2 parameter file, ``config/fcu_land_detector.yaml``."""
 
 _US_PER_S = 1_000_000
+MIN_THRUST_LANDED_US = 8 * _US_PER_S
+"""Without a vertical velocity: minimal thrust and no rotation longer than this is
+landed (PX4's constant ``8_s``, not a parameter)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -202,6 +208,7 @@ class LandDetector:
             False, to_true_us=round(self.params.freefall_trigger_time_s * _US_PER_S)
         )
         self._in_descend = False
+        self._min_thrust_since_us: int | None = None
         # the parameters' derived thresholds, once (update runs at 50 Hz)
         span = thrust_hover - thrust_min
         self._low_thrust = thrust_min + span * params.low_thrust_fraction
@@ -242,12 +249,18 @@ class LandDetector:
             p.rotation_widening if maybe_landed_before else 1.0
         )
         rotational_movement = math.hypot(inputs.roll_rate, inputs.pitch_rate) > rot_threshold
-        maybe_now = (
-            inputs.thrust <= self._minimal_thrust
-            and not freefall
-            and not rotational_movement
-            and ground_contact
-        )
+        minimal_thrust = inputs.thrust <= self._minimal_thrust
+        if not minimal_thrust:
+            self._min_thrust_since_us = None
+        elif self._min_thrust_since_us is None:
+            self._min_thrust_since_us = now
+        if inputs.v_z_valid:
+            maybe_now = (minimal_thrust and not freefall and not rotational_movement
+                         and ground_contact)
+        else:  # PX4's fallback without a vertical velocity
+            since = self._min_thrust_since_us
+            maybe_now = (not freefall and not rotational_movement and since is not None
+                         and now - since > MIN_THRUST_LANDED_US)
         if not inputs.armed:
             maybe_now = True
         maybe_landed = self._maybe_landed.update(maybe_now, now)

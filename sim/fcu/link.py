@@ -336,6 +336,11 @@ class Link:
         """While True every message, both ways, is lost (a fault: the cable is out). The
         random draws go on as usual, so the link after the outage is the one it would
         have been."""
+        self.extra_latency_us = 0.0
+        """Added to every message's latency, both ways (a fault: a latency spike)."""
+        self.extra_loss_probability = 0.0
+        """A loss probability both ways, when above the configured one (a fault: a burst
+        of lost packets; the same draw decides, so the run stays the same seed's)."""
 
     def _state(self, direction: LinkDirection) -> _DirectionState:
         # not a dict keyed by the enum: an Enum's hash is a Python call
@@ -365,10 +370,10 @@ class Link:
         jitter_us: float = state.gamma(p.jitter_shape, p.jitter_scale_us)  # a float already
         state.last_send_ns = send_time_ns
         state.sent += 1
-        if u_loss < p.loss_probability or self.down:
+        if u_loss < p.loss_probability or self.down or u_loss < self.extra_loss_probability:
             state.lost += 1
             return None
-        delay_us = p.base_latency_us + jitter_us
+        delay_us = p.base_latency_us + jitter_us + self.extra_latency_us
         if u_spike < p.spike_probability:
             state.spikes += 1
             delay_us += p.spike_min_us + u_magnitude * (p.spike_max_us - p.spike_min_us)

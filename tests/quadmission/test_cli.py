@@ -261,3 +261,17 @@ def test_launch_refuses_services_it_would_ignore(
     square = config_path("launch/square.yaml")
     assert main(["launch", str(square), *extra]) == EXIT_BAD_INPUT
     assert named in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["sim", "--scenario", "navigate", "--fault", "pad_occluded@0,pad=3"],
+     "the navigate scenario cannot take pad_occluded (it lands on no pad)"),
+    (["launch", "config/launch/mission.yaml", "--transport", "dds", "--fault",
+      "operator_abort@3"], "operator_abort@3: not in a launch over DDS"),
+    (["launch", "config/launch/mission.yaml", "--transport", "dds", "--fault",
+      "node_stop@3,name=nope"], "a process of the launch file (companion, mission, "),
+])
+def test_a_fault_the_run_cannot_take_is_refused_naming_it(
+        argv: list[str], said: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    assert said in capsys.readouterr().err

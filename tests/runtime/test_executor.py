@@ -275,3 +275,26 @@ def test_a_service_whose_deferred_answer_fails_logs_and_keeps_serving(
     assert "handler exploded" in caplog.text
     ok = client.call_async(interfaces.new(client.srv_type.Request, force=False))
     assert ex.spin_until_future_complete(ok, timeout_sec=1.0) and ok.result().success
+
+
+def test_a_stopped_node_runs_nothing_more_and_the_others_run_on(
+        ex: DeterministicExecutor) -> None:
+    """A node stopped (a fault: its process died) fires no timer and takes no message;
+    the node beside it is unaffected, and its messages to the stopped node are lost."""
+    talker, listener = Node("talker", context=ex.context), Node("listener", context=ex.context)
+    ticks: list[int] = []
+    heard: list[int] = []
+    pub = talker.create_publisher("std_msgs/msg/Int32", "/n", qos_profile_default)
+    talker.create_timer(0.1, lambda: (ticks.append(ex.now_ns()),
+                                      pub.publish(interfaces.new("std_msgs/msg/Int32",
+                                                                 data=len(ticks)))))
+    listener.create_subscription("std_msgs/msg/Int32", "/n", lambda m: heard.append(m.data),
+                                 qos_profile_default)
+    ex.spin_for(0.55)
+    assert heard == [1, 2, 3, 4, 5]
+    ex.stop_node("listener")
+    ex.spin_for(0.5)
+    assert heard == [1, 2, 3, 4, 5] and len(ticks) == 10
+    assert ex.stopped_nodes == {"listener"}
+    with pytest.raises(ValueError, match=r"no node 'nobody' to stop .*listener, talker"):
+        ex.stop_node("nobody")

@@ -29,6 +29,7 @@ from fsm.operator_node import OperatorNode
 from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
 from quadmission.assembly.companion import field_bounds, planning_bounds
+from quadmission.assembly.faults import APP_KINDS, AppFaults
 from quadmission.scenarios.mission.scenario import (
     flown_arena,
     pads_overrides,
@@ -38,6 +39,8 @@ from quadmission.scenarios.mission.scenario import (
 from quadmission.scenarios.square.launch import SitlSimulation, launch_arena, pop_arena
 from runtime import DeterministicExecutor, Node
 from runtime.launch import SimulationResult
+from sim.fault_spec import parse_faults
+from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
 from sim.render import SceneRenderer
 from sim.sensors import SimSensorsNode, sensor_parts
@@ -69,12 +72,21 @@ class MissionSimulation(SitlSimulation):
 
 
 def sitl(executor: DeterministicExecutor, *, arena: str | None = None, seed: int = 0,
-         remove_pad: int | None = None) -> MissionSimulation:
+         remove_pad: int | None = None, faults: list[str] | None = None) -> MissionSimulation:
     """The simulator: the SITL on the start pad and the cameras, in ``arena`` (without
-    pad ``remove_pad``, which the mission still has on its map)."""
-    sim = build_sitl(flown_arena(launch_arena(arena), remove_pad), seed=seed, executor=executor)
+    pad ``remove_pad``, which the mission still has on its map), with ``faults`` (specs,
+    :mod:`sim.fault_spec`): the simulator's, and in process the app's (the executor
+    runs every node then; over DDS the launcher kills a stopped node's process)."""
+    flown = flown_arena(launch_arena(arena), remove_pad)
+    sim = build_sitl(flown, seed=seed, executor=executor)
     sensors = SimSensorsNode(context=executor.context)
     executor.add_node(sensors)
+    if faults:
+        parsed = parse_faults(faults)
+        install_faults(sim, parsed, sensors=sensors)
+        app = [f for f in parsed if f.kind in APP_KINDS]
+        if app:
+            sim.extra_parts.append(AppFaults(executor, app, None))
     return MissionSimulation(sim, sensors, seed)
 
 

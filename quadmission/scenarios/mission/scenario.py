@@ -46,6 +46,7 @@ from navigation.path_finder_node import PathFinderNode
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
+from quadmission.assembly.faults import AppFaults, check_faults, resolve_faults
 from quadmission.assembly.services import attach_services
 from quadmission.errors import OptionsError
 from quadmission.evaluation.faults import FAULT_SETTLE_S, FcuFailsafes, end_state, judge_fault
@@ -61,7 +62,6 @@ from quadmission.reports.report import write_report
 from runtime import Node, qos_profile_default
 from runtime.parameters import load_parameters
 from sim.arena import ArenaSpec, robot_pose
-from sim.fault_spec import Fault, FaultKind
 from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
 from sim.render import SceneRenderer
@@ -207,23 +207,6 @@ class _Script:
         self.played.append((t, step))
 
 
-@dataclass
-class _OperatorFaults:
-    """A world part that plays the operator's faults (the operator is outside the
-    companion under test): ``operator_abort`` presses ABORT at its time."""
-
-    buttons: ScriptedOperator
-    faults: list[Fault]
-    name: str = "operator_faults"
-    rate_hz: float = 10.0
-
-    def update(self, t_ns: int, scene: Scene) -> None:
-        while self.faults and self.faults[0].at_s * 1e9 <= t_ns:
-            fault = self.faults.pop(0)
-            if fault.kind is FaultKind.OPERATOR_ABORT:
-                self.buttons.press(Act.ABORT)
-
-
 def _first_event_s(node: MissionNode, kind: EventKind) -> float | None:
     return next((t for t, e in node.events if e.kind is kind), None)
 
@@ -279,6 +262,9 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
     ]
     for node in nodes:
         sitl.executor.add_node(node)
+    check_faults("mission", options.faults)
+    faults = resolve_faults(options.faults, arena, target,
+                            [n.get_name() for n in sitl.executor.context.nodes])
     options.progress(f"  target robot {target}, start pad {published.start_pad}"
                      + (f", pad {options.remove_pad} removed" if options.remove_pad else ""))
     with SceneRenderer(sitl.scene.model) as renderer, \
@@ -288,12 +274,11 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         played = _Script(mission, buttons, companion.vio, list(script))
         sitl.extra_parts.append(played)
         failsafes = FcuFailsafes(sitl.firmware)
-        if options.faults:  # a run without faults keeps the parts it had
-            install_faults(sitl, options.faults)
+        if faults:  # a run without faults keeps the parts it had
+            install_faults(sitl, faults, sensors=sensors)
             sitl.extra_parts.append(failsafes)
-            sitl.extra_parts.append(_OperatorFaults(buttons, sorted(
-                (f for f in options.faults if f.kind is FaultKind.OPERATOR_ABORT),
-                key=lambda f: f.at_s)))
+            sitl.extra_parts.append(AppFaults(sitl.executor, faults,
+                                              lambda: buttons.press(Act.ABORT)))
         result = sitl.run(limit_s, stop=StopWhen(lambda: mission.mission.finished))
         runs = [result]
         if result.crash is None and mission.mission.state != "stopped":
@@ -400,10 +385,12 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         "host": {"wall_time_s": rounded(wall_s, 2),
                  "rtf": rounded(sim_s / wall_s if wall_s > 0 else None, 2)},
     }
-    if options.faults:
+    if faults:
         ended = end_state(truth, arena, sitl.scene.quad.leg_height, crash)
-        report["faults"] = [judge_fault(f, mission.events, failsafes.entered_s, ended)
-                            for f in options.faults]
+        skips = [(t, e.marker_id, e.message) for t, e in mission.events
+                 if e.kind is EventKind.PAD_SKIPPED]
+        report["faults"] = [judge_fault(f, mission.events, failsafes.entered_s, ended, skips)
+                            for f in faults]
     write_report(options.out, report)
     return report
 

@@ -30,6 +30,8 @@ from matplotlib.patches import Rectangle
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import start_companion
+from quadmission.assembly.faults import check_faults, judge_flight
+from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.reports.report import write_report
 from quadmission.scenarios.precision_landing.pilot import LandingPilot
 from sim.arena import (
@@ -41,6 +43,8 @@ from sim.arena import (
     ArenaSpec,
     Pad,
 )
+from sim.fault_spec import Fault, FaultKind
+from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
 from sim.geometry import segment_distance
 from sim.render import SceneRenderer
@@ -90,11 +94,14 @@ class _Episode:
     message: str
     result_code: int | None
     duration_s: float | None
+    faults: list[dict[str, Any]] | None = None
 
 
 def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, seed: int,
-                landing_overrides: dict[str, Any] | None = None) -> _Episode:
-    """One precision landing on ``pad`` from ``start_xy`` through the companion stack."""
+                landing_overrides: dict[str, Any] | None = None,
+                faults: Sequence[Fault] = ()) -> _Episode:
+    """One precision landing on ``pad`` from ``start_xy`` through the companion stack,
+    with ``faults`` (times from the episode's start)."""
     sitl = build_sitl(arena, seed=seed)
     scene = sitl.scene
     z = PAD_THICKNESS + scene.quad.leg_height
@@ -112,10 +119,15 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
         parts = [p for p in sensor_parts(sensors, renderer, scene, seed=seed)
                  if p.name == "down_camera"]
         sitl.extra_parts.extend(parts)
+        failsafes = FcuFailsafes(sitl.firmware)
+        if faults:  # an episode without faults keeps the parts it had
+            install_faults(sitl, faults, sensors=sensors)
+            sitl.extra_parts.append(failsafes)
         result = sitl.run(EPISODE_LIMIT_S, stop=StopWhen(lambda: pilot.done))
+        crash = result.crash
         if result.crash is None and pilot.done:
             result = sitl.run(SETTLE_S)
-    crash = result.crash
+            crash = result.crash
     state = quad_state(scene.data, scene.index)
     outcome = pilot.outcome
     landed = crash is None and outcome is not None and outcome.success
@@ -126,10 +138,17 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
     message = (f"crash: {crash.reason} at {crash.t_s:.1f} s" if crash is not None
                else outcome.message if outcome is not None
                else f"not finished after {EPISODE_LIMIT_S:g} s (step {pilot.step})")
+    judged = None
+    if faults:
+        ended_s = result.sim_time_s if outcome is None or outcome.land_ended_ns is None \
+            else outcome.land_ended_ns / 1e9
+        skipped = [] if landed else [(ended_s, pad.id, message)]
+        judged = judge_flight(faults, failsafes, result.trajectory, arena,
+                              scene.quad.leg_height, crash, skipped)
     return _Episode(pad, start_xy,
                     (float(state.position[0]), float(state.position[1])) if landed else None,
                     None if crash is None else crash.reason, landed, message,
-                    None if outcome is None else outcome.result_code, duration)
+                    None if outcome is None else outcome.result_code, duration, judged)
 
 
 def _r(value: float | None, digits: int = 4) -> float | None:
@@ -148,7 +167,8 @@ def landing_json(e: _Episode) -> dict[str, Any]:
             "touchdown_xy_m": None if e.touchdown_xy is None else [_r(v) for v in e.touchdown_xy],
             "touchdown_error_m": _r(error), "inside_pad": inside,
             "duration_s": _r(e.duration_s, 2), "landed": e.success, "crash": e.crash,
-            "result_code": e.result_code, "message": e.message}
+            "result_code": e.result_code, "message": e.message,
+            **({} if e.faults is None else {"faults": e.faults})}
 
 
 def summary(landings: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -201,12 +221,16 @@ def save_touchdowns(path: Path, title: str, landings: Sequence[dict[str, Any]]) 
 def run_landings(options: ScenarioOptions, arena: ArenaSpec, pads: Sequence[Pad], *,
                  landing_overrides: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Fly one episode per pad; the landings as reported."""
+    check_faults("precision-landing", options.faults)
     landings = []
     for pad in pads:
         rng = np.random.default_rng([options.seed, pad.id])
         start = start_position(arena, pad, rng)
+        # an occluded pad is that pad's episode's fault only
+        faults = [f for f in options.faults if f.kind is not FaultKind.PAD_OCCLUDED
+                  or int(f.value("pad")) == pad.id]
         episode = fly_episode(arena, pad, start, seed=options.seed * 1000 + pad.id,
-                              landing_overrides=landing_overrides)
+                              landing_overrides=landing_overrides, faults=faults)
         d = landing_json(episode)
         landings.append(d)
         err = d["touchdown_error_m"]

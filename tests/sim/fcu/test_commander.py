@@ -37,6 +37,7 @@ from sim.fcu.commander import (
     VehicleCommandData,
     render_transition_table,
 )
+from sim.fcu.estimator import ESTIMATOR_NODE_NAME, EstimatorParams
 
 MS = 1000
 S = 1_000_000
@@ -935,6 +936,20 @@ def test_the_config_file_loads_and_matches_the_code_defaults() -> None:
     assert params.offboard_loss_action is OffboardLossAction.LAND
 
 
+EKF2_NOAID_TOUT_US = 5_000_000  # PX4's default: dead reckoning allowed after the last aiding
+
+
+def test_the_position_loss_failsafe_comes_ekf2_noaid_tout_after_the_last_vision_sample() -> None:
+    """PX4 dead-reckons for EKF2_NOAID_TOUT before its commander fails over at once; ours
+    calls the position invalid sooner (the estimator's vision timeout) and waits the rest
+    in the commander. The two files must keep adding up to PX4's total."""
+    commander = load_parameters(CommanderParams, COMMANDER_NODE_NAME)
+    estimator = load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME)
+    total_us = estimator.vision_timeout_us + round(commander.position_loss_delay_s * S)
+    assert total_us == EKF2_NOAID_TOUT_US, (
+        f"vision_timeout_us + position_loss_delay_s = {total_us} us, PX4 has 5 s")
+
+
 def test_takeoff_max_height_may_equal_the_default_height_but_not_be_below() -> None:
     CommanderParams(takeoff_height_m=5.0, takeoff_max_height_m=5.0)  # allowed: no error
     too_low = r"takeoff_max_height_m: 4\.0 is outside.*\[takeoff_height_m = 5\.0, "
@@ -956,3 +971,73 @@ def test_parameter_errors_name_the_key_and_the_range() -> None:
         )
     with pytest.raises(ParameterError, match=r"failsafe_hold_s.*must be a number"):
         CommanderParams(failsafe_hold_s="5")  # type: ignore[arg-type]
+
+
+# -- position loss ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("mode", ["offboard", "hold", "land"])
+def test_position_loss_descends_after_com_pos_fs_delay_without_a_hold(mode: str) -> None:
+    """PX4's mode fallback: the mode needs a position, RTL and Land too, so Descend, at
+    once after the delay (Hold cannot run, so no COM_FAIL_ACT_T hold first)."""
+    bench = armed_in_offboard(CommanderParams(position_loss_delay_s=1.0, failsafe_hold_s=5.0))
+    if mode != "offboard":
+        out = bench.command(set_auto(3) if mode == "hold" else land())
+        assert out.acks[0].result is CommandResult.ACCEPTED
+    lost_at = bench.now_us
+    bench.position_valid = False
+    outs = bench.run(3 * S)
+    states = [o.status.nav_state for o in outs]
+    assert NavigationState.AUTO_LOITER not in states[1:] or mode == "hold"
+    descend = next(o for o in outs if o.status.nav_state is NavigationState.DESCEND)
+    assert 1 * S <= descend.status.timestamp_us - lost_at <= 1 * S + TICK_US
+    assert descend.status.failsafe
+    assert descend.status.failsafe_reason is FailsafeReason.POSITION_LOSS
+    assert set(states[states.index(NavigationState.DESCEND):]) == {NavigationState.DESCEND}
+
+
+def test_a_position_loss_shorter_than_the_delay_changes_nothing() -> None:
+    bench = armed_in_offboard(CommanderParams(position_loss_delay_s=1.0))
+    bench.position_valid = False
+    outs = bench.run(1 * S - TICK_US)
+    bench.position_valid = True
+    outs += bench.run(2 * S)
+    assert {o.status.nav_state for o in outs} == {NavigationState.OFFBOARD}
+    assert not any(o.status.failsafe for o in outs)
+
+
+def test_the_descent_lands_and_disarms_and_refuses_position_modes() -> None:
+    bench = armed_in_offboard(CommanderParams(position_loss_delay_s=0.5, disarm_land_s=2.0))
+    bench.position_valid = False
+    bench.run(1 * S)
+    assert bench.tick().status.nav_state is NavigationState.DESCEND
+    refused = bench.command(set_auto(3))
+    assert refused.acks[0].result is CommandResult.TEMPORARILY_REJECTED
+    assert refused.acks[0].result_param1 == DenyReason.POSITION_INVALID
+    bench.battery = BatteryWarning.CRITICAL
+    assert bench.tick().status.nav_state is NavigationState.DESCEND, "already landing"
+    bench.landed = True
+    outs = bench.run(3 * S)
+    assert outs[-1].status.arming_state is ArmingState.DISARMED
+    assert outs[-1].status.latest_disarming_reason is ArmDisarmReason.AUTO_DISARM_LAND
+
+
+def test_the_position_back_holds_then_returns_to_offboard_with_its_signal() -> None:
+    bench = armed_in_offboard(CommanderParams(position_loss_delay_s=0.5))
+    bench.position_valid = False
+    bench.run(1 * S)
+    assert bench.tick().status.nav_state is NavigationState.DESCEND
+    bench.position_valid = True
+    out = bench.tick()
+    assert out.status.nav_state is NavigationState.OFFBOARD, "the mode the user chose"
+    assert not out.status.failsafe
+    # without the offboard signal it holds
+    bench.position_valid = False
+    bench.run(1 * S)
+    bench.stream(None)
+    bench.run(2 * S)
+    assert bench.tick().status.nav_state is NavigationState.DESCEND
+    bench.position_valid = True
+    out = bench.tick()
+    assert out.status.nav_state is NavigationState.AUTO_LOITER
+    assert not out.status.failsafe

@@ -270,3 +270,33 @@ def test_a_commanded_descent_above_the_configured_threshold_counts_as_landing() 
     threshold = PARAMS.descent_vz_threshold
     assert contact(2 * threshold)
     assert not contact(threshold), "at the threshold is not above it"
+
+
+def test_without_a_vertical_velocity_minimal_thrust_for_more_than_8_s_is_landed() -> None:
+    """PX4's fallback for flight without a vertical velocity (the position-loss descent):
+    ground contact never holds, but minimal thrust without rotation for more than 8 s is
+    maybe landed, then landed one stage later; a thrust above minimal restarts the wait."""
+    detector = _detector()
+    minimal = THRUST_MIN + 0.05 * (THRUST_HOVER - THRUST_MIN)
+    hover_us = 2_000_000
+    outs = []
+    for now in range(0, 14_000_000, TICK_US):
+        thrust = THRUST_HOVER if now < hover_us else minimal
+        outs.append(detector.update(LandDetectorInputs(
+            now, armed=True, thrust=thrust, vz=0.0, v_z_valid=False, v_xy_valid=False,
+            vz_setpoint=0.7)))
+    assert not any(o.ground_contact for o in outs), "no vertical velocity: no ground contact"
+    maybe = next(o.timestamp_us for o in outs if o.maybe_landed)
+    landed = next(o.timestamp_us for o in outs if o.landed)
+    assert 8_000_000 < maybe - hover_us <= 8_000_000 + PARAMS.stage_time_us + 2 * TICK_US
+    assert PARAMS.stage_time_us <= landed - maybe <= PARAMS.stage_time_us + TICK_US
+    # a burst of thrust (still flying) starts the 8 s over
+    detector = _detector()
+    for now in range(0, 7_000_000, TICK_US):
+        detector.update(LandDetectorInputs(now, armed=True, thrust=minimal, v_z_valid=False))
+    detector.update(LandDetectorInputs(7_000_000, armed=True, thrust=THRUST_HOVER,
+                                       v_z_valid=False))
+    after = [detector.update(LandDetectorInputs(now, armed=True, thrust=minimal,
+                                                v_z_valid=False))
+             for now in range(7_020_000, 15_000_000, TICK_US)]
+    assert not any(o.maybe_landed for o in after)

@@ -1,0 +1,87 @@
+"""Each fault kind's expected reaction and a run's faults judged by it (no flight: the
+mission's events, the FCU's failsafe times and the end state as a run gives them)."""
+
+from __future__ import annotations
+
+import pytest
+
+from fsm.mission_machine import EventKind, MissionEvent, Severity
+from quadmission.evaluation.faults import (
+    EXPECTED,
+    EndState,
+    FaultExpectationError,
+    expectation,
+    judge_fault,
+)
+from sim.fault_spec import FaultKind, parse_fault
+
+
+def _error(cause: str, reaction: str) -> MissionEvent:
+    return MissionEvent(EventKind.ERROR, f"{cause} -> {reaction}", Severity.ERROR,
+                        values=(("cause", cause), ("reaction", reaction)))
+
+
+HOLD = _error("localisation_lost", "HOLD")
+
+
+def test_every_kind_has_one_expected_reaction() -> None:
+    assert set(EXPECTED) == set(FaultKind)
+
+
+def test_vio_lost_for_good_is_hold_then_the_fcu_descent_ending_on_the_ground() -> None:
+    fault = parse_fault("vio_stop@25")
+    ok = judge_fault(fault, [(25.7, HOLD)], [26.5], EndState.LANDED)
+    assert ok["expected"] == ok["observed"] == "localisation_lost: HOLD, then FAILSAFE"
+    assert ok["handled"] and ok["reaction_s"] == pytest.approx(0.7)
+    no_failsafe = judge_fault(fault, [(25.7, HOLD)], [], EndState.LANDED)
+    assert not no_failsafe["handled"] and no_failsafe["observed"] == "localisation_lost: HOLD"
+    holding = judge_fault(fault, [(25.7, HOLD)], [26.5], EndState.HOLDING)
+    assert not holding["handled"], "no position: holding in the air is not where it may end"
+    crashed = judge_fault(fault, [(25.7, HOLD)], [26.5], EndState.CRASHED)
+    assert not crashed["handled"]
+
+
+def test_a_vio_gap_needs_only_the_mission_hold() -> None:
+    fault = parse_fault("vio_stop@25:2")
+    judged = judge_fault(fault, [(25.7, HOLD)], [], EndState.HOLDING)
+    assert judged["expected"] == "localisation_lost: HOLD" and judged["handled"]
+    wrong = judge_fault(fault, [(25.7, _error("module_error", "HOLD"))], [], EndState.HOLDING)
+    assert not wrong["handled"] and wrong["observed"] == "module_error: HOLD"
+
+
+def test_an_fcu_fault_needs_its_failsafe_within_the_fault() -> None:
+    fault = parse_fault("link_lost@25:3")
+    assert judge_fault(fault, [], [26.0], EndState.HOLDING)["handled"]
+    late = judge_fault(fault, [], [29.0], EndState.HOLDING)
+    assert not late["handled"] and late["observed"] == "none"
+
+
+def test_a_ridden_out_fault_must_raise_no_error() -> None:
+    fault = parse_fault("wind_gust@25:2,force=2")
+    assert judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD)["handled"]
+    hit = judge_fault(fault, [(26.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING)
+    assert not hit["handled"]
+
+
+def test_an_occluded_pad_must_be_skipped_with_its_reason() -> None:
+    fault = parse_fault("pad_occluded@0,pad=4")
+    skipped = [(120.0, 4, "marker not seen within the search radius")]
+    judged = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, skipped)
+    assert judged["expected"] == "SKIP" and judged["handled"]
+    assert judged["observed"] == "SKIP pad 4: marker not seen within the search radius"
+    other = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, [(120.0, 5, "x")])
+    assert not other["handled"], "another pad skipped is not this one"
+    err = judge_fault(fault, [(90.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING,
+                      skipped)
+    assert not err["handled"]
+
+
+def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None:
+    fc = judge_fault(parse_fault("node_stop@30,name=flight_control"), [], [31.0],
+                     EndState.LANDED)
+    assert fc["expected"] == "FAILSAFE" and fc["handled"]
+    mapping = judge_fault(parse_fault("node_stop@30,name=mapping"),
+                          [(33.2, _error("module_silent", "HOLD"))], [], EndState.HOLDING)
+    assert mapping["expected"] == "module_silent: HOLD" and mapping["handled"]
+    with pytest.raises(FaultExpectationError, match=r"node 'mission'.*flight_control"):
+        expectation(parse_fault("node_stop@30,name=mission"))
