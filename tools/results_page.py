@@ -558,7 +558,38 @@ def _mission_speed(d: Json) -> list[str]:
     ]) + host_line(None, d.get("load_before"))
 
 
+def _ros2(d: Json) -> list[str]:
+    return table(["figure", "ours", "bare rclpy", "ratio (range over rounds)", "target"], [
+        ["one-way latency p50, 115 B at 200 Hz", f"{d['p50_us']:.0f} us",
+         f"{d['bare_p50_us']:.0f} us",
+         f"{num(d['p50_ratio'])} ({span(d['p50_ratio_range'])})", "<= 1.2"],
+        ["one-way latency p99", f"{d['p99_us']:.0f} us", f"{d['bare_p99_us']:.0f} us",
+         f"{num(d['p99_ratio'])} ({span(d['p99_ratio_range'])})", "<= 1.5"],
+        ["square under ros2 at full speed, real-time factor", num(d["square_rtf"]), "-", "-",
+         "-"],
+    ]) + host_line(None, d.get("load_avg_1min"))
+
+
+def _faults(d: Json) -> list[str]:
+    rows = [[f"`{r['spec']}`", r["expected"], r["observed"] or "-", dash(r["reaction_s"]),
+             r["end_state"], yes(r["handled"])] for r in d["runs"]]
+    return [f"{d['handled']} of {d['total']} faults handled ({d['arena']} arena, seed "
+            f"{d['seed']}).", ""] + table(
+        ["fault", "expected", "observed", "reaction [s]", "end state", "handled"], rows)
+
+
 SECTIONS: dict[str, Section] = {
+    "faults": Section(
+        "Faults flown into the contest mission", "bench_faults.py",
+        "Each fault kind injected once into the mission (`quadmission sim --fault`), its "
+        "expected reaction looked up in the error policy, judged against what the mission "
+        "and the FCU did.",
+        _faults),
+    "ros2": Section(
+        "ROS 2 transport: latency against bare rclpy", "bench_ros2.py",
+        "Ping-pong between two processes on rclpy with Fast DDS (localhost), through our "
+        "transport and through bare rclpy side by side, in alternating rounds.",
+        _ros2),
     "mission_speed": Section(
         "Contest mission speed, default arena", "bench_mission_speed.py",
         "`quadmission sim` (default arena, seed 0, every node, both cameras with their 50 ms "
@@ -732,6 +763,10 @@ def headline_rows(r: Results) -> list[list[str]]:
         ["time sync, samples to converge: our Kalman vs PX4's filter",
          f"{ts['kalman']['convergence_samples']:.0f} vs {ts['px4']['convergence_samples']:.0f}",
          "same traces"],
+        ["contest mission, default arena, every node and both cameras: real-time factor",
+         f"{num(r['mission_speed']['rtf_mission'])} ({r['mission_speed']['wall_s']:.0f} s "
+         f"wall for {r['mission_speed']['sim_s']:.0f} s)",
+         f"bare world loop {num(r['mission_speed']['rtf_bare_world'], 0)}; target 5"],
         ["square through the whole stack, real-time factor: no camera / 640x480 camera",
          f"{span([x['rtf_no_camera'] for x in rounds], 1)} / "
          f"{span([x['rtf_down_camera'] for x in rounds], 1)} (rounds)",
