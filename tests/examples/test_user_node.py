@@ -19,7 +19,6 @@ from pathlib import Path
 import pytest
 
 from interfaces.px4.topics import FMU_IN, FMU_OUT
-from runtime.ros2.config import Ros2Config
 from tests.quadmission.scenarios.mission.test_launch import _variant
 from tests.runtime.processes.conftest import needs_ros2
 
@@ -61,6 +60,8 @@ def test_user_rclpy_node_sees_the_mission_and_gets_an_answer(tmp_path: Path) -> 
     try:
         # the script only: no PYTHONPATH to our code, the environment a ROS 2 user has
         user_env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        from runtime.ros2.config import Ros2Config  # imports rclpy: only once it is built
+
         user_env |= Ros2Config(domain).environment()
         user = subprocess.run([sys.executable, str(SCRIPT), "--timeout", "600", "--graph"],
                               cwd=tmp_path, capture_output=True, text=True, env=user_env,
