@@ -392,6 +392,7 @@ def decode_small(image: npt.NDArray[np.float32], quad: npt.ArrayLike,
                     corners_px=np.roll(corners, j % 4, axis=0))
 
 
+_MAX_DETECTORS = 256  # detectors kept by one scanner before the cache starts afresh
 Region = tuple[int, int, int, int]
 """``(x0, y0, x1, y1)`` [px]: the pixels ``[y0:y1, x0:x1]`` of an image."""
 
@@ -401,17 +402,19 @@ class ArucoScanner:
 
     def __init__(self, settings: ScannerSettings | None = None) -> None:
         self.settings = settings or ScannerSettings()
-        # the detectors by the smallest perimeter they accept [px]: one per crop size seen
-        self._detectors: dict[tuple[str, int], cv2.aruco.ArucoDetector] = {}
+        # the detectors by (pass, crop's larger side, smallest perimeter [px]) seen lately
+        self._detectors: dict[tuple[bool, int, int], cv2.aruco.ArucoDetector] = {}
 
     def _detector_for(self, stretched: bool, min_perimeter_px: float,
                       larger_side: int) -> cv2.aruco.ArucoDetector:
         """The NONE (or STRETCH) pass's detector for a crop whose larger side is
         ``larger_side`` [px], accepting perimeters from ``min_perimeter_px``: OpenCV
         takes that bound as a share of the image's larger side."""
-        key = ("stretch" if stretched else "none", larger_side * 1000 + round(min_perimeter_px))
+        key = (stretched, larger_side, round(min_perimeter_px))
         detector = self._detectors.get(key)
         if detector is None:
+            if len(self._detectors) >= _MAX_DETECTORS:  # regions come in many sizes
+                self._detectors.clear()
             rate = min(min_perimeter_px / larger_side, 3.9)
             s = self.settings
             detector = self._detectors[key] = (
