@@ -24,20 +24,27 @@ ROS_SOURCES := $(wildcard interfaces/px4_msgs/* interfaces/px4_msgs/*/* \
                interfaces/ros_packages.py tools/build_ros_interfaces.py
 OUT    ?= runs/default
 
-.PHONY: test sim lint typecheck bench docs mutate mutate-clean clean system-deps ros-interfaces
+.PHONY: setup test sim lint typecheck bench docs mutate mutate-clean clean system-deps \
+        ros-interfaces
+
+## make: set up .venv (Python packages, ROS 2 Jazzy, our interface packages built with rosidl)
+setup: $(ROS_STAMP)
 
 # System libraries the Python wheels need: Mesa EGL for headless MuJoCo rendering, libusb for
-# open3d's import; and Debian's headless Chromium for the operator page's browser tests
-# (tests/ground_station, driven by Playwright). Installed with apt-get when missing and we
-# are root; otherwise named. (`make ros-interfaces` also needs CMake, a C/C++ compiler and
-# Python's headers; its builder names any that is missing.)
+# open3d's import; Debian's headless Chromium for the operator page's browser tests
+# (tests/ground_station, driven by Playwright); CMake, a C/C++ compiler and Python's headers
+# for building our ROS 2 interface packages (tools/build_ros_interfaces.py, which names any
+# that is missing). Installed with apt-get when missing and we are root; otherwise named.
 SYSTEM_LIBS := libusb-1.0.so.0 libEGL.so.1
-SYSTEM_BINS := /usr/bin/chromium
-SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver
+SYSTEM_BINS := /usr/bin/chromium /usr/bin/cmake /usr/bin/gcc /usr/bin/g++
+SYSTEM_PKGS := libusb-1.0-0 libegl1 libgl1-mesa-dri chromium chromium-driver cmake gcc g++ \
+               python3-dev
 
 system-deps:
 	@missing=""; for lib in $(SYSTEM_LIBS); do ldconfig -p | grep -q "$$lib" || missing="$$missing $$lib"; done; \
 	for bin in $(SYSTEM_BINS); do test -x "$$bin" || missing="$$missing $$bin"; done; \
+	$(PYTHON) -c 'import os, sys, sysconfig; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
+	  || missing="$$missing Python.h"; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    echo "installing system libraries:$$missing" >&2; \
@@ -57,27 +64,26 @@ $(STAMP): pyproject.toml | system-deps
 	  else false; fi; } || { \
 	  echo "error: could not create $(VENV); on Debian/Ubuntu run: apt-get install python3-venv" >&2; exit 1; }
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,ros2]'
 	@touch $@
 
-# Installs the ROS 2 Jazzy wheels (the `ros2` extra), then builds only when an interface
-# file, the builder or the ROS wheels changed (its own stamp holds their digest; a no-op run
-# takes under a second); the first build takes about 2 minutes on 2 idle cores (C and Python
-# only: 143-152 CPU seconds).
+# Builds px4_msgs and quadmission_interfaces into the venv as ROS 2 packages (rosidl, colcon)
+# only when an interface file, the builder or the ROS wheels changed (its own stamp holds
+# their digest; a no-op run takes under a second); the first build takes about 2 minutes on
+# 2 idle cores (C and Python only: 143-152 CPU seconds).
 $(ROS_STAMP): $(STAMP) $(ROS_SOURCES)
-	$(BIN)/python -m pip install --quiet -e '.[test,ros2]'
 	$(BIN)/python tools/build_ros_interfaces.py
 	@touch $@
 
-## make ros-interfaces: install ROS 2 Jazzy (rclpy on Fast DDS) and build px4_msgs and
-## quadmission_interfaces into .venv as ROS 2 packages (opt-in until the ros2 transport lands)
+## make ros-interfaces: (re)build only the interface packages (make and make test do it too)
 ros-interfaces: $(ROS_STAMP)
 
-## make test: set up .venv, then lint, type-check and run the whole test suite
-test: $(STAMP)
+## make test: set up .venv (with the ROS 2 interface packages), then lint, type-check and run
+## the whole test suite; the ROS 2 tests run, and fail rather than skip if the build is missing
+test: $(ROS_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
+	MUJOCO_GL=$${MUJOCO_GL:-egl} QUADMISSION_REQUIRE_ROS2=1 $(BIN)/python -m pytest -q
 
 ## make sim: set up .venv, then fly the contest mission through every node (default arena),
 ## recording its topics to OUT/bag (rosbag2 MCAP)

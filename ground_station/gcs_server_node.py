@@ -1,6 +1,6 @@
 """The ground station as one launch-file node: the node and its web server together.
 
-For a launch over any transport (``quadmission launch FILE [--transport dds]``): add
+For a launch over any transport (``quadmission launch FILE [--transport ros2]``): add
 
     - factory: ground_station.gcs_server_node:GroundStationServerNode
       parameters: {layout_file: runs/x/field.json}

@@ -132,62 +132,67 @@ def _launch_args(p: argparse.ArgumentParser) -> None:
                         f"time limit, default {SIMULATOR_TIME_LIMIT_S:g})")
     p.add_argument("--config-dir", type=Path, default=None,
                    help="node YAMLs (default: config/, or $QUADMISSION_CONFIG_DIR)")
-    p.add_argument("--transport", choices=("inproc", "ros2", "dds"), default="inproc",
+    p.add_argument("--transport", type=_transport, default="inproc",
                    help="inproc: every node in this process, in simulated time (default); "
                         "ros2: each process group in its own process, every node a real "
-                        "rcl node (rclpy on Fast DDS); dds: the same on our Cyclone DDS "
-                        "mapping")
+                        "rcl node (rclpy on Fast DDS)")
     p.add_argument("--domain-id", type=int, default=0,
-                   help="ros2, dds: the DDS domain id (ROS_DOMAIN_ID)")
+                   help="ros2: the DDS domain id (ROS_DOMAIN_ID)")
     p.add_argument("--network", action="store_true",
-                   help="ros2, dds: discover and talk beyond this machine (default: "
+                   help="ros2: discover and talk beyond this machine (default: "
                         "localhost only)")
     p.add_argument("--wall-clock", action="store_true",
-                   help="ros2, dds: nodes follow the host's clock, not /clock (a launch "
+                   help="ros2: nodes follow the host's clock, not /clock (a launch "
                         "without a simulator, e.g. the companion of a real vehicle)")
     p.add_argument("--out", type=Path, default=Path("runs/launch"),
                    help="folder for the recording (--record writes OUT/bag)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="inject a fault into the launch file's simulator, "
                         "KIND@T[:DURATION][,key=value...] (repeatable; node_stop under "
-                        "--transport dds kills the node's process, T in wall seconds x rtf)")
+                        "--transport ros2 kills the node's process, T in wall seconds x rtf)")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
                    help="inject the faults listed in this YAML file")
-    _run_services_args(p)  # --rtf (dds: default 1, real time), --record, --foxglove, --gcs
+    _run_services_args(p)  # --rtf (ros2: default 1, real time), --record, --foxglove, --gcs
+
+
+def _transport(value: str) -> str:
+    """``--transport``'s value, naming the choices; the retired Cyclone DDS mapping is
+    named with its replacement."""
+    if value == "dds":
+        raise argparse.ArgumentTypeError(
+            "the Cyclone DDS transport 'dds' was retired; use --transport ros2 (rclpy on "
+            "Fast DDS: the same processes, and real ROS 2 nodes)")
+    if value not in ("inproc", "ros2"):
+        raise argparse.ArgumentTypeError(f"{value!r} is not a transport: inproc or ros2")
+    return value
 
 
 def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> None:
     """Run services a launch cannot attach are refused, not silently dropped. Under
-    ``ros2`` they are nodes in a process of their own; the ``dds`` transport cannot list
-    its topics for the recorder and the bridge, and around a launch file's simulator in
+    ``ros2`` they are nodes in a process of their own; around a launch file's simulator in
     process there is no page: there they are nodes of the launch file instead."""
     from quadmission.errors import OptionsError
 
     if not 0 <= args.domain_id <= 232:
         raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
-    processes = args.transport in ("ros2", "dds")
-    if not (processes or has_simulator):
+    processes = args.transport == "ros2"
+    if processes or not has_simulator:
         return
-    dds = args.transport == "dds"
     # in process, the recorder and the Foxglove bridge tap the executor around the
     # simulator as they do around a scenario; pacing and the page need the sim loop's parts
-    asked = [flag for flag, on in (("--record", args.record and dds),
-                                   ("--foxglove", args.foxglove and dds),
-                                   ("--gcs", args.gcs and not processes),
-                                   ("--rtf", args.rtf is not None and not processes)) if on]
+    asked = [flag for flag, on in (("--gcs", args.gcs), ("--rtf", args.rtf is not None)) if on]
     if asked:
-        where = ("--transport dds (Cyclone cannot list its topics; use --transport ros2)"
-                 if dds else "a launch file with a simulator, in process")
         raise OptionsError(
-            f"{' '.join(asked)}: not available with {where}; add the nodes to the launch "
+            f"{' '.join(asked)}: not available with a launch file with a simulator, in "
+            "process; add the nodes to the launch "
             "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder' and "
             "its 'topics', ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
 def _launch_faults(args: argparse.Namespace, description: Any) -> tuple[Any, list[Any]]:
-    """The description with ``--fault``/``--faults`` handed to its simulator, and over DDS
-    the (wall time, process) kills of the ``node_stop`` faults; a fault the launch cannot
+    """The description with ``--fault``/``--faults`` handed to its simulator, and under
+    ``ros2`` the (wall time, process) kills of the ``node_stop`` faults; a fault the launch cannot
     play is refused naming it."""
     import dataclasses
     import inspect
@@ -205,22 +210,23 @@ def _launch_faults(args: argparse.Namespace, description: Any) -> tuple[Any, lis
     if "faults" not in inspect.signature(_resolve(sim.factory, "simulator")).parameters:
         raise OptionsError(f"--fault: the simulator {sim.factory} takes no faults "
                            "(quadmission.scenarios.mission.launch:sitl does)")
-    dds = args.transport in ("ros2", "dds")  # a process transport: node_stop kills
+    processes = args.transport == "ros2"  # a process transport: node_stop kills
     kills: list[tuple[float, str]] = []
     given: list[str] = []
     for f in faults:
-        if f.kind is FaultKind.OPERATOR_ABORT or (dds and f.kind is FaultKind.OPERATOR_SILENT):
+        if f.kind is FaultKind.OPERATOR_ABORT or (processes
+                                                  and f.kind is FaultKind.OPERATOR_SILENT):
             raise OptionsError(f"--fault {f.spec()}: not in a launch"
-                               f"{' over DDS' if dds else ''}; quadmission sim --scenario "
-                               "mission plays it")
-        if dds and f.kind is FaultKind.NODE_STOP:
+                               f"{' over ros2' if processes else ''}; quadmission sim "
+                               "--scenario mission plays it")
+        if processes and f.kind is FaultKind.NODE_STOP:
             name = f.text("name")
             named = {n.name: n.process_name() for n in description.nodes if n.name}
-            processes = sorted({n.process_name() for n in description.nodes})
-            process = named.get(name, name if name in processes else None)
+            groups = sorted({n.process_name() for n in description.nodes})
+            process = named.get(name, name if name in groups else None)
             if process is None:
-                raise OptionsError(f"--fault {f.spec()}: over DDS, name= a process of the "
-                                   f"launch file ({', '.join(processes)}) or a node's name: in it "
+                raise OptionsError(f"--fault {f.spec()}: over ros2, name= a process of the "
+                                   f"launch file ({', '.join(groups)}) or a node's name: in it "
                                    f"({', '.join(sorted(named)) or 'none'})")
             kills.append((f.at_s / (1.0 if args.rtf is None else args.rtf), process))
         else:
@@ -260,7 +266,7 @@ def _launch_run(args: argparse.Namespace) -> int:
     description = LaunchDescription.from_yaml(args.file)
     _refuse_ignored_services(args, description.simulator is not None)
     description, kills = _launch_faults(args, description)
-    if args.transport in ("ros2", "dds"):
+    if args.transport == "ros2":
         return _launch_processes(args, description, kills)
     ex = (DeterministicExecutor() if args.config_dir is None
           else DeterministicExecutor(config_dir=args.config_dir))

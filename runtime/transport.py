@@ -4,11 +4,11 @@ A transport knows topics, not nodes: a writer writes CDR bytes, every matched re
 ``on_sample`` receives them. A transport whose endpoints share one process may also offer
 ``write_message`` (:class:`MessageWriter`): the validated message object itself is handed
 to the readers, unserialized (zero-copy; receivers treat it as read-only). Readers then get
-either CDR bytes or a message, and deserialize only bytes. The DDS transport always
-serializes. Services travel as a request topic and a reply topic, each
-sample tagged with a RequestId (the client's GUID and a sequence number), which is how
-rmw_cyclonedds frames them on the wire. The Cyclone DDS backend implements the same
-Protocol, so node code does not change when a node moves to another process.
+either CDR bytes or a message, and deserialize only bytes. The ROS 2 transport
+(:mod:`runtime.ros2`) always serializes. Services travel as a request topic and a reply
+topic, each sample tagged with a RequestId (the client's GUID and a sequence number), as
+ROS 2 frames them on the wire. The ROS 2 transport implements the same Protocol on rclpy's
+own services, so node code does not change when a node moves to another process.
 """
 
 from __future__ import annotations

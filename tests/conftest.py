@@ -1,4 +1,6 @@
-"""Test-wide set-up: headless rendering must be chosen before anything imports mujoco."""
+"""Test-wide set-up: headless rendering must be chosen before anything imports mujoco; under
+``make test`` (``QUADMISSION_REQUIRE_ROS2=1``) a missing ROS 2 build stops the run instead of
+letting the ROS 2 tests skip."""
 
 from __future__ import annotations
 
@@ -11,3 +13,14 @@ from hypothesis import settings
 # Property tests draw the same examples on every run, so a CI failure replays locally.
 settings.register_profile("deterministic", derandomize=True, deadline=None)
 settings.load_profile("deterministic")
+
+
+def pytest_sessionstart(session: object) -> None:
+    from runtime.ros2.config import SETUP_HINT, missing_modules
+
+    missing = missing_modules()
+    if os.environ.get("QUADMISSION_REQUIRE_ROS2") == "1" and missing:
+        import pytest
+
+        pytest.exit(f"QUADMISSION_REQUIRE_ROS2=1 but {', '.join(missing)} cannot be imported: "
+                    f"the ROS 2 tests would skip; {SETUP_HINT}", returncode=4)

@@ -495,22 +495,6 @@ def _timesync(d: Json) -> list[str]:
             f"{d['convergence_tolerance_us']:.0f} us.", "", *lines]
 
 
-def _dds(d: Json) -> list[str]:
-    m = d["message"]
-    rows = [[name, d[key]["samples"], f"{d[key]['p50_us']} / {d[key]['p99_us']} us",
-             f"{d[key]['max_us']} us"]
-            for name, key in (("ours over DDS", "dds_ours"),
-                              ("bare cyclonedds", "dds_bare_cyclonedds"),
-                              ("in process", "in_process"))]
-    lines = table(["transport", "samples", "one-way p50 / p99", "max"], rows)
-    t = d["targets"]
-    return [f"{m['type']}, {m['cdr_bytes']} B CDR at {m['rate_hz']:.0f} Hz, {m['qos']}; "
-            f"{d['method']}.", "", *lines,
-            f"Ours / bare cyclonedds: p50 {ratio(d['overhead_ratio']['p50'])}, p99 "
-            f"{ratio(d['overhead_ratio']['p99'])} (targets: p50 {t['p50_us']} us, p99 "
-            f"{t['p99_us']} us, overhead {ratio(t['overhead_ratio'], 1)}).", ""]
-
-
 def _bag_kill(d: Json) -> list[str]:
     return table(["figure", "value", "baseline"], [
         ["killed (SIGKILL) after", f"{d['killed_after_s']} s", "-"],
@@ -702,12 +686,6 @@ SECTIONS: dict[str, Section] = {
         "Time sync: our Kalman filter against PX4's", "bench_timesync.py",
         "Offset estimation on recorded exchange traces, several disturbances.",
         _timesync),
-    "dds": Section(
-        "DDS transport latency", "bench_dds.py",
-        "One-way latency between two processes over our Cyclone DDS transport, against a bare "
-        "cyclonedds ping-pong in the same run and the in-process transport. Microseconds move "
-        "with the host's load; the ratio is the figure to compare.",
-        _dds),
     "campaign": Section(
         "Campaign throughput", "bench_campaign.py",
         "`quadmission campaign`'s runner on a local Dask cluster of 1 worker process and of "
@@ -732,7 +710,7 @@ def headline_rows(r: Results) -> list[list[str]]:
     landing, cells = r["precision_landing"], r["aruco_table1"]["cells"]
     latency, ts = r["latency"]["vs_table3"], r["timesync"]["scenarios"]["nominal"]["summary"]
     astar = r["astar"]["resolutions"][0]
-    nav, square, dds = r["navigate_seeds"], r["square_seeds"], r["dds"]
+    nav, square, ros2 = r["navigate_seeds"], r["square_seeds"], r["ros2"]
     rounds = sitl["rounds"]
 
     def landed(d: Json) -> str:
@@ -783,10 +761,9 @@ def headline_rows(r: Results) -> list[list[str]]:
         ["square on 21 arenas: landed, worst xy tracking RMSE",
          f"{square['landed']} of {len(square['runs'])}, {square['worst_xy_rmse_m']:.3f} m",
          f"target {square['target_xy_rmse_m']} m"],
-        ["DDS one-way latency between processes, p50 / p99",
-         f"{dds['dds_ours']['p50_us']:.0f} / {dds['dds_ours']['p99_us']:.0f} us",
-         f"bare cyclonedds (ratio {num(dds['overhead_ratio']['p50'])} / "
-         f"{num(dds['overhead_ratio']['p99'])})"],
+        ["ROS 2 one-way latency between processes (Fast DDS), p50 / p99",
+         f"{ros2['p50_us']:.0f} / {ros2['p99_us']:.0f} us",
+         f"bare rclpy (ratio {num(ros2['p50_ratio'])} / {num(ros2['p99_ratio'])})"],
     ]
 
 

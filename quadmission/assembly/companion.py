@@ -4,7 +4,7 @@
 asked not to) the flight-control node to a :class:`~sim.fcu.sitl.Sitl`'s executor. Facts
 the companion cannot know by itself come from the app, here: the flyable volume is the
 arena's field, passed to the flight-control node as its ``field_min``/``field_max``.
-Tests and scenarios use it; over DDS the same nodes run as processes.
+Tests and scenarios use it; under ``--transport ros2`` the same nodes run as processes.
 """
 
 from __future__ import annotations

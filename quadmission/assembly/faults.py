@@ -4,7 +4,7 @@ The simulator's kinds act through :func:`sim.faults.install_faults`; the rest ac
 the companion under test, here: the operator (``operator_abort``: ABORT pressed;
 ``operator_silent``: the operator stops answering) and the processes (``node_stop``: the
 deterministic executor stops executing the node, as if its process had died; under the
-DDS launcher the process is killed, :mod:`runtime.dds.launcher`).
+``ros2`` transport the launcher kills the process, :mod:`runtime.processes.launcher`).
 
 A scenario takes a kind when the kind acts on something it flies and the expected
 reaction (:mod:`quadmission.evaluation.faults`) can happen in it: the mission's policy

@@ -2,7 +2,7 @@
 
 Started by :mod:`runtime.processes.launcher` as ``python -m runtime.processes.child
 SPEC_JSON`` (:class:`ProcessSpec`), on the transport the spec names (``ros2``: rclpy on
-Fast DDS; ``dds``: our Cyclone DDS mapping; :data:`TRANSPORTS`). A node process waits
+Fast DDS; :data:`TRANSPORTS`). A node process waits
 for the first ``/clock`` (``use_sim_time``),
 creates its nodes and spins them until one of them finishes (its exit code is the
 process's) or SIGINT/SIGTERM. The simulator process builds the simulation around an
@@ -77,7 +77,7 @@ class ProcessSpec:
     name: str
     nodes: tuple[Mapping[str, Any], ...] = ()
     simulator: Mapping[str, Any] | None = None
-    transport: str = "dds"  # a key of TRANSPORTS
+    transport: str = "ros2"  # a key of TRANSPORTS
     domain_id: int = 0
     loopback_only: bool = True  # discovery and traffic stay on this machine
     use_sim_time: bool = True
@@ -114,12 +114,6 @@ class ProcessSpec:
         return TRANSPORTS[self.transport](self)
 
 
-def _dds(spec: ProcessSpec) -> ProcessTransport:
-    from runtime.dds.config import DdsConfig
-    from runtime.dds.transport import DdsTransport
-    return DdsTransport(DdsConfig(spec.domain_id, spec.loopback_only), name=spec.name)
-
-
 def _ros2(spec: ProcessSpec) -> ProcessTransport:
     from runtime.ros2.config import Ros2Config
     from runtime.ros2.transport import Ros2Transport
@@ -128,7 +122,7 @@ def _ros2(spec: ProcessSpec) -> ProcessTransport:
 
 
 #: How a process makes its transport, by name (imported only when chosen).
-TRANSPORTS: dict[str, Callable[[ProcessSpec], ProcessTransport]] = {"dds": _dds, "ros2": _ros2}
+TRANSPORTS: dict[str, Callable[[ProcessSpec], ProcessTransport]] = {"ros2": _ros2}
 
 
 def _node_name(process: str) -> str:

@@ -12,17 +12,28 @@ profile the user names in ``FASTRTPS_DEFAULT_PROFILES_FILE`` is left in charge.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["DEFAULT_DOMAIN_ID", "FASTDDS_PROFILE", "RMW_IMPLEMENTATION", "Ros2Config"]
+__all__ = ["DEFAULT_DOMAIN_ID", "FASTDDS_PROFILE", "REQUIRED_MODULES", "RMW_IMPLEMENTATION",
+           "Ros2Config", "missing_modules"]
 
 DEFAULT_DOMAIN_ID = 0
 RMW_IMPLEMENTATION = "rmw_fastrtps_cpp"  # the one the wheels ship (ros-jazzy-rclpy[fastrtps])
 #: Fast DDS's default participant profile for our processes (16 MiB shared-memory segments)
 FASTDDS_PROFILE = Path(__file__).with_name("fastdds_profile.xml")
 _PROFILE_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"  # the name Fast DDS 2.14 reads
+#: What the transport imports: rclpy (the ``ros2`` extra) and our interface packages (built
+#: into the venv by ``make``'s set-up, tools/build_ros_interfaces.py)
+REQUIRED_MODULES = ("rclpy", "px4_msgs", "quadmission_interfaces")
+SETUP_HINT = "run `make` (it installs ROS 2 Jazzy and builds our interface packages)"
+
+
+def missing_modules() -> list[str]:
+    """The modules of :data:`REQUIRED_MODULES` this interpreter cannot import."""
+    return [m for m in REQUIRED_MODULES if importlib.util.find_spec(m) is None]
 
 
 @dataclass(frozen=True)

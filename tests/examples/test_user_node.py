@@ -1,7 +1,8 @@
 """``examples/user_node.py``, a plain rclpy program, joins a mission flown on ROS 2.
 
-The mission (``config/launch/mission.yaml --transport ros2``, stopped once it enters the
-exploration) and the user's script run side by side, each in its own processes: the
+The mission (``config/launch/mission.yaml --transport ros2``: the simulator and the four
+node groups each in its own process, through the preflight and the takeoff, stopped once
+it enters the exploration) and the user's script run side by side, each in its own processes: the
 script sees ``/mission/state`` and ``/fcu/odometry`` decoded by rclpy's own classes, the
 mission answers the command it sends on ``/mission/command``, and rclpy's graph API lists
 every node of the mission by name and its ``/fmu``, ``/fcu``, ``/perception`` and
@@ -80,6 +81,11 @@ def test_user_rclpy_node_sees_the_mission_and_gets_an_answer(tmp_path: Path) -> 
     assert "START" in answer and ("accepted" in answer or "rejected" in answer), answer
     assert launch.returncode == 0, err[-3000:]
     assert json.loads(out)["reason"].startswith("process 'mission'"), out
+    # through the preflight (every module healthy, every action server answering) and the
+    # survey takeoff, each process group in its own process
+    assert "[mission] reached mission.explore\n" in err, err[-3000:]
+    for process in ("simulator", "companion", "perception", "navigation", "mission"):
+        assert f"started {process} (pid" in err
 
     nodes = {s.removeprefix("node: ") for s in lines if s.startswith("node: ")}
     assert nodes >= MISSION_NODES, f"not in the graph: {sorted(MISSION_NODES - nodes)}"

@@ -252,9 +252,7 @@ def test_quadmission_launch_runs_the_example() -> None:
 @pytest.mark.parametrize(("extra", "named"), [
     (["--gcs"], "--gcs: not available with a launch file with a simulator"),
     (["--rtf", "2"], "--rtf: not available with a launch file with a simulator"),
-    (["--transport", "dds", "--foxglove", "--record"], "--record --foxglove: not available "
-                                                       "with --transport dds (Cyclone"),
-    (["--transport", "dds", "--domain-id", "300"], "--domain-id 300 is outside 0..232"),
+    (["--transport", "ros2", "--domain-id", "300"], "--domain-id 300 is outside 0..232"),
 ])
 def test_launch_refuses_services_it_would_ignore(
         extra: list[str], named: str, capsys: pytest.CaptureFixture[str]) -> None:
@@ -263,12 +261,24 @@ def test_launch_refuses_services_it_would_ignore(
     assert named in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("transport", "said"), [
+    ("dds", "the Cyclone DDS transport 'dds' was retired; use --transport ros2"),
+    ("zenoh", "'zenoh' is not a transport: inproc or ros2"),
+])
+def test_launch_names_a_transport_it_does_not_have(
+        transport: str, said: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exited:
+        main(["launch", str(config_path("launch/square.yaml")), "--transport", transport])
+    assert exited.value.code == EXIT_BAD_INPUT
+    assert said in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(("argv", "said"), [
     (["sim", "--scenario", "navigate", "--fault", "pad_occluded@0,pad=3"],
      "the navigate scenario cannot take pad_occluded (it lands on no pad)"),
-    (["launch", "config/launch/mission.yaml", "--transport", "dds", "--fault",
-      "operator_abort@3"], "operator_abort@3: not in a launch over DDS"),
-    (["launch", "config/launch/mission.yaml", "--transport", "dds", "--fault",
+    (["launch", "config/launch/mission.yaml", "--transport", "ros2", "--fault",
+      "operator_abort@3"], "operator_abort@3: not in a launch over ros2"),
+    (["launch", "config/launch/mission.yaml", "--transport", "ros2", "--fault",
       "node_stop@3,name=nope"], "a process of the launch file (companion, mission, "),
 ])
 def test_a_fault_the_run_cannot_take_is_refused_naming_it(

@@ -1,7 +1,7 @@
 """The mission as a launch file (``config/launch/mission.yaml``): factories for its parts.
 
 The same YAML runs in one process (``quadmission launch FILE``: the simulator steps every
-node in lockstep) and over DDS (``--transport dds``: the simulator with its cameras in
+node in lockstep) and under ROS 2 (``--transport ros2``: the simulator with its cameras in
 one process, the companion's nodes in a few groups, following ``/clock``). The nodes
 are those :func:`quadmission.scenarios.mission.scenario.fly_mission` runs; the factories
 give each what the

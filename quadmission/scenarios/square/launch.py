@@ -1,7 +1,7 @@
 """The square as a launch file (``config/launch/square.yaml``): factories for its parts.
 
 The same YAML runs in one process (``quadmission launch FILE``: the simulator steps every
-node in lockstep) and over DDS (``--transport dds``: the simulator, the bridge and the
+node in lockstep) and under ROS 2 (``--transport ros2``: the simulator, the bridge and the
 flight-control layer, and the mission script each in their own process, following
 ``/clock``). The factories take what a node cannot know by itself from the app, as
 :mod:`quadmission.assembly.companion` does: the arena's field bounds for the flight-control node,

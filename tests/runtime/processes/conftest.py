@@ -1,25 +1,22 @@
-"""Both process transports, each on a loopback-only domain of this test session's own.
-
-``transport_kind`` runs a test once on ``ros2`` (rclpy on Fast DDS; skipped, naming the
-command, where the ROS 2 interface packages are not built) and once on ``dds`` (Cyclone).
+"""The process transport (``ros2``: rclpy on Fast DDS) on a loopback-only domain of this test
+session's own; its tests skip, naming the command, where the ROS 2 build is missing (never
+under ``make test``, which builds it: tests/conftest.py).
 """
 
 from __future__ import annotations
 
-import importlib.util
 import os
 
 import pytest
 
 from runtime.processes.child import ProcessSpec
 from runtime.processes.executor import ProcessTransport
+from runtime.ros2.config import SETUP_HINT, missing_modules
 
-ROS2_BUILT = all(importlib.util.find_spec(m) is not None
-                 for m in ("rclpy", "px4_msgs", "quadmission_interfaces"))
 needs_ros2 = pytest.mark.skipif(
-    not ROS2_BUILT, reason="the ROS 2 wheels or interface packages are missing: "
-                           "make ros-interfaces")
-TRANSPORT_KINDS = [pytest.param("ros2", marks=needs_ros2), pytest.param("dds")]
+    bool(missing_modules()), reason=f"the ROS 2 wheels or interface packages are missing: "
+                                    f"{SETUP_HINT}")
+TRANSPORT_KINDS = [pytest.param("ros2", marks=needs_ros2)]
 
 
 @pytest.fixture(scope="session")

@@ -1,9 +1,9 @@
-"""The process transports under the node API: topics, services, actions, QoS, parameters.
+"""The process transport under the node API: topics, services, actions, QoS, parameters.
 
-Two transports in one process are two participants (two rclpy contexts on ``ros2``, two
-Cyclone participants on ``dds``): samples go through DDS, serialised, never through
-shared objects. Every test runs on both transports; what only one of them has (rcl nodes
-in the ROS 2 graph, Cyclone's discovery data) is tested on that one.
+Two transports in one process are two participants (two rclpy contexts on ``ros2``):
+samples go through DDS, serialised, never through shared objects. The same node API on the
+in-process transport is tested in tests/runtime; here, what only the process transport has
+too: rcl nodes in the ROS 2 graph that a plain rclpy program sees.
 """
 
 from __future__ import annotations
@@ -131,9 +131,8 @@ def test_incompatible_qos_does_not_match_and_is_named(pair: Any) -> None:
     assert requested.reason.startswith("requested ") and "RELIABILITY" in requested.reason
 
 
-# -- ros2 only: our nodes are rcl nodes a plain rclpy program sees --------------------------
+# -- our nodes are rcl nodes a plain rclpy program sees ---------------------------------------
 @needs_ros2
-@pytest.mark.parametrize("transport_kind", ["ros2"])
 def test_nodes_are_rcl_nodes_with_their_topics_types_and_qos(pair: Any) -> None:
     a, b, spin = pair
     talker = Node("talker", context=a.context, namespace="/tt")
@@ -153,7 +152,6 @@ def test_nodes_are_rcl_nodes_with_their_topics_types_and_qos(pair: Any) -> None:
 
 
 @needs_ros2
-@pytest.mark.parametrize("transport_kind", ["ros2"])
 def test_a_plain_rclpy_parameter_client_lists_reads_and_sets_them(pair: Any,
                                                                   domain_id: int) -> None:
     import rclpy

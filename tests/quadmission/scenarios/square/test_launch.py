@@ -1,10 +1,11 @@
-"""``config/launch/square.yaml`` flies the square in one process and as DDS processes.
+"""``config/launch/square.yaml`` flies the square in one process and as ROS 2 processes.
 
 The same YAML and the same node code: in process, the simulator steps every node in
-lockstep; over DDS (``--transport dds``), the simulator, the bridge, the flight-control
-node and the pilot are four processes on a loopback-only domain of their own, following
-``/clock`` paced to three times real time, in lockstep with them (the simulator waits for
-a lagging process). Both end with exit code 0 once the pilot has landed.
+lockstep; under ROS 2 (``--transport ros2``), the simulator, the bridge, the flight-control
+node and the pilot are four processes of rcl nodes on a loopback-only domain of their own,
+following ``/clock`` paced to three times real time, in lockstep with them (the simulator
+waits for a lagging process), beside two processes that each burn a core. Both end with
+exit code 0 once the pilot has landed.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from rosbags.highlevel import AnyReader
 import interfaces
 from quadmission.scenarios.square.launch import sitl
 from runtime import DeterministicExecutor
+from tests.runtime.processes.conftest import needs_ros2
 
 ROOT = Path(__file__).resolve().parents[4]
 SQUARE = ROOT / "config" / "launch" / "square.yaml"
@@ -42,23 +44,25 @@ def test_square_launch_lands_in_process_and_records_its_topics(tmp_path: Path) -
     assert (stamps[-1] - stamps[0]) / 1e9 > 20.0  # the whole flight, not its start
 
 
-def test_square_launch_lands_over_dds_processes_at_3x_on_a_starved_cpu() -> None:
-    # Three times real time, with a process burning a core beside the launch: the node
-    # processes are descheduled for milliseconds at a time. The simulator keeps in
+@needs_ros2
+def test_square_launch_lands_over_ros2_processes_at_3x_beside_two_busy_loops() -> None:
+    # Three times real time, with two processes burning both cores beside the launch: the
+    # node processes are descheduled for milliseconds at a time. The simulator keeps in
     # lockstep with them (never more than a few ms of simulated time ahead), so the
     # bridge's time sync and the FCU's vision stay valid; when it could run 0.25 s ahead,
     # this ended in "no valid position estimate" before the takeoff (issue 10).
     domain = 100 + (os.getpid() + 60) % 120  # not the runtime tests' domain
-    hog = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
     try:
         out = subprocess.run(
             [sys.executable, "-m", "quadmission.cli", "launch", str(SQUARE), "--transport",
-             "dds", "--domain-id", str(domain), "--duration", "240", "--rtf", "3"],
+             "ros2", "--domain-id", str(domain), "--duration", "240", "--rtf", "3"],
             cwd=ROOT, capture_output=True, text=True, timeout=900,
             env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
     finally:
-        hog.kill()
-        hog.wait()
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
     assert out.returncode == 0, out.stderr[-3000:]
     assert json.loads(out.stdout)["reason"].startswith("process 'pilot'")
     assert "[pilot] landed" in out.stderr
@@ -68,7 +72,7 @@ def test_square_launch_lands_over_dds_processes_at_3x_on_a_starved_cpu() -> None
 
 def test_a_crash_fails_the_launch_with_its_reason() -> None:
     # Dropped from 4 m with the motors off: a hard touchdown, reported as the launch's
-    # failure (the simulator process prints it and exits with this code over DDS).
+    # failure (the simulator process prints it and exits with this code under ros2).
     simulation = sitl(DeterministicExecutor())
     simulation.sitl.scene.place_at_takeoff(height=4.0)
     ticks: list[int] = []
