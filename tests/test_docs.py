@@ -1,7 +1,8 @@
 """The docs hold: their code runs, their links land, the paths they name exist.
 
 Every ```python block in README.md and docs/*.md runs as a script in a fresh process, unless
-the line before its fence is ``<!-- not run: <reason> -->``. Every relative link resolves to a
+the line before its fence is ``<!-- not run: <reason> -->`` (a block importing ROS 2 packages
+skips, naming the set-up, in a venv without the ROS 2 build; never under ``make test``). Every relative link resolves to a
 file, and its #anchor to a heading of that file. Every repository path written in backticks
 (``navigation/astar.py``, ``config/launch/square.yaml``) exists, so a moved module cannot
 leave the docs pointing at nothing.
@@ -23,6 +24,7 @@ README_MAX_LINES = 250  # the front door stays short; the rest goes to docs/
 
 FENCE = re.compile(r"^```python\n(.*?)^```", re.M | re.S)
 NOT_RUN = re.compile(r"<!-- not run: (?P<reason>\S.*?) -->\n$")
+ROS2_IMPORT = re.compile(r"^\s*(from|import) (rclpy|px4_msgs|quadmission_interfaces)\b", re.M)
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
 CODE = re.compile(r"`([^`\n]+)`")
 
@@ -58,6 +60,10 @@ def test_every_python_block_runs_as_written(page: str, line: int, code: str,
                                             not_run: str | None, tmp_path: Path) -> None:
     if not_run is not None:
         pytest.skip(f"{page}:{line} is marked not run: {not_run}")
+    from runtime.ros2.config import SETUP_HINT, missing_modules
+
+    if ROS2_IMPORT.search(code) and missing_modules():
+        pytest.skip(f"{page}:{line} imports ROS 2 packages that are not built: {SETUP_HINT}")
     script = tmp_path / "block.py"
     script.write_text(code, encoding="utf-8")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}  # this checkout, as an installed package
