@@ -2,10 +2,11 @@
 
 Every ```python block in README.md and docs/*.md runs as a script in a fresh process, unless
 the line before its fence is ``<!-- not run: <reason> -->`` (a block importing ROS 2 packages
-skips, naming the set-up, in a venv without the ROS 2 build; never under ``make test``). Every relative link resolves to a
-file, and its #anchor to a heading of that file. Every repository path written in backticks
-(``navigation/astar.py``, ``config/launch/square.yaml``) exists, so a moved module cannot
-leave the docs pointing at nothing.
+skips, naming the set-up, in a venv without the ROS 2 build; never under ``make test``).
+Every relative link resolves to a file, and its #anchor to a heading of that file. Every
+repository path written in backticks (``navigation/astar.py``,
+``config/launch/square.yaml``) exists, so a moved module cannot leave the docs pointing at
+nothing.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ import pytest
 
 from interfaces.px4.topics import FMU_IN, FMU_OUT
 from tests.quadmission.scenarios.mission.test_launch import _variant
-from tests.runtime.processes.conftest import needs_ros2
+from tests.runtime.processes.conftest import needs_ros2, ros_domain
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "examples" / "user_node.py"
@@ -52,7 +52,7 @@ CONTRACT_TOPICS = {t.name: t.type for t in (*FMU_OUT.values(), *FMU_IN.values())
 def test_user_rclpy_node_sees_the_mission_and_gets_an_answer(tmp_path: Path) -> None:
     launch_file = _variant(tmp_path, {"quadmission.scenarios.mission.launch:mission": {
         "until_state": "mission.explore"}})
-    domain = 100 + (os.getpid() + 90) % 120
+    domain = ros_domain("user_node")
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     launch = subprocess.Popen(
         [sys.executable, "-m", "quadmission.cli", "launch", str(launch_file), "--transport",

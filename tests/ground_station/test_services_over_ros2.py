@@ -33,7 +33,7 @@ from ground_station.server import TOKEN_ENV
 from interfaces.qos import qos_profile_default
 from runtime import Node
 from runtime.processes.executor import ClockedExecutor
-from tests.runtime.processes.conftest import make_transport, needs_ros2
+from tests.runtime.processes.conftest import make_transport, needs_ros2, ros_domain
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "config" / "launch" / "example.yaml"
@@ -66,7 +66,7 @@ class _Stderr:
 @needs_ros2
 @pytest.mark.slow
 def test_recorder_and_ground_station_run_as_ros2_nodes(tmp_path: Path) -> None:
-    domain = 100 + (os.getpid() + 45) % 120  # not the other tests' domains
+    domain = ros_domain("ground_station")
     launch = subprocess.Popen(
         [sys.executable, "-m", "quadmission.cli", "launch", str(EXAMPLE), "--transport",
          "ros2", "--domain-id", str(domain), "--wall-clock", "--record", "--gcs", "--port",

@@ -19,9 +19,27 @@ needs_ros2 = pytest.mark.skipif(
 TRANSPORT_KINDS = [pytest.param("ros2", marks=needs_ros2)]
 
 
+#: the tests that start ROS 2 processes, each on a domain of its own (ros_domain)
+_DOMAIN_USERS = ("runtime", "square", "ground_station", "user_node")
+_FIRST_DOMAIN, _DOMAINS = 100, 130  # 100..229 (ROS 2 domain ids end at 232)
+
+
+def ros_domain(user: str) -> int:
+    """A loopback domain for ``user`` (one of :data:`_DOMAIN_USERS`), this test process's
+    own: pytest-xdist's workers of one run get disjoint blocks, separate runs most likely
+    do too (by their run id or pid), so parallel tests never hear each other."""
+    blocks = _DOMAINS // len(_DOMAIN_USERS)
+    worker, run = os.environ.get("PYTEST_XDIST_WORKER"), os.environ.get("PYTEST_XDIST_TESTRUNUID")
+    if worker and run:
+        block = (int(run, 16) + int(worker.removeprefix("gw"))) % blocks
+    else:
+        block = os.getpid() % blocks
+    return _FIRST_DOMAIN + block * len(_DOMAIN_USERS) + _DOMAIN_USERS.index(user)
+
+
 @pytest.fixture(scope="session")
 def domain_id() -> int:
-    return 100 + os.getpid() % 120
+    return ros_domain("runtime")
 
 
 @pytest.fixture(params=TRANSPORT_KINDS)

@@ -22,7 +22,7 @@ from rosbags.highlevel import AnyReader
 import interfaces
 from quadmission.scenarios.square.launch import sitl
 from runtime import DeterministicExecutor
-from tests.runtime.processes.conftest import needs_ros2
+from tests.runtime.processes.conftest import needs_ros2, ros_domain
 
 ROOT = Path(__file__).resolve().parents[4]
 SQUARE = ROOT / "config" / "launch" / "square.yaml"
@@ -51,7 +51,7 @@ def test_square_launch_lands_over_ros2_processes_at_3x_beside_two_busy_loops() -
     # lockstep with them (never more than a few ms of simulated time ahead), so the
     # bridge's time sync and the FCU's vision stay valid; when it could run 0.25 s ahead,
     # this ended in "no valid position estimate" before the takeoff (issue 10).
-    domain = 100 + (os.getpid() + 60) % 120  # not the runtime tests' domain
+    domain = ros_domain("square")
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
     try:
         out = subprocess.run(
