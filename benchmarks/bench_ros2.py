@@ -20,6 +20,10 @@ half the round trip as the one-way latency (p50, p99, max [us]).
 - **square_rtf**: ``quadmission launch config/launch/square.yaml --transport ros2`` paced
   at 1000x (as fast as it goes), the simulator's own figure (simulated / wall seconds from
   its first ``/clock`` to the landing).
+- **square_beside_busy_loops**: the same launch at ``--rtf 3`` beside two processes that
+  each burn a core (``while True: pass``): its exit code and reason (0, landed) and its
+  real-time factor. The lockstep keeps the flight valid however starved the processes are;
+  the starvation shows as a lower real-time factor.
 
 The message is ``std_msgs/UInt8MultiArray`` with 99 data bytes: 115 bytes of CDR. The send
 time (CLOCK_MONOTONIC, the same in every process) travels in its first 8 data bytes.
@@ -206,22 +210,40 @@ def conversion(samples: int = 20000) -> dict[str, Any]:
             "to_rclpy_class_extra_us": round((t2 - t1) / samples / 1e3, 2)}
 
 
-# -- the square at full speed ---------------------------------------------------------------
-def square_rtf(domain: int) -> dict[str, Any]:
+# -- the square: at full speed, and at 3x beside two busy loops -----------------------------
+def _square(domain: int, rtf: float) -> tuple[subprocess.CompletedProcess[str], dict[str, float]]:
     out = subprocess.run(
         [sys.executable, "-m", "quadmission.cli", "launch", "config/launch/square.yaml",
-         "--transport", "ros2", "--domain-id", str(domain), "--rtf", "1000",
+         "--transport", "ros2", "--domain-id", str(domain), "--rtf", f"{rtf:g}",
          "--duration", "240"],
-        cwd=ROOT, capture_output=True, text=True, timeout=900,
+        cwd=ROOT, capture_output=True, text=True, timeout=1800,
         env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
     if out.returncode != 0:
-        raise RuntimeError(f"square under ros2 failed: {out.stderr[-2000:]}")
+        raise RuntimeError(f"square under ros2 at --rtf {rtf:g} failed: {out.stderr[-2000:]}")
     found = re.search(r"\[simulator\] ran ([\d.]+) s simulated in ([\d.]+) s "
                       r"\(real-time factor ([\d.]+)\)", out.stderr)
     if found is None:
         raise RuntimeError("the simulator did not say its real-time factor")
-    return {"square_rtf": float(found[3]), "square_sim_s": float(found[1]),
-            "square_wall_s": float(found[2])}
+    return out, {"rtf": float(found[3]), "sim_s": float(found[1]), "wall_s": float(found[2])}
+
+
+def square_rtf(domain: int) -> dict[str, Any]:
+    _, run = _square(domain, 1000.0)
+    return {"square_rtf": run["rtf"], "square_sim_s": run["sim_s"],
+            "square_wall_s": run["wall_s"]}
+
+
+def square_beside_busy_loops(domain: int, loops: int = 2) -> dict[str, Any]:
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(loops)]
+    try:
+        out, run = _square(domain, 3.0)
+    finally:
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
+    return {"square_beside_busy_loops": {
+        "busy_loops": loops, "exit_code": out.returncode,
+        "reason": json.loads(out.stdout)["reason"], **run}}
 
 
 # -- driver ----------------------------------------------------------------------------------
@@ -292,7 +314,7 @@ def main() -> int:
         "load_avg_1min": round(os.getloadavg()[0], 1),
     }
     if not args.no_square:
-        result |= square_rtf(args.domain)
+        result |= square_rtf(args.domain) | square_beside_busy_loops(args.domain)
     text = json.dumps(result, indent=2)
     print(text)
     if args.out is not None:
