@@ -5,6 +5,7 @@ letting the ROS 2 tests skip."""
 from __future__ import annotations
 
 import os
+from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -24,3 +25,10 @@ def pytest_sessionstart(session: object) -> None:
 
         pytest.exit(f"QUADMISSION_REQUIRE_ROS2=1 but {', '.join(missing)} cannot be imported: "
                     f"the ROS 2 tests would skip; {SETUP_HINT}", returncode=4)
+
+
+def pytest_collection_modifyitems(items: list[Any]) -> None:
+    """Tests marked slow first, the rest in their order (a stable sort): a parallel run
+    (``make test`` runs pytest-xdist) then ends on short tests on every worker instead of
+    waiting for one long flight."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from rosbags.highlevel import AnyReader
 
 import interfaces
@@ -46,6 +47,7 @@ def test_square_launch_lands_in_process_and_records_its_topics(tmp_path: Path) -
 
 
 @needs_ros2
+@pytest.mark.slow
 def test_square_launch_lands_over_ros2_processes_at_3x_on_a_starved_cpu() -> None:
     # Three times real time, with a process burning a core beside the launch: the node
     # processes are descheduled for milliseconds at a time. The simulator keeps in
