@@ -82,14 +82,15 @@ $(ROS_STAMP): $(STAMP) $(ROS_SOURCES)
 ros-interfaces: $(ROS_STAMP)
 
 ## make test: set up .venv (with the ROS 2 interface packages), then lint, type-check and run
-## the whole test suite, a pytest-xdist worker per core (each module on one worker;
+## the whole test suite, a pytest-xdist worker per core (each module on one worker, the
+## modules of slow tests first: tests/conftest.py;
 ## PYTEST_WORKERS=1 for one); the ROS 2 tests run, and fail rather than skip if the build is
 ## missing
 test: $(ROS_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	MUJOCO_GL=$${MUJOCO_GL:-egl} QUADMISSION_REQUIRE_ROS2=1 $(BIN)/python -m pytest -q \
-	  -n $${PYTEST_WORKERS:-auto} --dist loadscope
+	  -n $${PYTEST_WORKERS:-auto} --dist loadscope --no-loadscope-reorder
 
 ## make sim: set up .venv, then fly the contest mission through every node (default arena),
 ## recording its topics to OUT/bag (rosbag2 MCAP)

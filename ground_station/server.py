@@ -19,6 +19,7 @@ import json
 import logging
 import os
 import secrets
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -59,6 +60,18 @@ class ServerConfig:
     command_log: Path | None = None  # JSON lines, one per command received
 
 
+class _Server(ThreadingHTTPServer):
+    """The stdlib server, its request errors logged instead of printed to stderr: a page
+    that closes its connection mid-answer is routine, anything else a logged error."""
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        error = sys.exc_info()[1]
+        if isinstance(error, (BrokenPipeError, ConnectionResetError, TimeoutError)):
+            _log.debug("ground station: %s from %s", type(error).__name__, client_address)
+        else:
+            _log.exception("ground station: a request from %s failed", client_address)
+
+
 class GroundStationServer:
     """Serves ``view`` and passes commands to ``submit`` (the node's queue)."""
 
@@ -72,7 +85,7 @@ class GroundStationServer:
         self._log_lock = threading.Lock()
         handler = type("Handler", (_Handler,), {"station": self})
         try:
-            self.httpd = ThreadingHTTPServer((config.host, config.port), handler)
+            self.httpd = _Server((config.host, config.port), handler)
         except OSError as exc:
             raise GroundStationError(f"the ground station cannot serve on "
                                      f"{config.host}:{config.port}: {exc.strerror or exc}; "

@@ -53,3 +53,25 @@ def test_a_bad_content_length_is_answered_with_400() -> None:
         conn.close()
     finally:
         server.stop()
+
+
+@pytest.mark.parametrize("error", [BrokenPipeError, ConnectionResetError, KeyError])
+def test_a_failed_request_is_logged_not_printed(
+        error: type[Exception], capsys: pytest.CaptureFixture[str],
+        caplog: pytest.LogCaptureFixture) -> None:
+    # what the stdlib server calls when a handler raises: a page that hung up mid-answer
+    # is routine (debug), anything else an error with its traceback; never bare stderr
+    server = _server()
+    try:
+        caplog.set_level("DEBUG", logger="quadmission.gcs")
+        try:
+            raise error("boom")
+        except error:
+            server.httpd.handle_error(None, ("127.0.0.1", 4242))
+    finally:
+        server.stop()
+    assert capsys.readouterr().err == ""
+    (record,) = [r for r in caplog.records if "127.0.0.1" in r.getMessage()]
+    routine = error is not KeyError
+    assert record.levelname == ("DEBUG" if routine else "ERROR")
+    assert (record.exc_info is None) == routine
