@@ -551,6 +551,9 @@ def _ros2(d: Json) -> list[str]:
          f"{num(d['p99_ratio'])} ({span(d['p99_ratio_range'])})", "<= 1.5"],
         ["square under ros2 at full speed, real-time factor", num(d["square_rtf"]), "-", "-",
          "-"],
+        *([[f"square under ros2 at 3x beside {b['busy_loops']} busy loops: exit code, reason, "
+            "real-time factor", f"{b['exit_code']}, {b['reason']}, {num(b['rtf'])}", "-", "-",
+            "exit 0, landed"]] if (b := d.get("square_beside_busy_loops")) else []),
     ]) + host_line(None, d.get("load_avg_1min"))
 
 
