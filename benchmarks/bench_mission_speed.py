@@ -7,7 +7,7 @@ Flies ``quadmission sim`` (default arena, seed 0, every node, the cameras with t
 configured rates and latency) once in this process and reports:
 
 - ``rtf_mission``: simulated seconds per wall second; ``wall_s``, ``cpu_s`` (this
-  process, every thread) and ``sim_s``;
+  process, every thread but the sampler's), ``cpu_per_sim_s`` and ``sim_s``;
 - ``cpu_share``: the share of the busy samples of every thread in each part (scanner,
   down camera, depth camera, mapping, FCU, other), from a sampling profiler that reads
   every thread's stack ``--sample-hz`` times a second (a thread waiting on a lock or a
@@ -31,7 +31,7 @@ import threading
 import time
 from collections import Counter
 from pathlib import Path
-from types import FrameType
+from types import CodeType, FrameType
 from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -59,19 +59,81 @@ _IDLE = ("threading.py", "queue.py", "selectors.py")
 _POOL = "concurrent/futures/thread.py"  # a pool thread's loop: idle when innermost
 
 
+def _rule_part(filename: str, qualname: str) -> str | None:
+    """The part one frame's code names by :data:`_RULES`, None when no rule matches it
+    (or it is one of the :data:`_OUTER` loops)."""
+    if filename.endswith(_OUTER):
+        return None
+    for part, path, function in _RULES:
+        if path in filename and qualname.startswith(function):
+            return part
+    return None
+
+
+_PART_OF_CODE: dict[int, tuple[CodeType, str | None]] = {}
+""":func:`_rule_part` of each code object met (the same answer for every frame of it), by
+its ``id`` (code objects of two files can compare equal); the entry keeps the code alive,
+so its ``id`` is never another's."""
+
+
 def classify(frame: FrameType | None) -> str | None:
     """The part a thread's stack is in, or None when the thread is idle."""
     if frame is None or frame.f_code.co_filename.endswith(_IDLE) or (
             frame.f_code.co_filename.endswith(_POOL) and frame.f_code.co_name == "_worker"):
         return None
+    parts = _PART_OF_CODE
     while frame is not None:
-        filename, qualname = frame.f_code.co_filename, frame.f_code.co_qualname
-        if not filename.endswith(_OUTER):
-            for part, path, function in _RULES:
-                if path in filename and qualname.startswith(function):
-                    return part
+        code = frame.f_code
+        known = parts.get(id(code))
+        if known is None:
+            known = parts[id(code)] = (code, _rule_part(code.co_filename, code.co_qualname))
+        part = known[1]
+        if part is not None:
+            return part
         frame = frame.f_back
     return "other"
+
+
+_THREADS_EVERY = 50  # stack samples between two reads of the threads' CPU times
+
+
+class ThreadCpu:
+    """CPU seconds per thread of this process, read from ``/proc/self/task`` (Linux; empty
+    elsewhere): unlike the stack samples, they do not count a thread that waits for a
+    core or for the GIL. Threads are grouped by name without its number (``llvmpipe-0``
+    and ``llvmpipe-1`` are ``llvmpipe``; threads Python did not start are named by the
+    OS). A thread that ended keeps its last reading."""
+
+    def __init__(self, exclude: tuple[str, ...] = ()) -> None:
+        self._last: dict[int, tuple[str, float]] = {}
+        self._exclude = exclude
+        self._tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+
+    def read(self) -> None:
+        names = {t.native_id: t.name for t in threading.enumerate()}
+        try:
+            tids = os.listdir("/proc/self/task")
+        except OSError:
+            return
+        for tid in tids:
+            try:
+                with open(f"/proc/self/task/{tid}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+                with open(f"/proc/self/task/{tid}/comm") as f:
+                    comm = f.read().strip()
+            except OSError:
+                continue  # ended meanwhile
+            name = names.get(int(tid), comm)
+            self._last[int(tid)] = (name, (int(fields[11]) + int(fields[12])) / self._tick)
+
+    def per_group(self) -> dict[str, float]:
+        """CPU seconds per thread group, largest first."""
+        groups: Counter[str] = Counter()
+        for name, cpu in self._last.values():
+            group = name.rstrip("0123456789").rstrip("_-") or name
+            if not group.startswith(self._exclude):
+                groups[group] += cpu
+        return dict(groups.most_common())
 
 
 class Sampler:
@@ -80,15 +142,25 @@ class Sampler:
     def __init__(self, hz: float) -> None:
         self.period = 1.0 / hz
         self.counts: Counter[str] = Counter()
+        self.cpu_s = 0.0
+        """The sampler's own CPU time (its thread): not the mission's."""
+        self.threads = ThreadCpu(exclude=("sampler",))
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="sampler", daemon=True)
 
     def _run(self) -> None:
         me = threading.get_ident()
+        start = time.thread_time()
+        tick = 0
         while not self._stop.wait(self.period):
             for ident, frame in sys._current_frames().items():
                 if ident != me and (part := classify(frame)) is not None:
                     self.counts[part] += 1
+            tick += 1
+            if tick % _THREADS_EVERY == 0:
+                self.threads.read()
+        self.threads.read()
+        self.cpu_s = time.thread_time() - start
 
     def __enter__(self) -> Sampler:
         self._thread.start()
@@ -115,12 +187,16 @@ def fly(out: Path, sample_hz: float) -> dict[str, Any]:
     cpu0, wall0 = _cpu_s(), time.perf_counter()
     with Sampler(sample_hz) as sampler:
         report = fly_mission(ScenarioOptions(out=out, seed=0))
-    wall, cpu = time.perf_counter() - wall0, _cpu_s() - cpu0
+    wall, cpu = time.perf_counter() - wall0, _cpu_s() - cpu0 - sampler.cpu_s
     sim_s = float(report["sim_time_s"])
     landings = report["landings"]
     return {"sim_s": round(sim_s, 3), "wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
             "rtf_mission": round(sim_s / wall, 2), "rtf_mission_cpu": round(sim_s / cpu, 2),
+            "cpu_per_sim_s": round(cpu / sim_s, 3),
             "cpu_share": sampler.shares(), "samples": sum(sampler.counts.values()),
+            "sampler_cpu_s": round(sampler.cpu_s, 1),
+            "thread_cpu_per_sim_s": {name: round(cpu / sim_s, 4)
+                                     for name, cpu in sampler.threads.per_group().items()},
             "result": report["result"], "ok": report["ok"],
             "score": report["score"], "max_score": report["max_score"],
             "landings_inside": sum(1 for x in landings if x["inside_pad"]),

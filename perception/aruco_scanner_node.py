@@ -111,6 +111,8 @@ class ArucoScannerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(ScannerParams)
+        if self.params.opencv_threads > 0:  # OpenCV's pool is the process's, as in C++
+            cv2.setNumThreads(self.params.opencv_threads)
         self.policy = ScanPolicy(
             enabled=self.params.enabled, mode=self.params.mode,
             annotated_rate_hz=self.params.annotated_rate_hz,

@@ -42,6 +42,10 @@ class ScannerParams:
     max_range_m: float = param(unit="m", range=(0.0, 100.0),
                                description="farthest a marker is read; whole-frame searches "
                                            "skip smaller outlines (0: no floor)")
+    opencv_threads: int = param(range=(0, 64),
+                                description="OpenCV's worker threads in this process "
+                                            "(cv2.setNumThreads; 0: OpenCV's default, one "
+                                            "per core)")
 
     def __post_init__(self) -> None:
         validate_parameters(self)

@@ -89,6 +89,27 @@ def test_markers_carry_the_capture_stamp_kind_and_offset(frames):
     assert d.height == pytest.approx(1.5 - 0.06 - 0.01, abs=0.02)
 
 
+def test_opencv_threads_sets_the_process_pool_and_the_same_markers_come_out(frames):
+    import cv2
+
+    before = cv2.getNumThreads()
+    try:
+        found = {}
+        for threads in (2, 1):
+            ex, camera, _ = _rig(opencv_threads=threads)
+            assert cv2.getNumThreads() == threads
+            camera.send(frames["pad"], frames["intrinsics"], 100_000_000)
+            ex.spin_for(0.1)
+            (msg,) = camera.markers
+            found[threads] = [(d.id, d.corners_px.tolist()) for d in msg.detections]
+        assert found[1] == found[2] and found[1]  # the pool's size changes no result
+        cv2.setNumThreads(before)
+        _rig(opencv_threads=0)  # 0 leaves the pool as it is
+        assert cv2.getNumThreads() == before
+    finally:
+        cv2.setNumThreads(before)
+
+
 def test_mode_robots_ignores_pads_and_reports_the_robot(frames):
     ex, camera, _ = _rig(mode="robots")
     camera.send(frames["pad"], frames["intrinsics"], 100_000_000)
