@@ -10,7 +10,8 @@ mission: 5 min of wall each), which is where its trouble would show.
 Writes ``{"runs": [{"spec", "expected", "observed", "reaction_s", "end_state",
 "handled", "result", "reason", "sim_s", "wall_s"}], "handled", "total"}`` to ``--out``
 (default benchmarks/results/faults.json), after every run (a long run can be stopped).
-``--only KIND`` flies the specs of those kinds.
+``--only KIND`` flies the specs of those kinds and keeps the other runs already in
+``--out`` (a re-flown spec replaces its run; the runs in the order of ``SPECS``).
 """
 
 from __future__ import annotations
@@ -65,12 +66,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--only", action="append", default=[], metavar="KIND")
     args = p.parse_args(argv)
     specs = [s for s in SPECS if not args.only or s.split("@")[0] in args.only]
-    runs: list[dict[str, object]] = []
+    # a run's "spec" is written back in full (every key): match the SPECS that way
+    order = [parse_fault(s).spec() for s in SPECS]
+    kept: dict[str, dict[str, object]] = {}
+    if args.only and args.out.exists():
+        kept = {str(r["spec"]): r for r in json.loads(args.out.read_text())["runs"]}
+    flown: dict[str, dict[str, object]] = {}
     for spec in specs:
         run = fly(spec, args.ride_s)
-        runs.append(run)
+        flown[str(run["spec"])] = run
         print(f"{spec:42s} {run['observed']!s:48s} {run['end_state']!s:20s} "
               f"handled={run['handled']} ({run['wall_s']} s)", file=sys.stderr, flush=True)
+        both = {**kept, **flown}
+        runs = [both[s] for s in order if s in both]
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps({
             "arena": "contest (default)", "seed": 0, "runs": runs,
