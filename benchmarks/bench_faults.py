@@ -38,7 +38,7 @@ SPECS = (
     f"wind_gust@{AT_S:g}:2,force=2", f"vio_jump@{AT_S:g},x=0.5,y=0.3",
     f"vio_delay@{AT_S:g}:5,delay_ms=200", f"latency_spike@{AT_S:g}:3,latency_ms=300",
     f"packet_burst@{AT_S:g}:3,loss=0.5", f"clock_jump@{AT_S:g},offset_ms=2000",
-    f"light_drop@{AT_S:g}", f"depth_dark@{AT_S:g}:5",
+    f"light_drop@{AT_S:g}", f"depth_dark@{AT_S:g}:5", f"robot_across@{AT_S:g}",
     "operator_silent@0", "pad_occluded@0,pad=4", "camera_dark@60:60", "robot_absent@0",
 )
 
