@@ -3,8 +3,9 @@ by its expected reaction (issue 22's table, ``quadmission/evaluation/faults.py``
 
 A kind that acts in flight is injected 25 s in (3 s into the exploration); a kind whose
 reaction comes at the end of a phase (a pad's marker gone, the robot absent, the
-operator silent, the down camera dark) from the start, and the run flies the whole
-mission. A ridden-out kind is flown ``--ride-s`` past its end (not to the end of the
+operator silent, the down camera dark) from the start (the operator once it has sent
+START: silent from 0 s it never does, and the mission stays idle), and the run flies the
+whole mission. A ridden-out kind is flown ``--ride-s`` past its end (not to the end of the
 mission: 5 min of wall each), which is where its trouble would show.
 
 Writes ``{"runs": [{"spec", "expected", "observed", "reaction_s", "end_state",
@@ -39,7 +40,7 @@ SPECS = (
     f"vio_delay@{AT_S:g}:5,delay_ms=200", f"latency_spike@{AT_S:g}:3,latency_ms=300",
     f"packet_burst@{AT_S:g}:3,loss=0.5", f"clock_jump@{AT_S:g},offset_ms=2000",
     f"light_drop@{AT_S:g}", f"depth_dark@{AT_S:g}:5", f"robot_across@{AT_S:g}",
-    "operator_silent@0", "pad_occluded@0,pad=4", "camera_dark@60:60", "robot_absent@0",
+    "operator_silent@10", "pad_occluded@0,pad=4", "camera_dark@60:60", "robot_absent@0",
 )
 
 

@@ -950,6 +950,8 @@ def test_the_position_loss_failsafe_comes_ekf2_noaid_tout_after_the_last_vision_
     total_us = estimator.vision_timeout_us + round(commander.position_loss_delay_s * S)
     assert total_us == EKF2_NOAID_TOUT_US, (
         f"vision_timeout_us + position_loss_delay_s = {total_us} us, PX4 has 5 s")
+    # and the estimator dead-reckons on the gyro as long (EKF2's own timeout)
+    assert estimator.noaid_timeout_us == EKF2_NOAID_TOUT_US
 
 
 def test_takeoff_max_height_may_equal_the_default_height_but_not_be_below() -> None:
