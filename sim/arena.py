@@ -192,6 +192,26 @@ class RobotPose(NamedTuple):
     yaw: float
 
 
+class StraightDrive(NamedTuple):
+    """A ground robot off its route: from ``start`` at ``start_s`` [s] straight to ``end``
+    at ``speed`` [m/s], then stopped there (a robot driving across the field)."""
+
+    start_s: float
+    start: Vec2
+    end: Vec2
+    speed: float
+
+    def pose(self, t: float) -> RobotPose:
+        """Where the robot is at ``t`` [s] (at ``start`` before ``start_s``)."""
+        (ax, ay), (bx, by) = self.start, self.end
+        length = math.dist(self.start, self.end)
+        yaw = math.atan2(by - ay, bx - ax)
+        if length == 0.0:
+            return RobotPose(self.start, yaw)
+        u = min(max(self.speed * (t - self.start_s) / length, 0.0), 1.0)
+        return RobotPose((ax + u * (bx - ax), ay + u * (by - ay)), yaw)
+
+
 def robot_pose(robot: GroundRobot, t: float) -> RobotPose:
     """Where ``robot`` is ``t`` seconds after the start, facing along its current segment."""
     segments, lengths, ends, yaws = robot._route_table

@@ -25,6 +25,7 @@ from typing import Any
 
 import yaml
 
+from sim.arena import ROBOT_SPEED_LIMITS
 from sim.errors import SimError
 
 __all__ = ["KINDS", "Fault", "FaultKind", "FaultSpecError", "Key", "KindSpec", "load_faults",
@@ -56,6 +57,7 @@ class FaultKind(Enum):
     ROBOT_ABSENT = "robot_absent"  # no robot carries the target marker
     OPERATOR_SILENT = "operator_silent"  # the operator never sends a landing sequence
     NODE_STOP = "node_stop"  # a companion node stops (its process dies)
+    ROBOT_ACROSS = "robot_across"  # a ground robot drives across the vehicle's path
 
 
 class Duration(Enum):
@@ -135,6 +137,16 @@ KINDS: dict[FaultKind, KindSpec] = {
     FaultKind.NODE_STOP: KindSpec(Duration.NONE, (
         Key("name", math.nan, "", 0.0, 0.0, "the node's name", required=True, text=True),),
         "a companion node stops (in process: no longer executed; over DDS: killed)"),
+    FaultKind.ROBOT_ACROSS: KindSpec(Duration.NONE, (
+        Key("robot", math.nan, "", 1.0, 1000.0, "the robot's marker (default: the robot "
+            "nearest the crossing point)"),
+        Key("ahead", 2.0, "m", 0.0, 20.0, "the crossing point: this far ahead of the "
+            "vehicle along its horizontal velocity (its heading when hovering)"),
+        Key("beyond", 1.0, "m", 0.0, 20.0, "how far past the crossing point it drives "
+            "before it stops"),
+        Key("speed", 0.5, "m/s", *ROBOT_SPEED_LIMITS, "its speed (a robot's range)"),),
+        "a ground robot leaves its route and drives straight across the vehicle's path, "
+        "then stops"),
 }
 
 

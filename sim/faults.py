@@ -24,7 +24,10 @@ time; nothing here touches the companion:
   sensors' code untouched;
 - ``pad_occluded`` / ``robot_absent``: the pad's (robot's) marker geom loses its texture
   (a plain pad, a plain robot top): the marker is gone, the thing is still there;
-- ``light_drop``: the lights go to the ``dark`` preset (:data:`~sim.mjcf.LIGHTING_PRESETS`).
+- ``light_drop``: the lights go to the ``dark`` preset (:data:`~sim.mjcf.LIGHTING_PRESETS`);
+- ``robot_across``: a ground robot leaves its route and drives straight across the
+  vehicle's path (:func:`across_drive`, from the vehicle's true position and velocity at
+  the fault's time), then stops (the robots' part, :class:`~sim.world.RobotMotion`).
 
 The switches run in a world part (:class:`FaultSwitches`) at ``rate_hz``, before the
 other parts of a tick: a fault starts at the first tick at or after its time (on time
@@ -44,7 +47,7 @@ import numpy as np
 
 import interfaces
 from runtime.clock import NS_PER_S
-from sim.arena import Lighting
+from sim.arena import ROBOT_SIZE, ArenaSpec, Lighting, StraightDrive, robot_pose
 from sim.errors import SimError
 from sim.fault_spec import Fault, FaultKind
 from sim.fcu.agent import FcuAgentNode
@@ -53,21 +56,22 @@ from sim.fcu.firmware import Firmware
 from sim.fcu.link import Link
 from sim.fcu.sitl import Sitl
 from sim.mjcf import LIGHTING_PRESETS, pad_geom_name, robot_body_name
+from sim.scene import quad_state
 from sim.vision import VisionPose
-from sim.world import FloatArray, Scene, Wind
+from sim.world import FloatArray, RobotMotion, Scene, Wind
 
 if TYPE_CHECKING:
     from sim.sensors import SimSensorsNode
 
 __all__ = ["SIM_KINDS", "Blackout", "FaultInstallError", "FaultSwitches", "Gusts", "Switched",
-           "install_faults", "sag_level"]
+           "across_drive", "install_faults", "sag_level"]
 
 SIM_KINDS = frozenset({
     FaultKind.VIO_STOP, FaultKind.LINK_LOST, FaultKind.BATTERY_LOW,
     FaultKind.BATTERY_CRITICAL, FaultKind.WIND_GUST, FaultKind.VIO_JUMP, FaultKind.VIO_DELAY,
     FaultKind.LATENCY_SPIKE, FaultKind.PACKET_BURST, FaultKind.CLOCK_JUMP,
     FaultKind.CAMERA_DARK, FaultKind.DEPTH_DARK, FaultKind.PAD_OCCLUDED,
-    FaultKind.LIGHT_DROP, FaultKind.ROBOT_ABSENT})
+    FaultKind.LIGHT_DROP, FaultKind.ROBOT_ABSENT, FaultKind.ROBOT_ACROSS})
 """The kinds this module injects."""
 CAMERA_KINDS = frozenset({FaultKind.CAMERA_DARK, FaultKind.DEPTH_DARK})
 """The kinds that need the sensors node."""
@@ -115,6 +119,47 @@ def sag_level(kind: FaultKind, params: BatteryEstimatorParams) -> float:
     if kind is FaultKind.BATTERY_CRITICAL:
         return (params.emergen_thr + params.crit_thr) / 2.0
     raise ValueError(f"{kind.value} is not a battery fault")
+
+
+HOVERING_M_S = 0.1  # m/s: slower than this, the vehicle's path is along its heading
+
+
+def across_drive(fault: Fault, t_s: float, arena: ArenaSpec, vehicle_xy: tuple[float, float],
+                 vehicle_velocity_xy: tuple[float, float],
+                 heading: float) -> tuple[int, StraightDrive]:
+    """``robot_across``'s drive: the crossing point is ``ahead`` m in front of the vehicle
+    (along its horizontal velocity, or its ``heading`` [rad, from +x] when hovering), kept
+    on the field; the robot (``robot``, or the one nearest that point) drives from where
+    it is at ``t_s`` straight through it and ``beyond`` m further (less where the field
+    ends), at ``speed``. The robot's index in ``arena.robots`` and its drive."""
+    vx, vy = vehicle_velocity_xy
+    speed = math.hypot(vx, vy)
+    ux, uy = (vx / speed, vy / speed) if speed > HOVERING_M_S else (
+        math.cos(heading), math.sin(heading))
+    half = max(ROBOT_SIZE[0], ROBOT_SIZE[1]) / 2.0
+    size_x, size_y = arena.field.size[0], arena.field.size[1]
+    ahead = fault.value("ahead")
+    cx = min(max(vehicle_xy[0] + ahead * ux, half), size_x - half)
+    cy = min(max(vehicle_xy[1] + ahead * uy, half), size_y - half)
+    starts = [robot_pose(r, t_s).xy for r in arena.robots]
+    marker = fault.value("robot")
+    if math.isnan(marker):
+        index = min(range(len(starts)), key=lambda i: math.dist(starts[i], (cx, cy)))
+    else:
+        index = [r.marker_id for r in arena.robots].index(int(marker))
+    (sx, sy) = starts[index]
+    gap = math.dist((sx, sy), (cx, cy))
+    dx, dy = ((cx - sx) / gap, (cy - sy) / gap) if gap > 1e-9 else (-uy, ux)
+    # how far the field lets it go past the crossing point along (dx, dy)
+    room = math.inf
+    for d, c, hi in ((dx, cx, size_x - half), (dy, cy, size_y - half)):
+        if d > 1e-12:
+            room = min(room, (hi - c) / d)
+        elif d < -1e-12:
+            room = min(room, (half - c) / d)
+    further = min(fault.value("beyond"), max(room, 0.0))
+    end = (cx + dx * further, cy + dy * further)
+    return index, StraightDrive(t_s, (sx, sy), end, fault.value("speed"))
 
 
 @dataclass(frozen=True)
@@ -185,6 +230,7 @@ class FaultSwitches:
     agent: FcuAgentNode | None = None
     image: Blackout | None = None
     cloud: Blackout | None = None
+    robots: RobotMotion | None = None
     rate_hz: float = 100.0
     name: str = "faults"
     switched: list[Switched] = field(default_factory=list)
@@ -211,7 +257,7 @@ class FaultSwitches:
                     self._active.remove(fault)
                 self._windows()
             else:
-                self._step(fault, scene)
+                self._step(fault, scene, t_ns)
             self.switched.append(Switched(t_ns / NS_PER_S, fault, on))
 
     def _windows(self) -> None:
@@ -232,9 +278,18 @@ class FaultSwitches:
         if self.cloud is not None:
             self.cloud.dark = FaultKind.DEPTH_DARK in kinds
 
-    def _step(self, fault: Fault, scene: Scene) -> None:
+    def _step(self, fault: Fault, scene: Scene, t_ns: int) -> None:
         kind = fault.kind
-        if kind is FaultKind.VIO_JUMP:
+        if kind is FaultKind.ROBOT_ACROSS:
+            assert self.robots is not None
+            truth = quad_state(scene.data, scene.index)
+            w, x, y, z = truth.quaternion.tolist()
+            heading = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+            p, v = truth.position.tolist(), truth.velocity.tolist()
+            index, drive = across_drive(fault, t_ns / NS_PER_S, scene.arena, (p[0], p[1]),
+                                        (v[0], v[1]), heading)
+            self.robots.drives[index] = drive
+        elif kind is FaultKind.VIO_JUMP:
             o = self.vision.offset
             self.vision.offset = (o[0] + fault.value("x"), o[1] + fault.value("y"),
                                   o[2] + fault.value("z"))
@@ -278,11 +333,14 @@ def install_faults(sitl: Sitl, faults: Sequence[Fault],
         if f.kind is FaultKind.PAD_OCCLUDED and int(f.value("pad")) not in arena.pad_ids:
             raise FaultInstallError(f"{f.spec()}: arena {arena.name!r} has pads "
                                     f"{list(arena.pad_ids)}")
-        if f.kind is FaultKind.ROBOT_ABSENT:
-            robots = [r.marker_id for r in arena.robots]
-            if math.isnan(f.value("robot")) or int(f.value("robot")) not in robots:
-                raise FaultInstallError(f"{f.spec()}: name the robot's marker, one of "
-                                        f"{robots} (robot=ID)")
+        robots = [r.marker_id for r in arena.robots]
+        if f.kind is FaultKind.ROBOT_ABSENT and (
+                math.isnan(f.value("robot")) or int(f.value("robot")) not in robots):
+            raise FaultInstallError(f"{f.spec()}: name the robot's marker, one of "
+                                    f"{robots} (robot=ID)")
+        if f.kind is FaultKind.ROBOT_ACROSS and (not robots or (
+                not math.isnan(f.value("robot")) and int(f.value("robot")) not in robots)):
+            raise FaultInstallError(f"{f.spec()}: arena {arena.name!r} has robots {robots}")
     gusts = [f for f in ours if f.kind is FaultKind.WIND_GUST]
     if gusts:
         sitl.actuation.wind = Gusts(sitl.actuation.wind, gusts)
@@ -292,6 +350,6 @@ def install_faults(sitl: Sitl, faults: Sequence[Fault],
         cloud = Blackout(sensors.depth_points, _empty_cloud)
         sensors.down_image, sensors.depth_points = image, cloud  # type: ignore[assignment]
     switches = FaultSwitches(ours, sitl.vision, sitl.link, sitl.firmware, sitl.agent,
-                             image, cloud)
+                             image, cloud, sitl.robots)
     sitl.first_parts.append(switches)
     return switches

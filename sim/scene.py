@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -17,7 +18,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from sim.arena import ArenaSpec, robot_pose
+from sim.arena import ArenaSpec, StraightDrive, robot_pose
 from sim.errors import SimError
 from sim.mjcf import (
     ACCEL_SENSOR,
@@ -176,11 +177,16 @@ def set_motor_thrusts(data: mujoco.MjData, index: SceneIndex, thrusts: npt.Array
     data.ctrl[index.motor_ctrl] = np.asarray(thrusts, dtype=np.float64).reshape(NUM_ROTORS)
 
 
-def set_robot_poses(data: mujoco.MjData, index: SceneIndex, arena: ArenaSpec, t: float) -> None:
-    """Move every ground robot's mocap body to its pose at time ``t`` [s]."""
+def set_robot_poses(data: mujoco.MjData, index: SceneIndex, arena: ArenaSpec, t: float,
+                    drives: Mapping[int, StraightDrive] | None = None) -> None:
+    """Move every ground robot's mocap body to its pose at time ``t`` [s]: along its
+    route, or, for a robot (by its index in ``arena.robots``) in ``drives`` from the
+    drive's start on, along the drive."""
     mocap_pos, mocap_quat = data.mocap_pos, data.mocap_quat
-    for robot, mocap in zip(arena.robots, index.robot_mocap, strict=True):
-        (x, y), yaw = robot_pose(robot, t)
+    for i, (robot, mocap) in enumerate(zip(arena.robots, index.robot_mocap, strict=True)):
+        drive = drives.get(i) if drives else None
+        (x, y), yaw = (drive.pose(t) if drive is not None and t >= drive.start_s
+                       else robot_pose(robot, t))
         mocap_pos[mocap] = (x, y, 0.0)
         mocap_quat[mocap] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
 

@@ -36,7 +36,7 @@ from runtime import DeterministicExecutor
 from runtime.clock import NS_PER_S
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters, param, validate_parameters
-from sim.arena import ArenaSpec, Lighting
+from sim.arena import ArenaSpec, Lighting, StraightDrive
 from sim.errors import SimError
 from sim.mjcf import build_model
 from sim.quadrotor import (
@@ -316,13 +316,16 @@ class Imu:
 
 @dataclass
 class RobotMotion:
-    """Moves the ground robots along their paths (kinematic, mocap bodies)."""
+    """Moves the ground robots along their paths (kinematic, mocap bodies), or a robot in
+    ``drives`` (by its index in the arena's robots) along its drive once it has begun
+    (the ``robot_across`` fault)."""
 
     rate_hz: float = field(default_factory=lambda: world_params().robots_rate_hz)
     name: str = "robots"
+    drives: dict[int, StraightDrive] = field(default_factory=dict)
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        set_robot_poses(scene.data, scene.index, scene.arena, t_ns / NS_PER_S)
+        set_robot_poses(scene.data, scene.index, scene.arena, t_ns / NS_PER_S, self.drives)
 
 
 @dataclass(frozen=True)

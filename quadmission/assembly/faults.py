@@ -39,7 +39,7 @@ APP_KINDS = frozenset({FaultKind.OPERATOR_ABORT, FaultKind.OPERATOR_SILENT,
 
 _FLYING = frozenset({FaultKind.LINK_LOST, FaultKind.WIND_GUST, FaultKind.VIO_JUMP,
                      FaultKind.VIO_DELAY, FaultKind.LATENCY_SPIKE, FaultKind.PACKET_BURST,
-                     FaultKind.CLOCK_JUMP})
+                     FaultKind.CLOCK_JUMP, FaultKind.ROBOT_ACROSS})
 """Kinds any flight over the SITL can take: the FCU's failsafe, or nobody, reacts."""
 
 SCENARIO_KINDS: dict[str, frozenset[FaultKind]] = {

@@ -154,7 +154,8 @@ Policy, each tick, in this order:
    as PX4's failsafe does within its delay; after the action the failsafe is latched
    until a mode command is accepted (user takeover) or the vehicle disarms;
 5. position loss: armed in a mode that needs a local position (all but DESCEND), the
-   estimate invalid for ``position_loss_delay_s`` (``COM_POS_FS_DELAY``) fires
+   estimate invalid for ``position_loss_delay_s`` (``COM_POS_FS_DELAY``), or its horizontal
+   accuracy worse than ``position_loss_eph_m`` (``COM_POS_FS_EPH``), fires
    ``failsafe_descend`` at once (PX4's mode fallback: RTL and Land need a position too, so
    Descend; no hold delay, since Hold cannot run either). DESCEND levels the vehicle and
    sinks at the landing speed until the land detector says landed (then auto-disarm).
@@ -558,6 +559,11 @@ class CommanderParams:
     ``EKF2_NOAID_TOUT`` (5 s) before it calls the position invalid, ours after its
     ``vision_timeout_us`` (0.5 s), so this is the rest of PX4's 5 s from the last aiding
     to the failsafe (``config/fcu_commander.yaml``)."""
+    position_loss_eph_m: float = param(1.0, unit="m", range=(0.01, 1000.0))
+    """``COM_POS_FS_EPH``: the horizontal position accuracy (eph) worse than this is a
+    position loss at once, without ``position_loss_delay_s``: the estimate's own error
+    says it no longer knows where it is. Not PX4's 5 m, which is for the open sky: indoors
+    the obstacles are 1 to 2 m away (``config/fcu_commander.yaml``)."""
     low_battery_action: BatteryFailsafeAction = BatteryFailsafeAction.LAND
     """``COM_LOW_BAT_ACT``: warning, land, or return at critical (land at emergency)."""
     disarm_land_s: float = param(2.0, unit="s", range=(-1.0, 20.0))
@@ -644,6 +650,8 @@ class CommanderInputs(NamedTuple):
     attitude_valid: bool = True
     position_valid: bool = True
     """Local position (and velocity) estimate valid."""
+    position_eph_m: float = 0.0
+    """Its horizontal accuracy [m] (``vehicle_local_position.eph``)."""
     altitude_amsl_m: float = 0.0
     """Altitude [m, up] of the vehicle, NaN if unknown."""
     commands: tuple[VehicleCommandData, ...] = ()
@@ -1097,12 +1105,15 @@ def _position_failsafe(ctx: _Context, s: CommanderState) -> CommanderState:
     Descend, which needs attitude only; the hold delay (``COM_FAIL_ACT_T``) is skipped
     because Hold cannot run either. The loss counts after ``position_loss_delay_s``
     (PX4 <= 1.13's ``COM_POS_FS_DELAY``; ours is set so that with the estimator's vision
-    timeout it adds up to PX4's ``EKF2_NOAID_TOUT``, 5 s from the last vision sample).
+    timeout it adds up to PX4's ``EKF2_NOAID_TOUT``, 5 s from the last vision sample), or
+    at once when the estimate's eph passes ``position_loss_eph_m`` (``COM_POS_FS_EPH``:
+    dead reckoning, the filter's variance gets there about 2.9 s after the last sample).
     The fallback clears with its cause (``ClearCondition::WhenConditionClears``): the
     position back, the vehicle holds and returns to the mode the user chose (OFFBOARD
     only with its signal)."""
     params, inputs, now = ctx.params, ctx.inputs, ctx.inputs.now_us
-    if inputs.position_valid:
+    too_coarse = inputs.position_eph_m > params.position_loss_eph_m
+    if inputs.position_valid and not too_coarse:
         if s.position_invalid_since_us is not None:
             s = s._replace(position_invalid_since_us=None)
         if s.state is FlightState.DESCEND and s.failsafe_reason is FailsafeReason.POSITION_LOSS:
@@ -1118,7 +1129,7 @@ def _position_failsafe(ctx: _Context, s: CommanderState) -> CommanderState:
     if since is None:
         since = now
         s = s._replace(position_invalid_since_us=now)
-    lost = now - since >= params.position_loss_delay_s * _US_PER_S
+    lost = too_coarse or now - since >= params.position_loss_delay_s * _US_PER_S
     if s.state in _NEEDS_POSITION and lost:
         s = s._replace(failsafe_phase=_FailsafePhase.ACTION,
                        failsafe_reason=FailsafeReason.POSITION_LOSS, failsafe_since_us=now)

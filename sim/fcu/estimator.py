@@ -28,10 +28,15 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
 from sim.fcu.control import Quat, Vec3, VehicleState, _fq_normalise, _fq_yaw
 from sim.fcu.kernels import (
+    ATTITUDE_AIDED,
+    ATTITUDE_GRAVITY,
+    ATTITUDE_GYRO,
     EST_BUF_COLS,
+    EST_GYRO_BIAS,
     EST_OUTPUT_INDEX,
     EST_P,
     EST_PARAMS_SIZE,
@@ -77,9 +82,15 @@ class EstimatorParams:
     initial_accel_bias_std: float = param(unit="m/s^2", range=(0.0, 10.0))
     buffer_length_us: int = param(unit="us", range=(1_000, 10_000_000))
     vision_timeout_us: int = param(unit="us", range=(1_000, 100_000_000))
+    noaid_timeout_us: int = param(unit="us", range=(1_000, 100_000_000))
 
     def __post_init__(self) -> None:
         validate_parameters(self)
+        if self.noaid_timeout_us < self.vision_timeout_us:
+            raise ParameterError(
+                f"{self.noaid_timeout_us!r} is outside the allowed range "
+                f"[vision_timeout_us = {self.vision_timeout_us!r}, 100000000] us",
+                key="noaid_timeout_us")
 
 
 @dataclass(frozen=True)
@@ -197,7 +208,35 @@ class Estimator:
             self._grow()
         self._buffer_full = est_predict(
             self._s, self._buf, self._meta, self._prm, float(time_us), dt, ax, ay, az, gx, gy,
-            gz, self.position_valid(), float(time_us - self.params.buffer_length_us))
+            gz, self._attitude_mode(), float(time_us - self.params.buffer_length_us))
+
+    def _attitude_mode(self) -> int:
+        """The attitude filter's accelerometer reference: the aided one while vision comes
+        (within ``vision_timeout_us``); none, the gyro alone, while dead reckoning (up to
+        ``noaid_timeout_us``, EKF2_NOAID_TOUT); gravity before the first vision sample and
+        after the dead reckoning (levelling, as EKF2's fake-position fusion does then).
+
+        Not gravity at once: a multicopter's accelerometer measures the thrust, along the
+        body's z, not gravity, so "the specific force is vertical" levels the estimate
+        with the body whatever its true tilt. Holding a position on the dead-reckoned
+        estimate needs a tilt (to cancel the filter's learned accel bias); the
+        gravity reference took it out of the estimate as fast as the controller put it
+        in, and the true tilt ran away (0.5 deg/s, 12 m in 7 s in the mission).
+        """
+        last = self._last_vision_us
+        if last is None:
+            return ATTITUDE_GRAVITY
+        since = self._time_us - last
+        if since <= self.params.vision_timeout_us:
+            return ATTITUDE_AIDED
+        return ATTITUDE_GYRO if since <= self.params.noaid_timeout_us else ATTITUDE_GRAVITY
+
+    def set_gyro_bias(self, bias_frd: Sequence[float]) -> None:
+        """Set the gyro-bias estimate [rad/s, FRD] (the firmware's at-rest calibration),
+        clamped to ``gyro_bias_limit``."""
+        lim = self.params.gyro_bias_limit
+        for i, b in enumerate(bias_frd):
+            self._s[EST_GYRO_BIAS + i] = min(max(float(b), -lim), lim)
 
     def position_valid(self) -> bool:
         """Vision fused within ``vision_timeout_us`` (the filter is aided; what
@@ -253,6 +292,11 @@ class Estimator:
         w, x, y, z = s[EST_Q:EST_Q + 4]
         p, q, r = s[EST_RATE:EST_RATE + 3]
         return (n, e, d), (vn, ve, vd), (w, x, y, z), (p, q, r)
+
+    def eph(self) -> float:
+        """Horizontal position accuracy [m]: the larger north/east standard deviation (what
+        the firmware publishes as ``vehicle_local_position.eph``)."""
+        return math.sqrt(max(float(self._s[EST_P]), float(self._s[EST_P + 6])))
 
     def output(self) -> EstimatorOutput:
         """The current estimate."""

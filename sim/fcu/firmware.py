@@ -78,6 +78,7 @@ from sim.fcu.estimator import (
     EstimatorParams,
     VisionSample,
 )
+from sim.fcu.gyro_calibration import GyroCalibration
 from sim.fcu.land_detector import (
     LAND_DETECTOR_NODE_NAME,
     LandDetectedData,
@@ -112,6 +113,13 @@ class FirmwareParams:
     """Height above home below which the landing descent slows to ``land_crawl_speed``."""
     idle_thrust_fraction: float = param(unit="of max thrust per motor", range=(0.0, 0.3))
     """Motor thrust while armed on the ground (PX4 spins the motors at idle)."""
+    gyro_calibration_s: float = param(unit="s", range=(0.0, 60.0))
+    """Disarmed and at rest this long: the mean gyro rate is the estimator's gyro bias
+    (PX4's ``gyro_calibration`` module); 0 turns it off."""
+    rest_rate: float = param(unit="rad/s", range=(0.0, 1.0))
+    """At rest: every gyro rate below this ..."""
+    rest_accel: float = param(unit="m/s^2", range=(0.0, 5.0))
+    """... and the specific force within this of 1 g."""
 
     def __post_init__(self) -> None:
         validate_parameters(self)
@@ -278,6 +286,9 @@ class Firmware:
         self.rate_controller = RateController(cfg.control, cfg.quad)
         self.mixer = Mixer(cfg.quad)
         self.estimator = Estimator(cfg.estimator)
+        self.gyro_calibration = GyroCalibration(
+            round(self.params.gyro_calibration_s * 1_000_000), self.params.rest_rate,
+            self.params.rest_accel)
         self.commander = Commander(cfg.commander)
         self.land_detector = LandDetector(
             cfg.land_detector,
@@ -448,6 +459,10 @@ class Firmware:
         if not self._has_estimate():  # boot: start the filter one tick before the first sample
             self.estimator.reset(self._now_us - self._dt_us)
         self.estimator.predict(self._now_us, self.accel_frd, self.gyro_frd)
+        bias = self.gyro_calibration.update(self._now_us, self.gyro_frd, self.accel_frd,
+                                            self._armed)
+        if bias is not None:
+            self.estimator.set_gyro_bias(bias)
         self._estimate_stale = True
 
     def land_detector_update(self) -> None:
@@ -476,10 +491,11 @@ class Firmware:
     # -- commander and setpoints ----------------------------------------------------------
     def commander_update(self) -> None:
         has_estimate = self._has_estimate()
-        valid, altitude = False, math.nan
+        valid, altitude, eph = False, math.nan, math.inf
         if has_estimate:
             valid = self._position_valid()
             altitude = -self._kinematics()[0][2]  # altitude is -z (NED)
+            eph = self.estimator.eph()
         out = self.commander.step(CommanderInputs(
             now_us=self._now_us,
             offboard_heartbeat_us=self.offboard_heartbeat_us,
@@ -487,6 +503,7 @@ class Firmware:
             battery_warning=self.battery_warning(),
             attitude_valid=has_estimate,
             position_valid=valid,
+            position_eph_m=eph,
             altitude_amsl_m=altitude,
             commands=tuple(self.pending_commands),
         ))

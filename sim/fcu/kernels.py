@@ -24,6 +24,9 @@ from numba import njit
 from sim.quadrotor import GRAVITY as GRAVITY_M_S2  # a compile-time constant in the kernels
 
 __all__ = [
+    "ATTITUDE_AIDED",
+    "ATTITUDE_GRAVITY",
+    "ATTITUDE_GYRO",
     "ATT_GAINS_SIZE",
     "EST_BUF_COLS",
     "EST_OUTPUT_INDEX",
@@ -253,6 +256,10 @@ EST_OUTPUT_SIZE = 25
 # buffer row: time [us], x (9), p (18), NED acceleration input (3), dt [s], yaw [rad]
 EST_BUF_COLS = 33
 _B_X, _B_P, _B_U, _B_DT, _B_YAW = 1, 10, 28, 31, 32
+# the attitude filter's accelerometer reference (est_predict's mode)
+ATTITUDE_AIDED = 0  # the specific force the filter explains with its position filter's bias
+ATTITUDE_GYRO = 1  # none: the gyro alone (dead reckoning)
+ATTITUDE_GRAVITY = 2  # gravity (unaided: levelling)
 # params: accel correction gain, accel gate, motion compensation, gyro bias gain, gyro bias
 # limit, yaw correction fraction, yaw bias gain, accel noise^2, accel bias noise^2
 EST_PARAMS_SIZE = 9
@@ -311,13 +318,14 @@ def _dcm(s: np.ndarray) -> tuple[float, float, float, float, float, float, float
 
 @njit(cache=True)
 def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az: float,
-                        gx: float, gy: float, gz: float, dt: float, aided: bool) -> None:
+                        gx: float, gy: float, gz: float, dt: float, mode: int) -> None:
     """Mahony step (see :meth:`sim.fcu.estimator.Estimator._propagate_attitude`)."""
     bx, by, bz = s[4], s[5], s[6]
     r0, r1, r2 = gx - bx, gy - by, gz - bz
     s[7], s[8], s[9] = r0, r1, r2
     norm = math.sqrt(ax * ax + ay * ay + az * az)
-    if prm[0] > 0.0 and abs(norm - GRAVITY_M_S2) < prm[1]:
+    aided = mode == ATTITUDE_AIDED
+    if mode != ATTITUDE_GYRO and prm[0] > 0.0 and abs(norm - GRAVITY_M_S2) < prm[1]:
         r = _dcm(s)
         f0 = r[0] * ax + r[1] * ay + r[2] * az - s[12]
         f1 = r[3] * ax + r[4] * ay + r[5] * az - s[15]
@@ -402,10 +410,10 @@ def est_push(buf: np.ndarray, meta: np.ndarray, s: np.ndarray, time_us: float, u
 @njit(cache=True)
 def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarray,
                 time_us: float, dt: float, ax: float, ay: float, az: float, gx: float,
-                gy: float, gz: float, aided: bool, horizon_us: float) -> bool:
+                gy: float, gz: float, mode: int, horizon_us: float) -> bool:
     """:meth:`sim.fcu.estimator.Estimator.predict` after its checks; True when the
     buffer is full afterwards (the caller grows it before the next push)."""
-    _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, aided)
+    _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, mode)
     r = _dcm(s)
     u0 = r[0] * ax + r[1] * ay + r[2] * az
     u1 = r[3] * ax + r[4] * ay + r[5] * az

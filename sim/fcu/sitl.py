@@ -43,6 +43,7 @@ class Sitl:
     imu: Imu
     vision: VisionPose
     actuation: Actuation
+    robots: RobotMotion = field(default_factory=RobotMotion)
     extra_parts: list[Part] = field(default_factory=list)
     first_parts: list[Part] = field(default_factory=list)
     """Parts that run before all others at a tick (fault switches: a fault due at ``t``
@@ -53,7 +54,7 @@ class Sitl:
         """In order: the first parts, IMU, firmware, motors, vision, robots, then
         scenario extras."""
         return [*self.first_parts, self.imu, self.firmware, self.actuation, self.vision,
-                RobotMotion(), *self.extra_parts]
+                self.robots, *self.extra_parts]
 
     def run(self, duration_s: float, stop: Stop | None = None) -> WorldResult:
         return run_world(self.scene, self.executor, duration_s=duration_s, parts=self.parts,

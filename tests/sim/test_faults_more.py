@@ -1,10 +1,11 @@
 """The faults of issue 22's second slice, each read where it acts: the vision stream
 (jump, delay), the link (latency, loss), the XRCE agent's clock (time sync), the sensors'
-publishers (dark cameras), the MuJoCo model (a marker gone, the light down). A SITL on
-the pad, nothing flying."""
+publishers (dark cameras), the MuJoCo model (a marker gone, the light down), the robots'
+motion (one driving across). A SITL on the pad, nothing flying."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import mujoco
@@ -12,12 +13,13 @@ import numpy as np
 import pytest
 
 from runtime import Node, Time, qos_profile_sensor_data
-from sim.arena import Lighting
-from sim.fault_spec import parse_faults
-from sim.faults import FaultInstallError, install_faults
+from sim.arena import ROBOT_SIZE, Lighting, default_arena, robot_pose
+from sim.fault_spec import parse_fault, parse_faults
+from sim.faults import FaultInstallError, across_drive, install_faults
 from sim.fcu.link import LinkDirection
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.mjcf import LIGHTING_PRESETS, pad_geom_name, robot_body_name
+from sim.scene import quad_state
 from sim.sensors import (
     DEPTH_POINTS_TOPIC,
     DOWN_IMAGE_TOPIC,
@@ -185,3 +187,76 @@ def test_dark_cameras_need_the_sensors_and_publish_black_then_normal(sitl: Sitl)
     assert dark.width == 2 and not np.asarray(dark.data).any(), "black, same size"
     assert np.asarray(lit.data).min() == 200, "the camera is back"
     assert [c.width for _, c in clouds.got] == [0, 0], "the depth camera stays dark"
+
+
+def _robot_xy(sitl: Sitl, index: int) -> np.ndarray:
+    mocap = sitl.scene.index.robot_mocap[index]
+    return np.array(sitl.scene.data.mocap_pos[mocap][:2])
+
+
+def test_robot_across_drives_the_nearest_robot_through_the_point_ahead_then_stops(
+    sitl: Sitl,
+) -> None:
+    """On the pad the vehicle's path is along its heading: the robot nearest the point
+    2 m ahead leaves its route where it is, drives straight through that point at its
+    speed, 1 m further, and stops there; the other robots keep to their routes."""
+    arena = sitl.scene.arena
+    truth = quad_state(sitl.scene.data, sitl.scene.index)
+    w, x, y, z = truth.quaternion.tolist()
+    heading = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    ahead = truth.position[:2] + 2.0 * np.array([math.cos(heading), math.sin(heading)])
+    at = 0.5
+    routes = [np.array(robot_pose(r, at).xy) for r in arena.robots]
+    index = int(np.argmin([np.linalg.norm(p - ahead) for p in routes]))
+    start = routes[index]
+    to_point = float(np.linalg.norm(ahead - start))
+    speed = 1.0
+    install_faults(sitl, parse_faults([f"robot_across@{at},ahead=2,beyond=1,speed={speed}"]))
+    sitl.run(at)
+    assert np.allclose(_robot_xy(sitl, index), start, atol=0.05), "still on its route"
+    direction = (ahead - start) / to_point
+    seen = []
+    for _ in range(int((to_point + 1.0) / speed / 0.5) + 4):  # to the end, and 2 s more
+        sitl.run(0.5)
+        t = sitl.executor.now_ns() / 1e9
+        p = _robot_xy(sitl, index)
+        along = float((p - start) @ direction)
+        off_line = float(np.linalg.norm(p - start - along * direction))
+        assert off_line < 1e-6, f"{off_line:.3g} m off the line through the point ahead"
+        assert along == pytest.approx(min(speed * (t - at), to_point + 1.0), abs=0.11)
+        seen.append(along)
+    assert min(abs(a - to_point) for a in seen) < 0.5 * speed, "passed the point ahead"
+    assert seen[-1] == seen[-2] == pytest.approx(to_point + 1.0), "stopped 1 m past it"
+    t = sitl.executor.now_ns() / 1e9
+    for other, robot in enumerate(arena.robots):
+        if other != index:
+            assert np.allclose(_robot_xy(sitl, other), robot_pose(robot, t).xy, atol=0.05)
+
+
+def test_robot_across_crosses_along_the_velocity_and_stops_at_the_field_edge() -> None:
+    """Moving, the path is the velocity's, not the heading's; the drive past the
+    crossing point ends where the field does (the robot's half-width inside)."""
+    arena = default_arena()
+    robot = arena.robots[0]
+    fault = parse_fault(f"robot_across@3,robot={robot.marker_id},ahead=1,beyond=20")
+    here = (3.0, 4.0)
+    _, drive = across_drive(fault, 3.0, arena, here, (0.0, 2.0), heading=0.0)
+    point = np.array([3.0, 5.0])  # 1 m north (the velocity), not east (the heading)
+    start, end = np.array(drive.start), np.array(drive.end)
+    assert np.allclose(start, robot_pose(robot, 3.0).xy)
+    d = (end - start) / np.linalg.norm(end - start)
+    along = float((point - start) @ d)
+    assert np.linalg.norm(start + along * d - point) < 1e-9, "through the crossing point"
+    half = ROBOT_SIZE[0] / 2.0
+    size_x, size_y = arena.field.size[0], arena.field.size[1]
+    assert half - 1e-9 <= end[0] <= size_x - half + 1e-9
+    assert half - 1e-9 <= end[1] <= size_y - half + 1e-9
+    assert np.linalg.norm(end - point) < 20.0, "cut short by the field"
+    assert min(end[0] - half, size_x - half - end[0], end[1] - half,
+               size_y - half - end[1]) < 1e-9, "on the field's edge"
+    assert drive.pose(3.0 + 1e6).xy == pytest.approx(tuple(end))
+
+
+def test_robot_across_needs_a_robot_of_the_arena(sitl: Sitl) -> None:
+    with pytest.raises(FaultInstallError, match="has robots"):
+        install_faults(sitl, parse_faults(["robot_across@0,robot=999"]))

@@ -61,6 +61,8 @@ class FcuModes:
     name: str = "fcu_modes"
     rate_hz: float = 50.0
     changes: list[tuple[float, NavigationState, bool]] = field(default_factory=list)
+    eph_m: list[float] = field(default_factory=list)
+    """The estimator's horizontal accuracy at each change [m]."""
 
     def update(self, t_ns: int, scene: Scene) -> None:
         st = self.sitl.firmware.status
@@ -69,6 +71,7 @@ class FcuModes:
         now = (st.nav_state, st.arming_state.name == "ARMED")
         if not self.changes or self.changes[-1][1:] != now:
             self.changes.append((t_ns / 1e9, *now))
+            self.eph_m.append(self.sitl.firmware.estimator.eph())
 
     def first(self, nav: NavigationState, after_s: float = 0.0) -> float | None:
         return next((t for t, n, _ in self.changes if n is nav and t >= after_s), None)

@@ -93,6 +93,7 @@ class Bench:
     battery: BatteryWarning = BatteryWarning.NONE
     attitude_valid: bool = True
     position_valid: bool = True
+    eph_m: float = 0.05
     last_heartbeat_us: int | None = None
     commander: Commander = field(init=False)
 
@@ -123,6 +124,7 @@ class Bench:
                 battery_warning=self.battery,
                 attitude_valid=self.attitude_valid,
                 position_valid=self.position_valid,
+                position_eph_m=self.eph_m,
                 altitude_amsl_m=self.altitude_amsl_m,
                 commands=commands,
             )
@@ -948,6 +950,8 @@ def test_the_position_loss_failsafe_comes_ekf2_noaid_tout_after_the_last_vision_
     total_us = estimator.vision_timeout_us + round(commander.position_loss_delay_s * S)
     assert total_us == EKF2_NOAID_TOUT_US, (
         f"vision_timeout_us + position_loss_delay_s = {total_us} us, PX4 has 5 s")
+    # and the estimator dead-reckons on the gyro as long (EKF2's own timeout)
+    assert estimator.noaid_timeout_us == EKF2_NOAID_TOUT_US
 
 
 def test_takeoff_max_height_may_equal_the_default_height_but_not_be_below() -> None:
@@ -1004,6 +1008,28 @@ def test_a_position_loss_shorter_than_the_delay_changes_nothing() -> None:
     outs += bench.run(2 * S)
     assert {o.status.nav_state for o in outs} == {NavigationState.OFFBOARD}
     assert not any(o.status.failsafe for o in outs)
+
+
+def test_an_eph_worse_than_com_pos_fs_eph_descends_at_once_without_the_delay() -> None:
+    """COM_POS_FS_EPH: the estimate's own accuracy says it may be further off than the
+    limit, so the position is lost now, whatever the delay or the estimator's flag."""
+    bench = armed_in_offboard(CommanderParams(position_loss_delay_s=4.5,
+                                              position_loss_eph_m=1.0))
+    bench.position_valid = False
+    bench.eph_m = 0.9  # dead reckoning, still within the limit: OFFBOARD until the delay
+    outs = bench.run(1 * S)
+    assert {o.status.nav_state for o in outs} == {NavigationState.OFFBOARD}
+    bench.eph_m = 1.01
+    out = bench.tick()
+    assert out.status.nav_state is NavigationState.DESCEND
+    assert out.status.failsafe_reason is FailsafeReason.POSITION_LOSS
+    # flagged valid by the estimator but too coarse: lost all the same
+    bench2 = armed_in_offboard(CommanderParams(position_loss_eph_m=1.0))
+    bench2.eph_m = 1.5
+    assert bench2.tick().status.nav_state is NavigationState.DESCEND
+    # and back within the limit with the position valid: the descent clears
+    bench2.eph_m = 0.05
+    assert bench2.tick().status.nav_state is NavigationState.OFFBOARD
 
 
 def test_the_descent_lands_and_disarms_and_refuses_position_modes() -> None:

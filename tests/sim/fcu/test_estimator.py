@@ -59,6 +59,11 @@ def test_default_config_loads(params: EstimatorParams) -> None:
     assert params.buffer_length_us >= 100_000
 
 
+def test_noaid_timeout_may_not_be_below_the_vision_timeout(params: EstimatorParams) -> None:
+    with pytest.raises(ParameterError, match=r"noaid_timeout_us.*\[vision_timeout_us"):
+        dataclasses.replace(params, noaid_timeout_us=params.vision_timeout_us - 1)
+
+
 def test_bad_parameter_names_the_key_and_range() -> None:
     text = config_path("fcu_estimator.yaml").read_text(encoding="utf-8").replace(
         "buffer_length_us: 500000", "buffer_length_us: 0"
@@ -142,6 +147,51 @@ def test_dead_reckoning_invalidates_position_after_the_timeout(params: Estimator
     out = est.output()
     assert not out.position_valid
     assert out.dead_reckoning_time_us > params.vision_timeout_us
+
+
+def _tilt_deg(q: np.ndarray) -> float:
+    """Angle [deg] between the body's z and the vertical."""
+    return math.degrees(math.acos(min(1.0, float(quat_to_dcm(q)[2, 2]))))
+
+
+def test_dead_reckoning_keeps_the_tilt_on_the_gyro_then_levels_on_gravity(
+    params: EstimatorParams,
+) -> None:
+    """A multicopter's accelerometer measures the thrust, along the body's z: tilted 3 deg
+    and accelerating, it reads no horizontal specific force, as if level. Without vision
+    the tilt is the gyro's until ``noaid_timeout_us`` (EKF2's dead reckoning: nothing to
+    correct it with); a gravity reference would level the estimate with the body and
+    hide the tilt that moves the vehicle. Past the timeout it levels on gravity."""
+    tilt = quat_from_axis_angle(np.array([math.radians(3.0), 0.0, 0.0]))
+    thrust_only = np.array([0.0, 0.0, -GRAVITY / math.cos(math.radians(3.0))])  # FRD
+    est = Estimator(params, q=tilt)
+    t = 0
+    for k in range(1, 501):  # 1 s aided at the true tilt, hovering (gravity explained)
+        t = k * IMU_PERIOD_US
+        est.predict(t, _static_imu(tilt), np.zeros(3))
+        if k % 15 == 0:
+            est.fuse_vision(VisionSample(t, np.zeros(3), tilt))
+    last_vision_us = t
+    assert abs(_tilt_deg(est.output().state.q) - 3.0) < 0.1
+    # vision gone; the vehicle accelerates sideways on its tilted thrust, gyro at rest
+    while t < last_vision_us + params.noaid_timeout_us - IMU_PERIOD_US:
+        t += IMU_PERIOD_US
+        est.predict(t, thrust_only, np.zeros(3))
+    assert not est.output().position_valid
+    assert abs(_tilt_deg(est.output().state.q) - 3.0) < 0.05, "the tilt kept on the gyro"
+    for _ in range(3 * 1_000_000 // IMU_PERIOD_US):  # 3 s past EKF2_NOAID_TOUT
+        t += IMU_PERIOD_US
+        est.predict(t, thrust_only, np.zeros(3))
+    assert _tilt_deg(est.output().state.q) < 0.5, "levelled on gravity after the timeout"
+
+
+def test_set_gyro_bias_is_what_the_rates_are_corrected_by(params: EstimatorParams) -> None:
+    est = Estimator(params)
+    est.set_gyro_bias([0.01, -0.02, 0.5])
+    est.predict(IMU_PERIOD_US, _static_imu(LEVEL), np.array([0.01, -0.02, 0.03]))
+    out = est.output()
+    assert np.allclose(out.gyro_bias_frd, [0.01, -0.02, params.gyro_bias_limit])
+    assert np.allclose(out.state.angular_velocity_frd[:2], 0.0, atol=1e-12)
 
 
 # --- delayed fusion in the loop -------------------------------------------------------------
