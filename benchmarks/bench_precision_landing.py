@@ -13,7 +13,7 @@ worst case) to ``--out`` (default benchmarks/results/precision_landing.json),
 rewritten after every landing so a long run can be read while it goes.
 Slow: ~1 min of host time per landing and strategy on an idle 2-core machine, so
 ``--only A:B`` flies the landings A..B-1 alone (the same landings as in the full run) and
-``--merge OUT PART...`` joins such parts into one result.
+``--merge PART... --out OUT`` joins such parts into one result.
 """
 
 from __future__ import annotations
