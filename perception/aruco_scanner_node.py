@@ -1,7 +1,9 @@
 """The ArUco scanner node (seed 003 sec. 3.3.1): markers on the downward camera.
 
-Subscribes to ``/camera/down/image_raw`` and ``/camera/down/camera_info``; for each image
-while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes (what is due
+Subscribes to ``/camera/down/image_raw`` and ``/camera/down/camera_info``, and to
+``/fcu/odometry`` for the vehicle's height: a whole-frame search skips outlines smaller
+than the smallest marker seen from there (the noise's small outlines are what a search
+spends its time on). For each image while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes (what is due
 when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure):
 
 - ``/perception/markers`` (MarkerDetectionArray): every accepted marker with its ID,
@@ -50,6 +52,7 @@ INFO_TOPIC = "/camera/down/camera_info"
 MARKERS_TOPIC = "/perception/markers"
 ROBOT_FOUND_TOPIC = "/perception/robot_found"
 POSE_AT_SERVICE = "/fcu/pose_at"
+ODOMETRY_TOPIC = "/fcu/odometry"
 POSE_AT_RETRIES = 5  # a frame is processed when captured; the odometry of that instant
 POSE_AT_RETRY_S = 0.02  # s, comes over the link a few ms later: ask again this often
 MAP_FRAME = "map"
@@ -117,7 +120,8 @@ class ArucoScannerNode(Node):
             enabled=self.params.enabled, mode=self.params.mode,
             annotated_rate_hz=self.params.annotated_rate_hz,
             robot_report_interval_s=self.params.robot_report_interval_s,
-            image_timeout_s=self.params.image_timeout_s)
+            image_timeout_s=self.params.image_timeout_s,
+            height_margin_m=self.params.height_margin_m)
         self.tracker = RegionTracker(ArucoScanner(self.params.scanner_settings()),
                                      self.params.tracker_settings())
         self.camera: np.ndarray | None = None  # K, from camera_info
@@ -136,6 +140,8 @@ class ArucoScannerNode(Node):
         self.create_subscription("sensor_msgs/msg/CameraInfo", INFO_TOPIC, self._on_info,
                                  qos_profile_sensor_data)
         self.create_subscription("sensor_msgs/msg/Image", IMAGE_TOPIC, self._on_image,
+                                 qos_profile_sensor_data)
+        self.create_subscription("nav_msgs/msg/Odometry", ODOMETRY_TOPIC, self._on_odometry,
                                  qos_profile_sensor_data)
         self.create_service(SET_BOOL, "~/enable", self._on_enable)
         self.add_on_set_parameters_callback(self._on_set)
@@ -165,6 +171,9 @@ class ArucoScannerNode(Node):
     def _on_info(self, msg: Any) -> None:
         self.camera = np.asarray(msg.k, dtype=np.float64).reshape(3, 3)
 
+    def _on_odometry(self, msg: Any) -> None:
+        self.policy.height(self.now().nanoseconds, float(msg.pose.pose.position.z))
+
     def _on_image(self, msg: Any) -> None:
         now_ns = self.now().nanoseconds
         camera = self.camera
@@ -182,7 +191,8 @@ class ArucoScannerNode(Node):
     def _start_scan(self, msg: Any, camera: np.ndarray) -> None:
         image = np.asarray(msg.data, dtype=np.uint8).reshape(msg.height, msg.width, 3)
         mode = self.policy.mode
-        self.tracker.min_side_px = self.params.min_side_px(mode, float(camera[1, 1]))
+        self.tracker.min_side_px = self.params.min_side_px(
+            mode, float(camera[1, 1]), self.policy.marker_range_m(self.now().nanoseconds))
         sides = self.params.side_lengths
         tracker = self.tracker
 

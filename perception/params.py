@@ -42,6 +42,10 @@ class ScannerParams:
     max_range_m: float = param(unit="m", range=(0.0, 100.0),
                                description="farthest a marker is read; whole-frame searches "
                                            "skip smaller outlines (0: no floor)")
+    height_margin_m: float = param(unit="m", range=(0.0, 100.0),
+                                   description="while the odometry is fresh, the farthest "
+                                               "marker is the vehicle's height plus this "
+                                               "(at most max_range_m)")
     opencv_threads: int = param(range=(0, 64),
                                 description="OpenCV's worker threads in this process "
                                             "(cv2.setNumThreads; 0: OpenCV's default, one "
@@ -59,16 +63,19 @@ class ScannerParams:
     def tracker_settings(self) -> TrackerSettings:
         return TrackerSettings(full_frame_interval=self.full_frame_interval)
 
-    def min_side_px(self, mode: ScanMode, focal_px: float) -> float:
+    def min_side_px(self, mode: ScanMode, focal_px: float, range_m: float | None = None
+                    ) -> float:
         """The smallest side [px] a whole-frame search looks for: the smallest printed
-        marker ``mode`` reports, ``max_range_m`` from a camera of focal length
-        ``focal_px``, times :data:`MIN_SIDE_SAFETY` (0 when ``max_range_m`` is 0)."""
+        marker ``mode`` reports, ``range_m`` (``max_range_m`` when None, and never more)
+        from a camera of focal length ``focal_px``, times :data:`MIN_SIDE_SAFETY` (0 when
+        ``max_range_m`` is 0: no floor)."""
         if self.max_range_m <= 0.0:
             return 0.0
+        farthest = self.max_range_m if range_m is None else min(range_m, self.max_range_m)
         sides = [side for kind, side in self.side_lengths.items()
                  if (kind is MarkerKind.PAD and mode is not ScanMode.ROBOTS)
                  or (kind is MarkerKind.ROBOT and mode is not ScanMode.PADS)]
-        return MIN_SIDE_SAFETY * focal_px * min(sides) / self.max_range_m
+        return MIN_SIDE_SAFETY * focal_px * min(sides) / max(farthest, 1e-3)
 
     def scanner_settings(self) -> ScannerSettings:
         """The detector's passes: ``low_light`` the measured ones (SMALL only with

@@ -4,6 +4,9 @@ no runtime; the detection itself is :mod:`perception.aruco`'s.
 :class:`ScanPolicy` decides, for ``aruco_scanner_node``:
 
 - which images are scanned: while enabled, once the camera's intrinsics are known;
+- how far the farthest marker can be: the vehicle's height above the map's floor (the
+  odometry's z) plus a margin, while the odometry is fresh and finite; unknown otherwise
+  (the node then falls back to ``max_range_m``);
 - when an annotated image is due: at most ``annotated_rate_hz``, and only while someone
   listens;
 - which robot markers are reported: each robot at most once per
@@ -90,17 +93,25 @@ class RobotTrack:
         return float(math.sqrt((self.sq[0] + self.sq[1]) / (n - 1)))
 
 
+ODOMETRY_TIMEOUT_S = 0.5
+"""s: an older height says nothing of where the vehicle is now (the odometry is 100 Hz;
+the vehicle climbs at most 3 m/s, ``height_margin_m`` covers the climb in this time)."""
+
+
 class ScanPolicy:
     """The scanner's state and decisions; see the module docstring. Times are int
     nanoseconds on the node's clock."""
 
     def __init__(self, *, enabled: bool, mode: ScanMode, annotated_rate_hz: float,
-                 robot_report_interval_s: float, image_timeout_s: float) -> None:
+                 robot_report_interval_s: float, image_timeout_s: float,
+                 height_margin_m: float = 0.0) -> None:
         self.enabled = enabled
         self.mode = mode
         self.annotated_rate_hz = annotated_rate_hz
         self.robot_report_interval_s = robot_report_interval_s
         self.image_timeout_s = image_timeout_s
+        self.height_margin_m = height_margin_m
+        self._height: tuple[int, float] | None = None  # (received ns, m)
         self.frames = 0  # images scanned
         self.frames_with_markers = 0
         self.detections = 0
@@ -116,6 +127,19 @@ class ScanPolicy:
             allowed = ", ".join(m.value for m in ScanMode)
             return f"mode: {value!r} is not one of {allowed}"
         return None
+
+    def height(self, now_ns: int, z: float) -> None:
+        """The odometry says the vehicle is ``z`` [m] above the map's floor (NaN: not
+        known)."""
+        self._height = (now_ns, z) if math.isfinite(z) else None
+
+    def marker_range_m(self, now_ns: int) -> float | None:
+        """m, the farthest a marker on the floor (or on anything standing on it) can be
+        from the camera: the fresh height plus ``height_margin_m``; None when the height
+        is unknown or older than :data:`ODOMETRY_TIMEOUT_S`."""
+        if self._height is None or now_ns - self._height[0] > ODOMETRY_TIMEOUT_S * 1e9:
+            return None
+        return max(self._height[1], 0.0) + self.height_margin_m
 
     def image(self, now_ns: int, camera_known: bool) -> bool:
         """An image arrived: whether to scan it."""
@@ -169,6 +193,7 @@ class ScanPolicy:
 
 
 __all__ = [
+    "ODOMETRY_TIMEOUT_S",
     "Problem",
     "Quaternion",
     "RobotTrack",

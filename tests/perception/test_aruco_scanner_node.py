@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import interfaces
+from perception.aruco import ScanMode
 from perception.aruco_scanner_node import MARKERS_TOPIC, ArucoScannerNode
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default, qos_profile_sensor_data
 from sim.sensors import DOWN_FRAME, DOWN_IMAGE_TOPIC, DOWN_INFO_TOPIC, camera_info_msg, image_msg
@@ -35,6 +36,16 @@ class _Camera(Node):
                                  qos_profile_default)
         self.enable = self.create_client(interfaces.get_service("std_srvs/srv/SetBool"),
                                          "/aruco_scanner/enable")
+        self.odometry = self.create_publisher("nav_msgs/msg/Odometry", "/fcu/odometry",
+                                              qos_profile_sensor_data)
+
+    def height(self, z: float) -> None:
+        """The odometry says the vehicle is ``z`` [m] above the map's floor."""
+        self.odometry.publish(interfaces.new(
+            "nav_msgs/msg/Odometry", header=interfaces.new("std_msgs/msg/Header"),
+            pose=interfaces.new("geometry_msgs/msg/PoseWithCovariance", pose=interfaces.new(
+                "geometry_msgs/msg/Pose", position=interfaces.new("geometry_msgs/msg/Point",
+                                                                  z=z)))))
 
     def send(self, frame: np.ndarray, intrinsics: Any, stamp_ns: int) -> None:
         stamp = Time(stamp_ns)
@@ -119,6 +130,27 @@ def test_mode_robots_ignores_pads_and_reports_the_robot(frames):
     assert [len(m.detections) for m in camera.markers] == [0, 1]
     d = camera.markers[1].detections[0]
     assert (d.id, d.kind) == (frames["robot_id"], MARKER.KIND_ROBOT)
+
+
+def test_the_vehicles_height_sets_the_smallest_marker_searched(frames):
+    """The robot's 0.4 m marker, 1.3 m below the camera, is ~128 px. An odometry that says
+    the vehicle is 0.1 m up (farthest marker 0.6 m) makes the floor 166 px: not searched.
+    At its true height it is found; with the odometry stale, the max_range_m floor."""
+    ex, camera, scanner = _rig(mode="robots")
+    t = 0
+    for z, seen in ((0.1, False), (1.6, True), (None, True)):
+        if z is not None:
+            camera.height(z)
+            ex.spin_for(0.01)
+        else:
+            ex.spin_for(0.6)  # no odometry for longer than its timeout
+        t += 1_000_000_000
+        camera.send(frames["robot"], frames["intrinsics"], t)
+        ex.spin_for(0.1)
+        assert bool(camera.markers[-1].detections) is seen, z
+    fy = frames["intrinsics"].fy
+    assert scanner.tracker.min_side_px == pytest.approx(
+        scanner.params.min_side_px(ScanMode.ROBOTS, fy))  # stale: max_range_m's floor
 
 
 def test_disabled_it_publishes_nothing_and_says_so(frames):

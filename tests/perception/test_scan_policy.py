@@ -10,7 +10,10 @@ import numpy as np
 import pytest
 
 from perception.aruco import MarkerKind, ScanMode
+from runtime.parameters import load_parameters
+from perception.params import MIN_SIDE_SAFETY, ScannerParams
 from perception.scan_policy import (
+    ODOMETRY_TIMEOUT_S,
     Problem,
     RobotTrack,
     ScanPolicy,
@@ -49,6 +52,34 @@ def test_the_mode_is_set_by_name_and_a_wrong_name_keeps_it():
     assert policy.set_mode("robots") is None and policy.mode is ScanMode.ROBOTS
     assert policy.set_mode("cars") == "mode: 'cars' is not one of pads, robots, both"
     assert policy.mode is ScanMode.ROBOTS
+
+
+# -- how far the farthest marker is ----------------------------------------------------------
+def test_the_farthest_marker_is_the_fresh_height_plus_the_margin():
+    policy = _policy(height_margin_m=0.5)
+    assert policy.marker_range_m(0) is None  # no odometry yet
+    policy.height(1 * S, 1.5)
+    assert policy.marker_range_m(1 * S) == pytest.approx(2.0)
+    assert policy.marker_range_m(1 * S + int(ODOMETRY_TIMEOUT_S * S)) == pytest.approx(2.0)
+    assert policy.marker_range_m(1 * S + int(ODOMETRY_TIMEOUT_S * S) + 1) is None  # stale
+    policy.height(3 * S, -0.1)  # landed a little below home: never a negative range
+    assert policy.marker_range_m(3 * S) == pytest.approx(0.5)
+    policy.height(4 * S, float("nan"))  # the estimate is invalid: the height is unknown
+    assert policy.marker_range_m(4 * S) is None
+
+
+def test_the_smallest_side_searched_follows_the_range_up_to_max_range():
+    params = load_parameters(ScannerParams, "aruco_scanner")
+    focal, robot = 415.7, params.robot_marker_size
+    at_max = params.min_side_px(ScanMode.BOTH, focal)
+    assert at_max == pytest.approx(MIN_SIDE_SAFETY * focal * robot / params.max_range_m)
+    # 2 m away: the marker is bigger, so is the smallest outline searched
+    assert params.min_side_px(ScanMode.BOTH, focal, 2.0) == pytest.approx(
+        MIN_SIDE_SAFETY * focal * robot / 2.0)
+    # a range beyond max_range_m is max_range_m; pads only: the pads' printed side
+    assert params.min_side_px(ScanMode.BOTH, focal, 50.0) == pytest.approx(at_max)
+    assert params.min_side_px(ScanMode.PADS, focal, 2.0) == pytest.approx(
+        MIN_SIDE_SAFETY * focal * params.pad_marker_size / 2.0)
 
 
 # -- counts, robot reports -------------------------------------------------------------------

@@ -57,10 +57,12 @@ def descent(request):
 
 
 def test_the_tracker_reads_what_the_whole_frame_gives(descent):
+    # the floor the node sets at this height: whole frames and regions are searched halved,
+    # and each marker's corners refined on the full image
     scanner = ArucoScanner(MISSION_PASSES)
-    tracker = RegionTracker(scanner)
+    tracker = RegionTracker(scanner, min_side_px=60.0)
     for frame in descent:
-        whole = scanner.find(frame)
+        whole = scanner.find(frame, min_side_px=60.0)
         tracked = tracker.find(frame)
         assert tracked.keys() == whole.keys() == {2}
         np.testing.assert_allclose(tracked[2], whole[2], atol=0.1)
@@ -122,6 +124,28 @@ def test_a_region_elsewhere_finds_nothing(descent):
     corners = scanner.find(descent[0])[2]
     right_of_it = (int(corners[:, 0].max()) + 5, 0, descent[0].shape[1], descent[0].shape[0])
     assert scanner.find(descent[0], region=right_of_it) == {}
+
+
+def test_a_large_smallest_side_searches_halved_and_measures_as_the_full_image(request,
+                                                                             descent):
+    """From ``half_res_min_side_px`` on, the passes run on the image halved and the
+    corners are refined on the full image: the same marker, within 0.35 px of the
+    full-resolution corners, and the pad's offset from the camera within 3 mm of the truth
+    (the descent's known positions), as the full-resolution search's."""
+    from perception.aruco import measure
+    from sim.render import CameraIntrinsics
+
+    camera = CameraIntrinsics.from_fovy(640, 480, np.radians(60.0)).matrix()
+    full = ArucoScanner(replace(MISSION_PASSES, half_res_min_side_px=0.0))
+    halved = ArucoScanner(MISSION_PASSES)
+    for frame, (dx, dy, _) in zip(descent, DESCENT, strict=True):
+        a, b = full.find(frame, min_side_px=60.0), halved.find(frame, min_side_px=60.0)
+        assert a.keys() == b.keys() == {2}
+        np.testing.assert_allclose(b[2], a[2], atol=0.35)
+        for corners in (a[2], b[2]):
+            offset = measure(2, corners, camera, 0.5).offset_body
+            np.testing.assert_allclose(offset, (-dx, -dy), atol=0.003)
+    assert (full.searches_halved, halved.searches_halved) == (0, len(DESCENT))
 
 
 def test_the_smallest_side_bound_skips_smaller_markers(descent):
