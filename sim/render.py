@@ -133,9 +133,11 @@ class SceneRenderer:
         self._multisamples = multisamples
         self._lean = lean
         self._renderers: dict[str, mujoco.Renderer] = {}
-        # the render thread (made on first use of render_later): its own renderers, as a GL
-        # context belongs to the thread that made it, and each camera's frame in flight
-        self._worker: ThreadPoolExecutor | None = None
+        # each camera's render thread (made on its first render_later) and its renderer
+        # there, as a GL context belongs to the thread that made it, and each camera's
+        # frame in flight: a thread per camera, so one camera's frame never queues behind
+        # another's (the depth cloud behind the down image, or the other way round)
+        self._workers: dict[str, ThreadPoolExecutor] = {}
         self._threaded: dict[str, mujoco.Renderer] = {}
         self._in_flight: dict[str, Future[Image]] = {}
         self._onboard = mujoco.MjvOption()
@@ -164,14 +166,15 @@ class SceneRenderer:
         for renderer in self._renderers.values():
             renderer.close()
         self._renderers.clear()
-        if self._worker is not None:
-            worker, self._worker = self._worker, None
-            threaded = list(self._threaded.values())
-            try:
-                for future in self._in_flight.values():
-                    future.exception()  # wait for it (its reader, if any, sees its error)
-                worker.submit(lambda: [r.close() for r in threaded]).result()
-            finally:
+        workers, self._workers = self._workers, {}
+        try:
+            for future in self._in_flight.values():
+                future.exception()  # wait for it (its reader, if any, sees its error)
+            for camera, worker in workers.items():
+                if (renderer := self._threaded.get(camera)) is not None:
+                    worker.submit(renderer.close).result()
+        finally:
+            for worker in workers.values():
                 worker.shutdown()
         self._threaded.clear()
         self._in_flight.clear()
@@ -226,7 +229,7 @@ class SceneRenderer:
     def render_later(self, data: mujoco.MjData, camera: str,
                      then: Callable[[Any], Any] | None = None) -> Future[Any]:
         """What :meth:`rgb` (or, for the depth camera, :meth:`depth`) gives now, rendered
-        on the render thread: the scene is captured here, at once, and drawn there while
+        on the camera's render thread: the scene is captured here, at once, and drawn there while
         the caller goes on (MuJoCo releases the GIL while it renders, so the frame costs
         the caller little on a second core). ``then`` runs on the render thread with the
         image (a sensor model), in the order the frames were asked for.
@@ -239,10 +242,10 @@ class SceneRenderer:
         previous = self._in_flight.get(camera)
         if previous is not None:
             previous.exception()  # its render reads the scene captured below
-        threaded = _render_thread()
-        if threaded and self._worker is None:
-            self._worker = ThreadPoolExecutor(1, thread_name_prefix="scene_renderer")
-        worker = self._worker if threaded else None
+        worker = None
+        if _render_thread() and (worker := self._workers.get(camera)) is None:
+            worker = self._workers[camera] = ThreadPoolExecutor(
+                1, thread_name_prefix=f"scene_renderer_{camera}")
         if worker is None:
             renderer = self._renderer(camera)
         elif (renderer := self._threaded.get(camera)) is None:
