@@ -48,6 +48,7 @@ Pure module: numpy and PyYAML, no runtime, no MuJoCo.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import NamedTuple
@@ -304,23 +305,40 @@ class LinkCounters:
 _NEVER_NS = -(2**63)  # before any send or delivery
 
 
+_DRAW_BLOCK = 512  # messages whose random numbers are drawn at once
+
+
 class _DirectionState:
     """Random stream, FIFO state and counters of one direction."""
 
-    __slots__ = ("gamma", "last_delivery_ns", "last_send_ns", "lost", "params", "random", "rng",
+    __slots__ = ("_draws", "last_delivery_ns", "last_send_ns", "lost", "params", "rng",
                  "sent", "spikes", "wire_ns")
 
     def __init__(self, params: LinkDirectionParams, rng: np.random.Generator) -> None:
         self.params = params
         self.rng = rng
-        self.random = rng.random  # the draws every message makes, bound once
-        self.gamma = rng.gamma
+        self._draws: Iterator[tuple[float, float, float, float]] = iter(())
         self.wire_ns: dict[int, int] = {}  # params.wire_time_ns by message size, as met
         self.last_send_ns = _NEVER_NS
         self.last_delivery_ns = _NEVER_NS
         self.sent = 0
         self.lost = 0
         self.spikes = 0
+
+    def draw(self) -> tuple[float, float, float, float]:
+        """The next message's random numbers: three uniforms (loss, spike, spike size) and
+        the gamma jitter [us]. Drawn :data:`_DRAW_BLOCK` messages at a time (one call into
+        numpy per block, not two per message: each call gives up the GIL, and on a busy
+        process taking it back is what a message cost), the same stream for a seed."""
+        try:
+            return next(self._draws)
+        except StopIteration:
+            p = self.params
+            uniforms = self.rng.random((_DRAW_BLOCK, 3))
+            jitters = self.rng.gamma(p.jitter_shape, p.jitter_scale_us, _DRAW_BLOCK)
+            self._draws = iter([(*u, j) for u, j in zip(uniforms.tolist(), jitters.tolist(),
+                                                        strict=True)])
+            return next(self._draws)
 
 
 class Link:
@@ -366,8 +384,7 @@ class Link:
         if size_bytes < 0:
             raise ValueError(f"size_bytes={size_bytes}: must be >= 0")
         p = state.params
-        u_loss, u_spike, u_magnitude = state.random(3).tolist()  # floats: cheaper
-        jitter_us: float = state.gamma(p.jitter_shape, p.jitter_scale_us)  # a float already
+        u_loss, u_spike, u_magnitude, jitter_us = state.draw()
         state.last_send_ns = send_time_ns
         state.sent += 1
         if u_loss < p.loss_probability or self.down or u_loss < self.extra_loss_probability:
