@@ -6,6 +6,11 @@ Frames: the down camera over each pad of the contest arena at 1.5 m, through the
 sensor model (light). Writes per-frame milliseconds and the ratio to ``--out`` (default
 benchmarks/results/scanner_overhead.json).
 
+The halved search (``ScannerSettings.half_res_min_side_px``): on frames over random arenas'
+pads and robots, light and dark, at the cruise height and lower, the markers the scanner
+reads at full resolution against halved (the node's floor at each height, from the height
+plus its margin), the corner differences and the milliseconds per frame, each.
+
 Also the STRETCH pass (the scanner's costly one: it runs on every frame where the first
 pass finds nothing, most frames of a mission) with its measured 3 adaptive windows
 against the 6 it had, on frames over the pads and over empty floor, light and dark:
@@ -15,6 +20,7 @@ milliseconds per frame and markers read, each.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import time
 from dataclasses import replace
@@ -23,13 +29,13 @@ from typing import Any
 
 import cv2
 
-from perception.aruco import ArucoScanner, Preprocess, ScanMode, ScannerSettings
+from perception.aruco import ArucoScanner, Preprocess, ScanMode, ScannerSettings, to_grey
 from perception.aruco_scanner_node import MARKERS_TOPIC, ArucoScannerNode
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default, qos_profile_sensor_data
 from sim.arena import Lighting, default_arena
 from sim.camera_model import CameraSensorModel, camera_model_params
 from sim.render import CameraIntrinsics, SceneRenderer
-from sim.scene import place_quadrotor
+from sim.scene import place_quadrotor, set_robot_poses
 from sim.sensors import DOWN_FRAME, DOWN_IMAGE_TOPIC, DOWN_INFO_TOPIC, camera_info_msg, image_msg
 from sim.world import Scene
 
@@ -78,6 +84,66 @@ def stretch_pass(repeats: int) -> dict[str, object]:
     return out
 
 
+def half_resolution(arena_seeds: range, repeats: int) -> dict[str, object]:
+    """Full resolution against halved, the mission's passes, the node's floor at each
+    height: markers read, corner differences [px], ms per frame (see the docstring)."""
+    import numpy as np
+
+    from perception.params import ScannerParams
+    from runtime.parameters import load_parameters
+    from sim.arena_generator import generate_arena
+
+    params = load_parameters(ScannerParams, "aruco_scanner")
+    settings = params.scanner_settings()
+    full = ArucoScanner(replace(settings, half_res_min_side_px=0.0))
+    halved = ArucoScanner(settings)
+    # over each pad and robot: straight above, and off to a side or a corner of the frame
+    offsets = ((0.0, 0.0), (0.9, 0.0), (0.0, -0.7), (-0.8, 0.6))
+    heights = (1.5, 1.2)  # m: the cruise height, and a lower pass
+    out: dict[str, object] = {"arena_seeds": [arena_seeds.start, arena_seeds.stop - 1],
+                              "heights_m": list(heights), "min_side_px": {}}
+    for lighting in (Lighting.LIGHT, Lighting.DARK):
+        frames: list[tuple[Any, float]] = []
+        for seed in arena_seeds:
+            arena = replace(generate_arena(seed), lighting=lighting)
+            scene = Scene.build(arena)
+            sensor = CameraSensorModel(camera_model_params(), lighting, seed)
+            intrinsics = CameraIntrinsics.from_camera(scene.quad.down_camera)
+            targets = [p.center for p in arena.pads] + [r.path[0] for r in arena.robots]
+            with SceneRenderer(scene.model) as renderer:
+                set_robot_poses(scene.data, scene.index, arena, 0.0)
+                for (x, y), (dx, dy), h in itertools.product(targets, offsets, heights):
+                    place_quadrotor(scene.model, scene.data, scene.index, (x + dx, y + dy, h))
+                    floor = params.min_side_px(ScanMode.BOTH, intrinsics.fy,
+                                               h + params.height_margin_m)
+                    frames.append((to_grey(sensor.apply(renderer.down_image(scene.data))),
+                                   floor))
+        read: dict[str, list[dict[int, Any]]] = {}
+        ms: dict[str, float] = {}
+        for name, scanner in (("full", full), ("halved", halved)):
+            t0 = time.perf_counter()
+            for _ in range(repeats):
+                read[name] = [scanner.find(g, ScanMode.BOTH, min_side_px=f) for g, f in frames]
+            ms[name] = 1000 * (time.perf_counter() - t0) / (repeats * len(frames))
+        pairs = list(zip(read["full"], read["halved"], strict=True))
+        diffs = [float(np.abs(a[i] - b[i]).max()) for a, b in pairs for i in a.keys() & b.keys()]
+        out[lighting.value] = {
+            "frames": len(frames),
+            "markers_full": sum(map(len, read["full"])),
+            "markers_halved": sum(map(len, read["halved"])),
+            "lost_by_halving": sum(len(a.keys() - b.keys()) for a, b in pairs),
+            "gained_by_halving": sum(len(b.keys() - a.keys()) for a, b in pairs),
+            "frames_halved": sum(f >= settings.half_res_min_side_px for _, f in frames),
+            "corner_diff_px": {"p50": round(float(np.median(diffs)), 3),
+                               "p95": round(float(np.percentile(diffs, 95)), 3),
+                               "max": round(max(diffs), 3)},
+            "ms_per_frame": {k: round(v, 2) for k, v in ms.items()},
+            "ratio_halved_over_full": round(ms["halved"] / ms["full"], 2)}
+        out["min_side_px"] = {f"{h} m": round(params.min_side_px(
+            ScanMode.BOTH, intrinsics.fy, h + params.height_margin_m), 1) for h in heights}
+    return out
+
+
 def run(repeats: int) -> dict[str, object]:
     arena = default_arena()
     scene = Scene.build(arena)
@@ -113,7 +179,8 @@ def run(repeats: int) -> dict[str, object]:
     return {"benchmark": "scanner_overhead", "frames": len(frames) * repeats,
             "delivered": feeder.received, "bare_detect_ms": round(1000 * bare, 2),
             "node_ms": round(1000 * node, 2), "ratio_node_over_bare": round(node / bare, 2),
-            "stretch_pass": stretch_pass(repeats)}
+            "stretch_pass": stretch_pass(repeats),
+            "half_resolution": half_resolution(range(100, 110), repeats)}
 
 
 def main() -> None:

@@ -521,7 +521,8 @@ class ArucoScanner:
         self.searches_halved += halved
         if halved:  # an even crop, each 2x2 block one pixel (centre 2i + 0.5 of the crop's)
             h2, w2 = crop.shape[0] // 2, crop.shape[1] // 2
-            work = cv2.resize(crop[: 2 * h2, : 2 * w2], (w2, h2), interpolation=cv2.INTER_AREA)
+            work = np.asarray(cv2.resize(crop[: 2 * h2, : 2 * w2], (w2, h2),
+                                         interpolation=cv2.INTER_AREA), dtype=np.uint8)
             min_perimeter /= 2.0
         larger = max(work.shape)
         want = None if wanted is None else set(wanted)

@@ -3,8 +3,9 @@
 Subscribes to ``/camera/down/image_raw`` and ``/camera/down/camera_info``, and to
 ``/fcu/odometry`` for the vehicle's height: a whole-frame search skips outlines smaller
 than the smallest marker seen from there (the noise's small outlines are what a search
-spends its time on). For each image while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes (what is due
-when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure):
+spends its time on; at the cruise height the search runs on the image halved). For each
+image while enabled it runs :class:`perception.aruco.ArucoScanner` and publishes (what is
+due when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure):
 
 - ``/perception/markers`` (MarkerDetectionArray): every accepted marker with its ID,
   kind (pad/robot), eq. 1 centre, body-frame offset [m], height [m] and pose, stamped

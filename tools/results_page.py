@@ -211,7 +211,29 @@ def _scanner_overhead(d: Json) -> list[str]:
                      f"{new['ms_per_frame']:.0f} ms, {new['markers']} markers",
                      f"{old['ms_per_frame']:.0f} ms, {old['markers']} markers",
                      ratio(new["ms_per_frame"] / old["ms_per_frame"])])
-    return [*lines, *table(["figure", "ours", "6 windows", "ratio"], rows)]
+    lines = [*lines, *table(["figure", "ours", "6 windows", "ratio"], rows)]
+    half = d.get("half_resolution")
+    if half:
+        rows = []
+        for lighting in ("light", "dark"):
+            h = half[lighting]
+            diff = h["corner_diff_px"]
+            rows.append([lighting, f"{h['frames']} ({h['frames_halved']} halved)",
+                         f"{h['markers_halved']} (lost {h['lost_by_halving']}, "
+                         f"gained {h['gained_by_halving']})", f"{h['markers_full']}",
+                         f"{diff['p50']} / {diff['p95']} / {diff['max']} px",
+                         f"{h['ms_per_frame']['halved']:.1f} ms",
+                         f"{h['ms_per_frame']['full']:.1f} ms",
+                         ratio(h["ratio_halved_over_full"])])
+        seeds = half["arena_seeds"]
+        floors = ", ".join(f"{k}: {v} px" for k, v in half["min_side_px"].items())
+        lines += ["", f"Halved search against full resolution, the node's floor at each height "
+                      f"({floors}), over the pads and robots of random arenas "
+                      f"{seeds[0]}-{seeds[1]}:", "",
+                  *table(["lighting", "frames", "markers halved", "markers full",
+                          "corner difference p50 / p95 / max", "halved per frame",
+                          "full per frame", "ratio"], rows)]
+    return lines
 
 
 def _astar(d: Json) -> list[str]:
@@ -614,9 +636,10 @@ SECTIONS: dict[str, Section] = {
         _aruco_table1),
     "scanner_overhead": Section(
         "ArUco scanner node overhead", "bench_scanner_overhead.py",
-        "What the node adds around detection, and the cost of the STRETCH pass (run on every "
-        "frame where the plain pass finds nothing) with 3 adaptive windows against 6. Times "
-        "move with the host's load; the ratios are measured in the same run.",
+        "What the node adds around detection, the cost of the STRETCH pass (run on every "
+        "frame where the plain pass finds nothing) with 3 adaptive windows against 6, and "
+        "the halved search against the full-resolution one on the same frames. Times move "
+        "with the host's load; the ratios are measured in the same run.",
         _scanner_overhead),
     "astar": Section(
         "A* on the voxel graph", "bench_astar.py",

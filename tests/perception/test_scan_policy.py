@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from perception.aruco import MarkerKind, ScanMode
-from runtime.parameters import load_parameters
 from perception.params import MIN_SIDE_SAFETY, ScannerParams
 from perception.scan_policy import (
     ODOMETRY_TIMEOUT_S,
@@ -21,6 +20,7 @@ from perception.scan_policy import (
     rotate,
     yaw_of,
 )
+from runtime.parameters import load_parameters
 
 S = 1_000_000_000
 ROBOT, PAD, OTHER = MarkerKind.ROBOT, MarkerKind.PAD, MarkerKind.OTHER
