@@ -213,19 +213,36 @@ def main() -> None:
                         help="stack samples per second (default 100)")
     parser.add_argument("--bare-seconds", type=float, default=10.0,
                         help="simulated seconds of the bare world (default 10)")
+    parser.add_argument("--runs", type=int, default=1,
+                        help="fly the mission this many times, one after the other, each "
+                             "with its bare world after it; the run of median RTF is "
+                             "reported, with every run's RTF (default 1)")
     args = parser.parse_args()
+    if args.runs < 1:
+        parser.error(f"--runs: {args.runs} < 1")
     from bench_sim import bench_physics
 
-    with tempfile.TemporaryDirectory() as tmp:
-        result: dict[str, Any] = {"benchmark": "mission_speed", "arena": "default", "seed": 0,
-                                  "cores": os.cpu_count(),
-                                  "load_before": round(os.getloadavg()[0], 2)}
-        result |= fly(Path(tmp) / "mission", args.sample_hz)
-    bare = bench_physics(args.bare_seconds)
-    result["rtf_bare_world"] = bare["real_time_factor_no_camera"]
-    result["ratio_mission_over_bare_world"] = round(
-        result["rtf_mission"] / result["rtf_bare_world"], 3)
-    result["load_after"] = round(os.getloadavg()[0], 2)
+    runs = []
+    for i in range(args.runs):
+        with tempfile.TemporaryDirectory() as tmp:
+            run: dict[str, Any] = {"benchmark": "mission_speed", "arena": "default", "seed": 0,
+                                   "cores": os.cpu_count(),
+                                   "load_before": round(os.getloadavg()[0], 2)}
+            run |= fly(Path(tmp) / "mission", args.sample_hz)
+        bare = bench_physics(args.bare_seconds)
+        run["rtf_bare_world"] = bare["real_time_factor_no_camera"]
+        run["ratio_mission_over_bare_world"] = round(
+            run["rtf_mission"] / run["rtf_bare_world"], 3)
+        run["load_after"] = round(os.getloadavg()[0], 2)
+        runs.append(run)
+        print(f"run {i + 1}/{args.runs}: RTF {run['rtf_mission']} ({run['wall_s']} s), "
+              f"{run['result']}, score {run['score']}", file=sys.stderr)
+    result = sorted(runs, key=lambda r: r["rtf_mission"])[(len(runs) - 1) // 2]
+    if len(runs) > 1:
+        result["rtf_runs"] = [r["rtf_mission"] for r in runs]
+        result["wall_s_runs"] = [r["wall_s"] for r in runs]
+        result["same_flight_every_run"] = len({(r["sim_s"], r["touchdown_rmse_m"])
+                                               for r in runs}) == 1
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result, indent=2))

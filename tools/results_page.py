@@ -549,7 +549,10 @@ def _campaign(d: Json) -> list[str]:
 def _mission_speed(d: Json) -> list[str]:
     share = d["cpu_share"]
     return table(["figure", "value", "baseline"], [
-        ["real-time factor (simulated / wall seconds)", num(d["rtf_mission"]),
+        ["real-time factor (simulated / wall seconds)"
+         + (f", median of {len(d['rtf_runs'])} runs" if "rtf_runs" in d else ""),
+         num(d["rtf_mission"]) + (f" (runs: {', '.join(num(r) for r in d['rtf_runs'])})"
+                                  if "rtf_runs" in d else ""),
          f"bare world loop {num(d['rtf_bare_world'], 1)} (ratio "
          f"{num(d['ratio_mission_over_bare_world'], 3)})"],
         ["wall / CPU time (every thread) for the simulated time",
