@@ -2,6 +2,7 @@
 the bare world's real-time factor measured beside it (issue 21).
 
     python benchmarks/bench_mission_speed.py --out benchmarks/results/mission_speed.json
+    python benchmarks/bench_mission_speed.py --runs 3 --out ...   # the median of 3 processes
 
 Flies ``quadmission sim`` (default arena, seed 0, every node, the cameras with their
 configured rates and latency) once in this process and reports:
@@ -25,6 +26,7 @@ import argparse
 import json
 import os
 import resource
+import subprocess
 import sys
 import tempfile
 import threading
@@ -205,6 +207,22 @@ def fly(out: Path, sample_hz: float) -> dict[str, Any]:
             "touchdown_max_m": report["touchdown_max_m"]}
 
 
+def one_run(sample_hz: float, bare_seconds: float) -> dict[str, Any]:
+    """One mission in this process, then the bare world loop."""
+    from bench_sim import bench_physics
+
+    with tempfile.TemporaryDirectory() as tmp:
+        run: dict[str, Any] = {"benchmark": "mission_speed", "arena": "default", "seed": 0,
+                               "cores": os.cpu_count(),
+                               "load_before": round(os.getloadavg()[0], 2)}
+        run |= fly(Path(tmp) / "mission", sample_hz)
+    bare = bench_physics(bare_seconds)
+    run["rtf_bare_world"] = bare["real_time_factor_no_camera"]
+    run["ratio_mission_over_bare_world"] = round(run["rtf_mission"] / run["rtf_bare_world"], 3)
+    run["load_after"] = round(os.getloadavg()[0], 2)
+    return run
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path,
@@ -215,26 +233,24 @@ def main() -> None:
                         help="simulated seconds of the bare world (default 10)")
     parser.add_argument("--runs", type=int, default=1,
                         help="fly the mission this many times, one after the other, each "
-                             "with its bare world after it; the run of median RTF is "
-                             "reported, with every run's RTF (default 1)")
+                             "in a fresh process with its bare world after it; the run of "
+                             "median RTF is reported, with every run's RTF (default 1)")
     args = parser.parse_args()
     if args.runs < 1:
         parser.error(f"--runs: {args.runs} < 1")
-    from bench_sim import bench_physics
 
     runs = []
     for i in range(args.runs):
-        with tempfile.TemporaryDirectory() as tmp:
-            run: dict[str, Any] = {"benchmark": "mission_speed", "arena": "default", "seed": 0,
-                                   "cores": os.cpu_count(),
-                                   "load_before": round(os.getloadavg()[0], 2)}
-            run |= fly(Path(tmp) / "mission", args.sample_hz)
-        bare = bench_physics(args.bare_seconds)
-        run["rtf_bare_world"] = bare["real_time_factor_no_camera"]
-        run["ratio_mission_over_bare_world"] = round(
-            run["rtf_mission"] / run["rtf_bare_world"], 3)
-        run["load_after"] = round(os.getloadavg()[0], 2)
-        runs.append(run)
+        if args.runs == 1:
+            runs.append(one_run(args.sample_hz, args.bare_seconds))
+        else:  # each run in a fresh process, as `make sim` flies it
+            with tempfile.TemporaryDirectory() as tmp:
+                part = Path(tmp) / "run.json"
+                subprocess.run([sys.executable, __file__, "--out", str(part), "--sample-hz",
+                                str(args.sample_hz), "--bare-seconds", str(args.bare_seconds)],
+                               check=True, stdout=subprocess.DEVNULL)
+                runs.append(json.loads(part.read_text()))
+        run = runs[-1]
         print(f"run {i + 1}/{args.runs}: RTF {run['rtf_mission']} ({run['wall_s']} s), "
               f"{run['result']}, score {run['score']}", file=sys.stderr)
     result = sorted(runs, key=lambda r: r["rtf_mission"])[(len(runs) - 1) // 2]
