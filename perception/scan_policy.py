@@ -93,9 +93,11 @@ class RobotTrack:
         return float(math.sqrt((self.sq[0] + self.sq[1]) / (n - 1)))
 
 
-ODOMETRY_TIMEOUT_S = 0.5
-"""s: an older height says nothing of where the vehicle is now (the odometry is 100 Hz;
-the vehicle climbs at most 3 m/s, ``height_margin_m`` covers the climb in this time)."""
+ODOMETRY_TIMEOUT_S = 0.1
+"""s: an older height says too little of where the vehicle is now. The odometry comes at
+100 Hz (this is ten lost in a row); the vehicle climbs at most 3 m/s (MPC_Z_VEL_MAX_UP),
+0.3 m in this time, which ``height_margin_m`` covers: a climb since the odometry puts the
+markers farther than its height says."""
 
 
 class ScanPolicy:
