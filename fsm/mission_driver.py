@@ -51,6 +51,7 @@ from fsm.mission_machine import (
     MissionConfig,
     MissionEvent,
     Severity,
+    Stop,
     Vec2,
 )
 from fsm.mission_table import ErrorCause, Phase, phase_of
@@ -78,6 +79,7 @@ class DriverParams:
     battery_critical_warning: int
     land_speed: float
     arm_attempts: int
+    failsafe_cause_wait_s: float
 
 
 class Action(Enum):
@@ -179,6 +181,7 @@ class VehicleStatus:
     landed: bool
     battery_warning: int  # px4 BatteryStatus.WARNING_*
     battery_remaining: float  # 0..1, NaN when unknown
+    failsafe: bool = False  # the FCU's own failsafe action is active (it flies, not us)
 
 
 @dataclass(frozen=True)
@@ -350,6 +353,9 @@ class Driver:
         self._entered_ns = 0
         self._phase = self._previous_phase = phase_of(self.mission.state)
         self._out: list[Command]  # the commands of the step under way (set by step)
+        #: an action that failed while the FCU's failsafe was flying, until when its cause
+        #: may still come, and the mission's stop reason then (:meth:`_action_failed`)
+        self._failure: tuple[str, int, Stop | None] | None = None
 
     def step(self, event: Input, now_ns: int) -> list[Command]:
         """Take one input at ``now_ns`` (int nanoseconds, companion clock); the commands
@@ -444,6 +450,14 @@ class Driver:
         if m.state != "preflight":  # on the ground before, or over: the machine ignores them
             for cause, detail in self.alerts():
                 m.error(cause, detail)
+        if self._failure is not None:
+            detail, deadline_ns, stop_then = self._failure
+            if m.stop is not stop_then or m.finished:  # the failsafe's cause came: it decided
+                self._failure = None
+            elif self.now_ns >= deadline_ns:
+                self._failure = None
+                m.action_failed(f"{detail} (the FCU's failsafe active, no cause reported "
+                                f"in {self.params.failsafe_cause_wait_s:g} s)")
         if m.state == "mission.await_sequence":
             waited = (self.now_ns - self._entered_ns) / 1e9
             if waited > self.params.sequence_timeout_s:
@@ -545,7 +559,7 @@ class Driver:
 
     def _armed(self, reply: ArmDone) -> None:
         if reply.refusal is not None:
-            self.mission.action_failed(f"arm: {reply.refusal}")
+            self._action_failed(f"arm: {reply.refusal}")
         else:
             self._send_takeoff()
 
@@ -561,7 +575,7 @@ class Driver:
         if reply.outcome is Outcome.SUCCEEDED:
             self.mission.took_off()
         else:
-            self.mission.action_failed(f"takeoff: {reply.message}")
+            self._action_failed(f"takeoff: {reply.message}")
 
     def _explored(self, target_robot: int, reply: GoalDone) -> None:
         if reply.outcome is Outcome.SUCCEEDED:
@@ -569,7 +583,7 @@ class Driver:
         elif reply.outcome is Outcome.ENDED:
             self.mission.explore_ended(f"robot {target_robot} not seen: {reply.message}")
         else:
-            self.mission.action_failed(f"explore: {reply.message}")
+            self._action_failed(f"explore: {reply.message}")
 
     def _hovered(self, _: Woke) -> None:
         self._look_for_pictures()
@@ -600,7 +614,7 @@ class Driver:
         elif reply.outcome is Outcome.NO_PATH:
             self.mission.unreachable(reply.message)
         else:
-            self.mission.action_failed(f"navigate: {reply.message}")
+            self._action_failed(f"navigate: {reply.message}")
 
     def _precision_landed(self, pad: int, reply: GoalDone) -> None:
         if reply.outcome is Outcome.SUCCEEDED:
@@ -608,13 +622,30 @@ class Driver:
         elif reply.outcome is Outcome.NOT_FOUND:
             self.mission.marker_not_found(reply.message)
         else:
-            self.mission.action_failed(f"precision land on pad {pad}: {reply.message}")
+            self._action_failed(f"precision land on pad {pad}: {reply.message}")
 
     def _landed(self, reply: GoalDone) -> None:
         if reply.outcome is Outcome.SUCCEEDED:
             self.mission.landed()
         else:
-            self.mission.action_failed(f"land: {reply.message}")
+            self._action_failed(f"land: {reply.message}")
+
+    def _action_failed(self, detail: str) -> None:
+        """An action failed. While the FCU's own failsafe flies the vehicle (it switched out
+        of offboard on a low battery, a lost link...) the failure is its consequence, not
+        its cause: the cause (the battery's warning comes at 1 Hz, after the mode change)
+        decides by the error policy when it comes within ``failsafe_cause_wait_s``, and
+        the failure counts as a flight error only after that."""
+        s = self.status
+        if s is None or not s.failsafe:
+            self.mission.action_failed(detail)
+            return
+        stop_then = self.mission.stop
+        for cause, why in self.alerts():  # a cause already known decides at once
+            self.mission.error(cause, why)
+        if self.mission.stop is stop_then and not self.mission.finished:
+            self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9),
+                             stop_then)
 
 
 def _percent(fraction: float) -> str:

@@ -145,7 +145,8 @@ class MissionNode(Node):
 
     def _on_status(self, msg: Any) -> None:
         self._feed(d.VehicleStatus(bool(msg.position_valid), bool(msg.armed), bool(msg.landed),
-                                   int(msg.battery_warning), float(msg.battery_remaining)))
+                                   int(msg.battery_warning), float(msg.battery_remaining),
+                                   bool(msg.failsafe)))
 
     def _on_odometry(self, msg: Any) -> None:
         p = msg.pose.pose.position

@@ -80,6 +80,10 @@ class MissionParams:
     land_speed: float = param(unit="m/s", range=(0.0, 3.0),
                               description="land-now descent (0: the layer's default)")
     arm_attempts: int = param(range=(1, 20), description="arm calls before giving up")
+    failsafe_cause_wait_s: float = param(
+        unit="s", range=(0.0, 10.0),
+        description="an action that fails while the FCU's failsafe flies waits this long "
+                    "for the failsafe's cause before it counts as a flight error")
     state_rate_hz: float = param(unit="Hz", range=(0.1, 100.0),
                                  description="/mission/state publish rate (and on change)")
     watchdog_rate_hz: float = param(unit="Hz", range=(1.0, 100.0),

@@ -62,7 +62,7 @@ PARAMS = DriverParams(
     cruise_altitude=1.5, explore_budget_s=600.0, health_topics=TOPICS,
     preflight_timeout_s=0.5, silence_timeout_s=3.0, sequence_timeout_s=120.0,
     report_hover_s=1.0, picture_timeout_s=0.5, max_pictures=3, battery_low_warning=1,
-    battery_critical_warning=2, land_speed=0.4, arm_attempts=5)
+    battery_critical_warning=2, land_speed=0.4, arm_attempts=5, failsafe_cause_wait_s=1.5)
 PADS = {1: (1.5, 1.5), 2: (3.0, 7.5), 3: (7.0, 10.5)}
 CONFIG = MissionConfig(target_robot=19, start_pad=1, pads=PADS, search_radius_near=0.5,
                        search_radius_wide=2.0)
@@ -405,6 +405,50 @@ def test_an_explore_failure_holds() -> None:
     rig.done(Outcome.FAILED, "no way on")
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None and stop.detail == "explore: no way on"
+
+
+FAILSAFE = replace(FLYING, failsafe=True)
+
+
+def test_a_failure_under_the_fcus_failsafe_waits_for_its_cause() -> None:
+    """The FCU's battery failsafe switches it to AUTO_LAND at once; the explore's next
+    reach is refused before the battery's warning (1 Hz) reaches the mission. The refusal
+    is the failsafe's consequence: the battery decides (LAND_NOW), not a flight error."""
+    rig = exploring()
+    rig.feed(FAILSAFE)
+    rig.done(Outcome.FAILED, "reach rejected: not in offboard control (FCU nav_state 18)")
+    assert rig.state == "mission.explore" and rig.driver.mission.stop is None  # waiting
+    rig.tick(0.5)
+    assert rig.state == "mission.explore"
+    rig.feed(replace(FAILSAFE, battery_warning=2, battery_remaining=0.05), 0.4)
+    rig.tick(0.1)
+    stop = rig.driver.mission.stop
+    assert stop is not None and stop.cause is ErrorCause.BATTERY_CRITICAL
+    assert stop.reaction is Reaction.LAND_NOW and rig.state == "landing_now"
+    rig.tick(2.0)  # past the wait: the failure no longer counts
+    assert rig.driver.mission.stop is stop
+
+
+def test_a_failure_under_the_failsafe_with_a_known_cause_acts_on_the_cause_at_once() -> None:
+    rig = exploring()
+    rig.feed(replace(FAILSAFE, battery_warning=2, battery_remaining=0.05))
+    rig.done(Outcome.FAILED, "reach rejected: not in offboard control (FCU nav_state 18)")
+    stop = rig.driver.mission.stop
+    assert stop is not None and stop.cause is ErrorCause.BATTERY_CRITICAL
+    assert rig.state == "landing_now"
+
+
+def test_a_failure_under_the_failsafe_without_a_cause_holds_after_the_wait() -> None:
+    rig = exploring()
+    rig.feed(FAILSAFE)
+    rig.done(Outcome.FAILED, "no way on")
+    rig.tick(PARAMS.failsafe_cause_wait_s - 0.1)
+    assert rig.state == "mission.explore"
+    rig.tick(0.2)
+    stop = rig.driver.mission.stop
+    assert rig.state == "stopped" and stop is not None
+    assert stop.cause is ErrorCause.FLIGHT_ERROR and stop.detail.startswith("explore: no way on")
+    assert "failsafe" in stop.detail
 
 
 def test_pictures_are_those_of_the_target_since_the_exploration_the_latest_kept() -> None:
