@@ -131,7 +131,7 @@ def row_of(cell: Cell, outcome: RunOutcome, *, run_dir: Path, worker: str,
         "reaction_s": [f["reaction_s"] for f in faults],
         "end_state": faults[0]["end_state"] if faults else None,
         "landings": len(landings) if "landings" in report else None,
-        "landings_inside": (sum(bool(d.get("inside")) for d in landings)
+        "landings_inside": (sum(bool(d.get("inside_pad")) for d in landings)
                             if "landings" in report else None),
         "touchdown_errors_m": errors,
         "touchdown_max_m": max(errors) if errors else None,

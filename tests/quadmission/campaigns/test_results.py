@@ -49,8 +49,12 @@ def test_a_faulted_run_is_handled_only_when_every_fault_is() -> None:
 
 
 def test_a_clean_run_passes_by_the_scenarios_own_check() -> None:
-    landings = [{"touchdown_error_m": 0.02, "inside": True},
-                {"touchdown_error_m": 0.61, "inside": False}]
+    from quadmission.evaluation.mission import Landing
+
+    # the landings as the mission's report writes them (a key of our own would pass here
+    # and read 0 inside from every real report)
+    landings = [Landing(2, 100.0, (1.0, 1.0), 0.02, True).to_json(),
+                Landing(3, 200.0, (5.0, 5.0), 0.61, False).to_json()]
     report = {"result": "completed", "crashed": False, "landings": landings, "score": 300,
               "max_score": 310, "lighting": "dark", "verdict": "completed"}
     failed = row(CLEAN, 1, report)  # a landing outside: the mission's check fails
