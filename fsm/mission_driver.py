@@ -445,11 +445,16 @@ class Driver:
             m.receive_sequence(c.pads, c.points)
         self._out.append(PublishState(self.snapshot(self.now_ns)))
 
+    def _apply_alerts(self) -> None:
+        """The error policy on every alert present now (not in preflight: on the ground
+        before it, or over, the machine ignores them)."""
+        if self.mission.state != "preflight":
+            for cause, detail in self.alerts():
+                self.mission.error(cause, detail)
+
     def _watchdog(self) -> None:
         m = self.mission
-        if m.state != "preflight":  # on the ground before, or over: the machine ignores them
-            for cause, detail in self.alerts():
-                m.error(cause, detail)
+        self._apply_alerts()
         if self._failure is not None:
             detail, deadline_ns, stop_then = self._failure
             if m.stop is not stop_then or m.finished:  # the failsafe's cause came: it decided
@@ -641,8 +646,7 @@ class Driver:
             self.mission.action_failed(detail)
             return
         stop_then = self.mission.stop
-        for cause, why in self.alerts():  # a cause already known decides at once
-            self.mission.error(cause, why)
+        self._apply_alerts()  # a cause already known decides at once
         if self.mission.stop is stop_then and not self.mission.finished:
             self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9),
                              stop_then)
