@@ -16,9 +16,14 @@ again on a map that holds a depth cloud captured after the turn (the path's stam
 map's; it waits up to ``map_wait_s`` for one) and switches if the path changed. The camera
 saw the obstacles beside the old leg only side-on, or not at all: a corner planned round as
 unknown (free) space is often in the way once seen. Every ``replan_period_s`` it plans
-again from here; when the leg being flown is no longer clear (the planner cannot go
-straight to its end) or the new path's length differs from what is left of the current one
-by more than ``replan_tolerance`` (the live map changed the path's cost), it switches.
+again from here, and so it does before each leg after the first: the map has grown since
+the path was planned. When the leg is no longer clear (the planner cannot go straight to
+its end, or the end is no longer free: a plan to it ends at another cube) or the new
+path's length differs from what is left of the current one by more than
+``replan_tolerance`` (the live map changed the path's cost), it switches. Random arena 100
+crashed without these two checks: its lane ended inside a 2.7 m block, the planner's snap
+made the leg to the corner beside the block look clear, and the last leg, 0.4 s long,
+went into the face the camera had mapped seconds before.
 When the leg is blocked and no new path is found (the goal may turn out to be inside a
 block whose faces the camera had not seen), it stops, plans again ``plan_attempts`` times,
 then gives up with no path. A failed reach is re-planned from where the vehicle is, up to
@@ -62,6 +67,7 @@ POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
 LANE_STEP_M = 0.5  # m, an unreachable explore waypoint is tried this much nearer its lane
 LANE_DETOUR = 1.2  # a replacement's path is at most this times the straight line (+ a step)
 FACE_LEG_MIN_M = 0.3  # m, a waypoint nearer than this (horizontally) keeps the heading
+END_TOLERANCE_M = 1e-6  # m, a plan to a leg's end that ends farther away snapped it: not free
 
 
 def _pick(cls: Any, params: object) -> Any:
@@ -403,7 +409,15 @@ class _Follower(_Policy):
             return _Flown(Outcome.NO_PATH, message)
         failures = 0
         i = 1
+        fresh = True  # the path was just planned (else the map may have changed under it)
         while i < len(path):
+            if not fresh:  # a new leg on a path planned legs ago: is it still clear?
+                new, no_path = yield from self._recheck(path, i, goal, flying=False)
+                if no_path is not None:
+                    return _Flown(Outcome.NO_PATH, no_path)
+                if new is not None:
+                    path, i = new, 1
+                fresh = True
             wp = path[i]
             last = i == len(path) - 1
             here, yaw = self.here, self._now.yaw
@@ -444,14 +458,9 @@ class _Follower(_Policy):
                 yield self._progress(path, i)
                 if self._now.now_ns >= next_plan_ns:
                     next_plan_ns = self._now.now_ns + period_ns
-                    planned = yield from self._plan(self.here, goal)
-                    new, blocked = yield from self._changed_path(path, i, planned.path)
-                    if new is not None or blocked:
-                        yield CancelAction()
-                    if new is None and blocked:
-                        new, message = yield from self._plan_again(goal)
-                        if new is None:
-                            return _Flown(Outcome.NO_PATH, message)
+                    new, no_path = yield from self._recheck(path, i, goal, flying=True)
+                    if no_path is not None:
+                        return _Flown(Outcome.NO_PATH, no_path)
                     if new is not None:
                         path, i, switched = new, 1, True
                         break
@@ -459,7 +468,7 @@ class _Follower(_Policy):
             if switched:
                 continue
             if state.success:
-                i += 1
+                i, fresh = i + 1, False
                 continue
             failures += 1
             if failures > f.max_reach_failures:
@@ -476,9 +485,26 @@ class _Follower(_Policy):
         when it cannot plan from here at all (the start too close to an obstacle: the
         vehicle is flying out of it), which says nothing of the leg."""
         planned = yield from self._plan(self.here, path[i])
-        if planned.path is not None:
-            return len(planned.path) > 2
+        if planned.path is not None:  # a detour, or the end snapped to a cube beside it
+            return len(planned.path) > 2 or not np.allclose(planned.path[-1], path[i],
+                                                            rtol=0.0, atol=END_TOLERANCE_M)
         return planned.blocks_leg
+
+    def _recheck(self, path: FloatArray, i: int, goal: FloatArray, *, flying: bool
+                 ) -> Script[tuple[FloatArray | None, str | None]]:
+        """Plan again from here to ``goal`` and judge leg ``i`` of ``path`` on the map as it
+        is now: (the path to switch to or None, why there is no path or None). A blocked
+        leg with no new path holds and plans again (:meth:`_plan_again`). ``flying``: the
+        leg's reach is under way and is canceled before a switch or a hold."""
+        planned = yield from self._plan(self.here, goal)
+        new, blocked = yield from self._changed_path(path, i, planned.path)
+        if flying and (new is not None or blocked):
+            yield CancelAction()
+        if new is None and blocked:
+            new, message = yield from self._plan_again(goal)
+            if new is None:
+                return None, message
+        return new, None
 
     def _changed_path(self, path: FloatArray, i: int, new: FloatArray | None
                       ) -> Script[tuple[FloatArray | None, bool]]:

@@ -433,6 +433,47 @@ def test_a_failed_replan_on_a_clear_leg_flies_on() -> None:
     assert step(ok(np.array([HERE, GOAL]))) == Sleep(POLL_S)
 
 
+def test_a_leg_whose_end_is_no_longer_free_is_blocked() -> None:
+    """The planner snaps an end that is in or too near an obstacle to the free cube beside
+    it: a straight 2-point plan that ends elsewhere says the leg's end is no longer free
+    (random arena 100: the corner beside a block whose face had just been mapped)."""
+    old = p((0, 0), (2, 1), (4, 0))
+    step = Stepper(navigate())
+    fly_leg(step, old)
+    poll_until_replan(step)
+    detour = p((0, 0), (2, -1), (4, 0))
+    assert isinstance(step(ok(detour)), Plan)
+    assert isinstance(step(ok(p((0, 0), (2, 1.2)))), CancelAction)  # snapped 0.2 m away
+    assert np.array_equal(step().target, detour[1])  # type: ignore[union-attr]
+
+
+def test_each_leg_after_the_first_is_checked_on_the_map_as_it_is_before_it_is_flown(
+        ) -> None:
+    """The map grows while a leg is flown; the next leg is judged on it before its reach,
+    not up to a replan period later (random arena 100's last leg lasted 0.4 s)."""
+    old = p((0, 0), (2, 0), (4, 0))
+    step = Stepper(navigate())
+    fly_leg(step, old)
+    step.position = old[1].copy()
+    replan = step(ActionState(True, True, "reached"))  # leg 1 done within the period
+    assert isinstance(replan, Plan)
+    assert np.array_equal(replan.start, old[1]) and np.array_equal(replan.goal, GOAL)
+    leg_check = step(failed("GoalOccupied"))  # the goal turned out to be in a block
+    assert isinstance(leg_check, Plan) and np.array_equal(leg_check.goal, old[2])
+    hold = step(failed("GoalOccupied"))  # no reach into it: hold where it is
+    assert isinstance(hold, SendReach) and np.array_equal(hold.target, old[1])
+
+
+def test_a_leg_after_the_first_still_clear_is_flown_without_a_hold() -> None:
+    old = p((0, 0), (2, 0), (4, 0))
+    world = World(navigate(), first_then_straight(old))
+    assert world.run().outcome is Outcome.REACHED
+    assert [r.target.tolist() for r in world.of(SendReach)] == [[2, 0, Z], [4, 0, Z]]
+    plans = world.of(Plan)  # the plan, then the goal and the leg checked at (2, 0)
+    assert len(plans) == 3 and np.array_equal(plans[1].start, old[1])
+    assert np.array_equal(plans[2].goal, old[2])
+
+
 def blocked_with_no_new_path(step: Stepper) -> SendReach:
     """Fly, re-plan (fails), find the leg blocked: the policy cancels and holds."""
     fly_leg(step, np.array([HERE, GOAL]))
@@ -844,7 +885,8 @@ def test_a_replacement_reached_only_by_a_long_detour_is_not_taken() -> None:
     def planner(start: np.ndarray, goal: np.ndarray, _w: World) -> Planned:
         if np.array_equal(goal, expected[1]):
             return failed()
-        if goal[1] == expected[1][1] and np.array_equal(start, expected[0]):
+        if (goal[1] == expected[1][1] and np.array_equal(start, expected[0])
+                and not np.array_equal(goal, start)):
             # reached only round the far side: 3 times the straight line
             mid = (start + goal) / 2 + (0.0, np.linalg.norm(goal - start), 0.0)
             return ok(np.array([start, mid, goal]))
@@ -863,7 +905,8 @@ def test_a_replacement_within_the_detour_allowance_is_taken() -> None:
     def planner(start: np.ndarray, goal: np.ndarray, _w: World) -> Planned:
         if np.array_equal(goal, expected[1]):
             return failed()
-        if goal[1] == expected[1][1] and np.array_equal(start, expected[0]):
+        if (goal[1] == expected[1][1] and np.array_equal(start, expected[0])
+                and not np.array_equal(goal, start)):
             # exactly LANE_DETOUR times the straight line plus a step
             straight_m = float(np.linalg.norm(goal - start))
             long = 1.2 * straight_m + LANE_STEP_M
