@@ -27,6 +27,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from quadmission.campaigns.matrix import Cell
+from quadmission.reports.report import VERSION_KEY
 
 __all__ = ["CELLS_DIR", "RESULTS_NAME", "RUNS_DIR", "SCHEMA", "CellStore", "RunOutcome",
            "row_of", "write_parquet"]
@@ -70,6 +71,7 @@ SCHEMA = pa.schema([
     ("worker", pa.string()),
     ("run_dir", pa.string()),
     ("replay", pa.string()),  # the one-line command that flies it again
+    ("code_version", pa.string()),  # the code that flew it (report.json's; null: none)
 ])
 
 
@@ -140,6 +142,7 @@ def row_of(cell: Cell, outcome: RunOutcome, *, run_dir: Path, worker: str,
         "wall_s": round(outcome.wall_s, 3), "cpu_s": round(outcome.cpu_s, 3),
         "exit_code": outcome.exit_code, "attempts": attempts, "worker": worker,
         "run_dir": str(run_dir), "replay": cell.replay_command(run_dir),
+        "code_version": report.get(VERSION_KEY),
     }
 
 

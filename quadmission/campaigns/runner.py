@@ -36,14 +36,22 @@ from quadmission.campaigns.matrix import Campaign, Cell
 from quadmission.campaigns.plots import PICTURES, save_plots
 from quadmission.campaigns.process import run_cell
 from quadmission.campaigns.results import RESULTS_NAME, CellStore, write_parquet
-from quadmission.campaigns.summary import CampaignSummary, Session, render_markdown, summarize
+from quadmission.campaigns.summary import (
+    CampaignSummary,
+    Session,
+    render_markdown,
+    summarize,
+    summary_json,
+)
 from quadmission.errors import CampaignError
 
-__all__ = ["EVENT_TOPIC", "RETRIES", "SUMMARY_NAME", "CampaignResult", "run_campaign"]
+__all__ = ["EVENT_TOPIC", "RETRIES", "SUMMARY_JSON_NAME", "SUMMARY_NAME", "CampaignResult",
+           "run_campaign"]
 
 EVENT_TOPIC = "quadmission-campaign"  # each attempt of a cell: {session, cell, worker, pid}
 RETRIES = 2  # a task that raised (not a run that failed: that is a result) runs again
 SUMMARY_NAME = "summary.md"
+SUMMARY_JSON_NAME = "summary.json"  # the same figures for programs (benchmarks/results/)
 CONNECT_TIMEOUT_S = 30.0  # s to reach a scheduler given by address
 
 
@@ -157,12 +165,14 @@ def _submit_all(client: Any, todo: list[Cell], out: Path, campaign: Campaign, st
 
 def write_outputs(campaign: Campaign, out: Path, session: Session,
                   lost: tuple[str, ...] = ()) -> CampaignResult:
-    """Rebuild ``results.parquet``, ``summary.md`` and the plots from the finished rows."""
+    """Rebuild ``results.parquet``, ``summary.md``, ``summary.json`` and the plots from the
+    finished rows."""
     rows = CellStore(out).rows(campaign.cells)
     write_parquet(rows, out / RESULTS_NAME)
     summary = summarize(rows)
     save_plots(summary, rows, out)
     (out / SUMMARY_NAME).write_text(render_markdown(summary, session, PICTURES))
+    (out / SUMMARY_JSON_NAME).write_text(summary_json(summary, session))
     return CampaignResult(out, tuple(rows), summary, session, lost)
 
 

@@ -3,12 +3,15 @@
 :func:`summarize` gives the pass rate per fault kind (a clean run counts under
 ``clean``; a run with two faults under both kinds), per lighting and per scenario, the
 touchdown-error and reaction-time percentiles, wall and CPU time, how many runs were
-re-queued after a lost worker, and every failed run with its replay line;
-:func:`render_markdown` writes them for a person.
+re-queued after a lost worker, the code versions that flew the rows, and every failed run
+with its replay line; :func:`render_markdown` writes them for a person, :func:`summary_json`
+for a program.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -16,10 +19,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CLEAN", "CampaignSummary", "FailedRun", "KindStats", "Percentiles", "Rate",
-           "Session", "render_markdown", "summarize"]
+__all__ = ["CLEAN", "UNKNOWN_VERSION", "CampaignSummary", "FailedRun", "KindStats",
+           "Percentiles", "Rate", "Session", "render_markdown", "summarize", "summary_json"]
 
 CLEAN = "clean"  # the "fault kind" of a run without faults
+UNKNOWN_VERSION = "unknown"  # a row whose report did not say which code flew it
 PERCENTILES = (50, 90, 99)
 S_PER_HOUR = 3600.0
 
@@ -73,6 +77,7 @@ class FailedRun:
     result: str
     why: str
     replay: str
+    code_version: str  # the code that flew it: the replay's
 
 
 @dataclass(frozen=True)
@@ -90,6 +95,7 @@ class CampaignSummary:
     wall_total_s: float  # the runs' wall time added up
     cpu_total_s: float
     failed: tuple[FailedRun, ...]
+    code_versions: tuple[tuple[str, int], ...]  # (code version, runs), most runs first
 
     @property
     def runs_per_cpu_hour(self) -> float | None:
@@ -157,6 +163,10 @@ def _why(row: dict[str, Any]) -> str:
     return str(row["reason"] or row["verdict"] or row["result"])
 
 
+def _version(row: dict[str, Any]) -> str:
+    return row.get("code_version") or UNKNOWN_VERSION
+
+
 def summarize(rows: Sequence[dict[str, Any]]) -> CampaignSummary:
     """The figures of a campaign's rows (:data:`~quadmission.campaigns.results.SCHEMA`)."""
     errors = [e for row in rows for e in row["touchdown_errors_m"]]
@@ -172,8 +182,9 @@ def summarize(rows: Sequence[dict[str, Any]]) -> CampaignSummary:
         wall_s=Percentiles.of(r["wall_s"] for r in rows),
         wall_total_s=float(sum(r["wall_s"] for r in rows)),
         cpu_total_s=float(sum(r["cpu_s"] for r in rows)),
-        failed=tuple(FailedRun(r["cell"], r["result"], _why(r), r["replay"])
-                     for r in rows if not r["passed"]))
+        failed=tuple(FailedRun(r["cell"], r["result"], _why(r), r["replay"], _version(r))
+                     for r in rows if not r["passed"]),
+        code_versions=tuple(Counter(_version(r) for r in rows).most_common()))
 
 
 def _num(value: float | None, fmt: str = ".1f", scale: float = 1.0) -> str:
@@ -188,6 +199,31 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
+def summary_json(summary: CampaignSummary, session: Session) -> str:
+    """``summary.json``: :class:`Session` and :class:`CampaignSummary` field for field, with
+    each group's pass rate and the runs per CPU-hour (strict JSON)."""
+    def rated(rate: Rate) -> dict[str, Any]:
+        return {**dataclasses.asdict(rate), "rate": rate.rate}
+
+    body = dataclasses.asdict(summary)
+    body["by_kind"] = [{**dataclasses.asdict(k), "rate": rated(k.rate)} for k in summary.by_kind]
+    body["by_lighting"] = [rated(r) for r in summary.by_lighting]
+    body["by_scenario"] = [rated(r) for r in summary.by_scenario]
+    body["rate"] = rated(Rate("all", summary.runs, summary.passed))
+    body["runs_per_cpu_hour"] = summary.runs_per_cpu_hour
+    return json.dumps({"session": dataclasses.asdict(session), "summary": body}, indent=1,
+                      allow_nan=False) + "\n"
+
+
+def _code_line(versions: Sequence[tuple[str, int]]) -> str:
+    listed = ", ".join(f"`{v}` ({n} run{'s' * (n != 1)})" for v, n in versions)
+    if len(versions) <= 1:
+        return f"Code: {listed or '-'}."
+    return (f"**Rows flown by {len(versions)} code versions**: {listed}. A resumed campaign "
+            "keeps the rows it had; a run replays with its own row's code "
+            "(`code_version` in results.parquet).")
+
+
 def render_markdown(summary: CampaignSummary, session: Session,
                     pictures: Sequence[tuple[str, str]] = ()) -> str:
     """``summary.md``: the head, the tables, the pictures (``(caption, file)``), then
@@ -200,6 +236,7 @@ def render_markdown(summary: CampaignSummary, session: Session,
         f"({session.ran} in this invocation, {session.skipped} before it, resumed)"
         + (f", **{session.lost} not finished**" if session.lost else "")
         + f"; on {session.where}, {session.wall_s:.0f} s of wall time.", "",
+        _code_line(s.code_versions), "",
         f"**Passed: {_pct(overall)}.** A faulted run passes when it is handled (every "
         "fault's observed reaction the expected one, no crash, no error); a clean run "
         "when the scenario's own check passes. Re-queued after a lost worker: "
@@ -241,6 +278,6 @@ def render_markdown(summary: CampaignSummary, session: Session,
     if not s.failed:
         lines.append("None.")
     for f in s.failed:
-        lines += [f"- `{f.cell}`: {f.result}: {_cell(f.why)}", "",
+        lines += [f"- `{f.cell}` (code `{f.code_version}`): {f.result}: {_cell(f.why)}", "",
                   "  ```sh", f"  {f.replay}", "  ```", ""]
     return "\n".join(lines).rstrip() + "\n"

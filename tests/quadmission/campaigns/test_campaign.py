@@ -24,10 +24,16 @@ from distributed import Client, LocalCluster
 from quadmission.campaigns.matrix import load_campaign
 from quadmission.campaigns.process import LOG_NAME
 from quadmission.campaigns.results import CELLS_DIR, RESULTS_NAME
-from quadmission.campaigns.runner import EVENT_TOPIC, SUMMARY_NAME, CampaignResult, run_campaign
+from quadmission.campaigns.runner import (
+    EVENT_TOPIC,
+    SUMMARY_JSON_NAME,
+    SUMMARY_NAME,
+    CampaignResult,
+    run_campaign,
+)
 from quadmission.cli import main
 from quadmission.evaluation.faults import EXPECTED
-from quadmission.reports.report import REPORT_NAME
+from quadmission.reports.report import REPORT_NAME, code_version
 from sim.fault_spec import FaultKind
 
 pytestmark = pytest.mark.slow
@@ -119,6 +125,7 @@ def test_every_cell_has_one_row_with_the_issues_columns(rows: list[dict[str, Any
         assert r["result"] in ("landed", "crash", "failed"), r  # each run flew
         assert r["wall_s"] > 0 and r["cpu_s"] > 0 and r["sim_s"] > 12.0
         assert "report:" in (Path(r["run_dir"]) / LOG_NAME).read_text()
+        assert r["code_version"] == code_version()  # the checkout the workers flew
 
 
 def test_each_fault_is_judged_by_its_expected_reaction(rows: list[dict[str, Any]]) -> None:
@@ -168,6 +175,9 @@ def test_the_summary_gives_rates_and_every_failed_run_s_replay_line(
         assert r["replay"].endswith(f"--out {shlex.quote(r['run_dir'])}")
     assert all((flown[0].out / name).stat().st_size > 0 for name in
                ("pass_rate.png", "touchdown_error.png", "reaction_time.png", "wall_time.png"))
+    figures = json.loads((flown[0].out / SUMMARY_JSON_NAME).read_text())["summary"]
+    assert figures["rate"] == {"group": "all", "runs": 4, "passed": total, "rate": total / 4}
+    assert figures["code_versions"] == [[code_version(), 4]]
 
 
 def test_the_replay_line_flies_the_same_run(rows: list[dict[str, Any]]) -> None:

@@ -39,6 +39,9 @@ def test_a_faulted_run_is_handled_only_when_every_fault_is() -> None:
     assert (good["handled"], good["passed"], good["ok"]) == (True, True, False)
     assert good["result"] == "failed" and good["fault_kinds"] == ["link_lost", "wind_gust"]
     assert good["reaction_s"] == [1.0, None] and good["end_state"] == "holding"
+    assert good["code_version"] is None  # the report did not say
+    assert row(FAULTED, 1, report | {"code_version": "0123456789ab"})["code_version"] == \
+        "0123456789ab"
     report["faults"][1] = fault("wind_gust", False, "none", None)
     assert not row(FAULTED, 1, report)["passed"]
     crashed = report | {"faults": [fault("link_lost", True)] * 2,

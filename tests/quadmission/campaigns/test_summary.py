@@ -3,6 +3,7 @@ percentiles, re-queued runs, and every failed run with the line that replays it.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -11,10 +12,12 @@ import pytest
 from quadmission.campaigns.plots import PICTURES, save_plots
 from quadmission.campaigns.summary import (
     CLEAN,
+    UNKNOWN_VERSION,
     Percentiles,
     Session,
     render_markdown,
     summarize,
+    summary_json,
 )
 
 SESSION = Session("t", "t.yaml", cells=5, skipped=1, ran=3, lost=1, where="a test",
@@ -34,7 +37,8 @@ def make_row(cell: str, kinds: list[str], passed: bool, lighting: str = "light",
             "result": "stopped", "reason": None, "verdict": "v",
             "landings": len(errors or []), "landings_inside": len(errors or []),
             "touchdown_errors_m": errors or [], "attempts": attempts,
-            "wall_s": wall_s, "cpu_s": wall_s / 2, "replay": f"quadmission sim --out {cell}"}
+            "wall_s": wall_s, "cpu_s": wall_s / 2, "replay": f"quadmission sim --out {cell}",
+            "code_version": "0123456789ab"}
 
 
 ROWS = [
@@ -86,3 +90,30 @@ def test_the_plots_are_written(tmp_path: Path) -> None:
     for _, name in PICTURES:
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     save_plots(summarize([]), [], tmp_path)  # nothing finished yet: empty plots, no error
+
+
+def test_one_code_version_is_named_and_several_are_flagged_with_their_runs() -> None:
+    text = render_markdown(summarize(ROWS), SESSION)
+    assert "Code: `0123456789ab` (4 runs)." in text
+    assert "(code `0123456789ab`)" in text.split("## Failed runs")[1]
+    mixed = [*ROWS[:3], {**ROWS[3], "code_version": None}]  # a row from an older report
+    s = summarize(mixed)
+    assert s.code_versions == (("0123456789ab", 3), (UNKNOWN_VERSION, 1))
+    text = render_markdown(s, SESSION)
+    assert "**Rows flown by 2 code versions**: `0123456789ab` (3 runs), `unknown` (1 run)" \
+        in text
+    assert f"- `d` (code `{UNKNOWN_VERSION}`)" in text
+
+
+def test_summary_json_carries_the_rates_and_figures_of_the_markdown() -> None:
+    body = json.loads(summary_json(summarize(ROWS), SESSION))
+    assert body["session"]["name"] == "t" and body["session"]["lost"] == 1
+    s = body["summary"]
+    assert s["rate"] == {"group": "all", "runs": 4, "passed": 2, "rate": 0.5}
+    kinds = {k["rate"]["group"]: k for k in s["by_kind"]}
+    assert kinds["vio_stop"]["rate"]["rate"] == 0.5 and kinds["vio_stop"]["reaction_s"]["n"] == 1
+    assert {r["group"]: r["rate"] for r in s["by_lighting"]} == {"light": 1.0, "dark": 0.0}
+    assert s["touchdown_m"]["max"] == 0.03 and s["runs_per_cpu_hour"] == pytest.approx(
+        4 * 3600 / 35)
+    assert [f["cell"] for f in s["failed"]] == ["b", "d"]
+    assert s["code_versions"] == [["0123456789ab", 4]]
