@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
-from fsm.mission_machine import MissionEvent
+from fsm.mission_machine import EventKind, MissionEvent
 from fsm.mission_table import ERROR_POLICY, ErrorCause, Reaction
 from sim.arena import PAD_SIZE, ArenaSpec
 from sim.fault_spec import Fault, FaultKind
@@ -43,7 +43,7 @@ class Handler(Enum):
     MISSION = "mission"  # the mission's error policy
     FCU = "fcu"  # the flight controller's failsafe
     NOBODY = "nobody"  # ride it out: no error, no crash
-    SKIP = "skip"  # the mission skips the pad (after its search), with the reason
+    SKIP = "skip"  # the mission searches for the pad's marker, then skips the pad unseen
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,8 @@ class Expectation:
         """The expected reaction's name: the policy's for the cause, else the handler's."""
         if self.cause is not None:
             return ERROR_POLICY[self.cause].reaction.name
-        return {Handler.FCU: "FAILSAFE", Handler.SKIP: "SKIP"}.get(self.handler, "NONE")
+        return {Handler.FCU: "FAILSAFE", Handler.SKIP: "SEARCH, then SKIP"}.get(self.handler,
+                                                                             "NONE")
 
 
 EXPECTED: dict[FaultKind, Expectation] = {
@@ -82,8 +83,9 @@ EXPECTED: dict[FaultKind, Expectation] = {
     FaultKind.LATENCY_SPIKE: Expectation(Handler.NOBODY),  # below COM_OF_LOSS_T: ride it out
     FaultKind.PACKET_BURST: Expectation(Handler.NOBODY),  # enough heartbeats get through
     FaultKind.CLOCK_JUMP: Expectation(Handler.NOBODY),  # the time sync resets and follows
-    # no marker seen in the dark: the pad's search, then its skip; no module reports a
-    # black camera (a policy the mission lacks)
+    # no marker seen in the dark: a landing in the dark searches for its pad, which is
+    # landed on if the camera comes back during the search, else skipped; no module
+    # reports a black camera (a policy the mission lacks)
     FaultKind.CAMERA_DARK: Expectation(Handler.SKIP),
     FaultKind.DEPTH_DARK: Expectation(Handler.NOBODY),  # the map keeps what it had
     FaultKind.PAD_OCCLUDED: Expectation(Handler.SKIP),
@@ -185,6 +187,43 @@ def _cause_of(event: MissionEvent) -> tuple[str, str] | None:
     return None
 
 
+@dataclass(frozen=True)
+class _PadReaction:
+    observed: str
+    reaction_s: float | None
+    skipped: bool  # the pad was skipped
+    settled: bool  # a search ended in a landing or a skip (no search: nothing to settle)
+
+
+def _search_then_skip(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
+                      skipped: Sequence[tuple[float, int, str]]) -> _PadReaction:
+    """What the mission did about a pad it could not see after ``fault`` (the occluded
+    pad, or any pad for a dark camera): ``SEARCH pad P`` when a landing failed to see its
+    marker (the mission's LANDING_FAILED: the wide search begins), then ``landed on it``
+    or ``SKIP pad P: reason``; a skip without a search alone."""
+    pad = fault.value("pad") if fault.kind is FaultKind.PAD_OCCLUDED else math.nan
+
+    def mine(t: float, p: int) -> bool:
+        return t >= fault.at_s and (math.isnan(pad) or p == int(pad))
+
+    search = next(((t, e.marker_id) for t, e in events
+                   if e.kind is EventKind.LANDING_FAILED and mine(t, e.marker_id)), None)
+    skip = next(((t, p, r) for t, p, r in skipped if mine(t, p)
+                 and (search is None or (p == search[1] and t >= search[0]))), None)
+    skip_text = "" if skip is None else f"SKIP pad {skip[1]}: {skip[2]}"
+    if search is None:
+        return (_PadReaction("none", None, False, True) if skip is None
+                else _PadReaction(skip_text, skip[0] - fault.at_s, True, True))
+    t0, searched = search
+    if skip is not None:
+        return _PadReaction(f"SEARCH pad {searched}, then {skip_text}", t0 - fault.at_s,
+                            True, True)
+    landed = any(e.kind is EventKind.LANDED and e.marker_id == searched and t >= t0
+                 for t, e in events)
+    return _PadReaction(f"SEARCH pad {searched}" + (", then landed on it" if landed else ""),
+                        t0 - fault.at_s, False, landed)
+
+
 def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
                 fcu_failsafes: Sequence[float], end: EndState,
                 skipped: Sequence[tuple[float, int, str]] = ()) -> dict[str, Any]:
@@ -196,16 +235,13 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
     observed, reaction_s = "none", None
     handled = end is not EndState.CRASHED
     if expected.handler is Handler.SKIP:
-        pad = fault.value("pad") if fault.kind is FaultKind.PAD_OCCLUDED else math.nan
-        hit_skip = next(((t, p, r) for t, p, r in skipped if t >= fault.at_s
-                         and (math.isnan(pad) or p == int(pad))), None)
-        if hit_skip is not None:
-            observed = f"SKIP pad {hit_skip[1]}: {hit_skip[2]}"
-            reaction_s = hit_skip[0] - fault.at_s
+        pad = _search_then_skip(fault, events, skipped)
+        observed, reaction_s = pad.observed, pad.reaction_s
         causes = [e for te, e in events if te >= fault.at_s and _cause_of(e) is not None]
-        # a dark camera may miss no pad (it came back in time); an occluded pad must go
+        # a dark camera may cost no pad (back before a landing, or during its search); an
+        # occluded pad must go
         must_skip = fault.kind is FaultKind.PAD_OCCLUDED
-        handled = handled and not causes and (hit_skip is not None or not must_skip)
+        handled = handled and not causes and pad.settled and (pad.skipped or not must_skip)
     elif expected.handler is Handler.FCU:
         fs = next((t for t in fcu_failsafes if fault.at_s <= t <= fault.end_s + 1e-9), None)
         if fs is not None:

@@ -63,16 +63,51 @@ def test_a_ridden_out_fault_must_raise_no_error() -> None:
     assert not hit["handled"]
 
 
-def test_an_occluded_pad_must_be_skipped_with_its_reason() -> None:
+def _landing_failed(pad: int) -> MissionEvent:
+    return MissionEvent(EventKind.LANDING_FAILED, f"pad {pad} not seen: searching",
+                        Severity.WARN, marker_id=pad)
+
+
+def _landed(pad: int) -> MissionEvent:
+    return MissionEvent(EventKind.LANDED, f"landed on pad {pad}", marker_id=pad)
+
+
+def test_an_occluded_pad_is_searched_then_skipped_with_its_reason() -> None:
     fault = parse_fault("pad_occluded@0,pad=4")
     skipped = [(120.0, 4, "marker not seen within the search radius")]
-    judged = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, skipped)
-    assert judged["expected"] == "SKIP" and judged["handled"]
-    assert judged["observed"] == "SKIP pad 4: marker not seen within the search radius"
+    judged = judge_fault(fault, [(80.0, _landing_failed(4))], [],
+                         EndState.LANDED_ON_START_PAD, skipped)
+    assert judged["expected"] == "SEARCH, then SKIP" and judged["handled"]
+    assert judged["observed"] == ("SEARCH pad 4, then SKIP pad 4: marker not seen within the "
+                                  "search radius")
+    assert judged["reaction_s"] == 80.0  # the search is the reaction's start
+    alone = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, skipped)  # no path there
+    assert alone["handled"] and alone["observed"] == ("SKIP pad 4: marker not seen within the "
+                                                      "search radius")
     other = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, [(120.0, 5, "x")])
     assert not other["handled"], "another pad skipped is not this one"
     err = judge_fault(fault, [(90.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING,
                       skipped)
+    assert not err["handled"]
+
+
+def test_a_dark_camera_s_landing_is_searched_then_landed_when_the_camera_is_back() -> None:
+    fault = parse_fault("camera_dark@130:60")
+    back = judge_fault(fault, [(176.0, _landing_failed(5)), (232.0, _landed(5))], [],
+                       EndState.LANDED_ON_START_PAD)
+    assert back["expected"] == "SEARCH, then SKIP" and back["handled"]
+    assert back["observed"] == "SEARCH pad 5, then landed on it"
+    assert back["reaction_s"] == 46.0
+    still_dark = judge_fault(fault, [(176.0, _landing_failed(5))], [],
+                             EndState.LANDED_ON_START_PAD, [(220.0, 5, "marker not seen")])
+    assert still_dark["handled"]
+    assert still_dark["observed"] == "SEARCH pad 5, then SKIP pad 5: marker not seen"
+    unsettled = judge_fault(fault, [(176.0, _landing_failed(5))], [], EndState.HOLDING)
+    assert not unsettled["handled"], "a search that neither landed nor skipped"
+    before = judge_fault(fault, [(100.0, _landing_failed(5)), (150.0, _landed(5))], [],
+                         EndState.LANDED_ON_START_PAD)
+    assert before["observed"] == "none" and before["handled"]  # a landing failed before it
+    err = judge_fault(fault, [(140.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING)
     assert not err["handled"]
 
 
