@@ -46,12 +46,13 @@ def report_json(report: dict[str, Any]) -> str:
 
 
 def write_report(out: Path, report: dict[str, Any]) -> Path:
-    """Write ``report`` as ``out/report.json``, with its ``code_version`` (:func:`code_version`)
-    unless it has one; returns its path."""
+    """Write ``report`` as ``out/report.json``; returns its path. ``report`` gains its
+    ``code_version`` (:func:`code_version`) unless it has one, so the dict a scenario
+    returns is the file it wrote."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / REPORT_NAME
-    stamped = report if VERSION_KEY in report else {**report, VERSION_KEY: code_version()}
-    path.write_text(report_json(stamped), encoding="utf-8")
+    report.setdefault(VERSION_KEY, code_version())
+    path.write_text(report_json(report), encoding="utf-8")
     return path
 
 

@@ -21,7 +21,9 @@ def test_a_report_is_stamped_with_the_commit_of_the_checkout_that_flew_it(
         tmp_path: Path) -> None:
     head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True,
                           text=True, check=True).stdout.strip()
-    written = json.loads(write_report(tmp_path, {"result": "completed"}).read_text())
+    report = {"result": "completed"}
+    written = json.loads(write_report(tmp_path, report).read_text())
+    assert written == report  # the caller's report is the file
     assert written["result"] == "completed"
     version = written[VERSION_KEY]
     assert head.startswith(version.removesuffix("-dirty")) and len(head) > 12
