@@ -125,7 +125,8 @@ def reach(fc: Flight) -> MotionAction:
         return Reach.toward(sp, obs.position, target_of(goal),
                             speed=goal.speed or p.cruise_speed,
                             radius=goal.radius or p.reach_radius, tuning=p.reach_tuning(),
-                            stop_at_target=goal.stop_at_target, target_yaw=target_yaw)
+                            stop_at_target=goal.stop_at_target, target_yaw=target_yaw,
+                            velocity=obs.velocity)
 
     def feedback(f: ReachFeedback) -> Any:
         return interfaces.new(REACH.Feedback, position=point(f.position),

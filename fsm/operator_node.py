@@ -150,12 +150,19 @@ class OperatorNode(Node):
                                   robot_marker_id=marker)
         sequence.header.stamp = self.now().to_msg()
         self.proposal_pub.publish(sequence)
+        if not exact.pads:  # the mission would refuse an empty sequence and wait for one
+            self.send(COMMAND.COMMAND_RETURN_HOME,
+                      f"no pad fits the budget of {budget:.0f} s for robot {marker}")
+            return
         self.send(COMMAND.COMMAND_SEQUENCE, f"best of {len(ids)} pads for robot {marker}",
                   sequence)
 
     async def _lengths(self, xy: list[tuple[float, float]]) -> np.ndarray:
         """A* path lengths [m] between every two places (inf where there is no path);
-        paths are taken as symmetric, so each pair is asked once."""
+        paths are taken as symmetric, so each pair is asked once. The first place is the
+        robot's: where the planner cannot start above it (a robot against a wall or an
+        obstacle is inside the vehicle's clearance; the vehicle saw it from beside it),
+        its legs are priced by the straight line."""
         n = len(xy)
         lengths = np.zeros((n, n))
         z = self.params.planning_altitude
@@ -165,7 +172,12 @@ class OperatorNode(Node):
                 request.start = _point(*xy[i], z)
                 request.goal = _point(*xy[j], z)
                 response = await self.plan_client.call_async(request)
-                value = float(response.length) if response.success else math.inf
+                if response.success:
+                    value = float(response.length)
+                elif i == 0 and response.result == PLAN_PATH.Response.RESULT_START_OCCUPIED:
+                    value = math.dist(xy[0], xy[j])
+                else:
+                    value = math.inf
                 lengths[i, j] = lengths[j, i] = value
         return lengths
 

@@ -36,10 +36,12 @@ followed as above; a waypoint with no path is skipped or, with
 ``replace_blocked_lane_ends``, replaced by the nearest point toward its lane's other end
 that has one. It stops as soon as a wanted marker is seen (the vehicle then holds where it
 is) or the time budget is used up. While none is seen, it sweeps again, up to
-``explore_sweeps`` times: lanes across the area, then along it, in turn. A robot moves
-while the lanes are flown, and one sweep can miss it (random arena 5's robot stayed
-1.5-2.3 m beside each lane as the vehicle passed); a sweep across the first crosses its
-track the other way.
+``explore_sweeps`` times: lanes along the area's longer side, then across it, in turn
+(after a predefined path, whose shape says nothing of how a robot it missed moves, the
+lanes along come first: they have the fewest ends, so cover the area soonest). A robot
+moves while the lanes are flown, and one sweep can miss it (random arena 5's robot stayed
+1.5-2.3 m beside each lane as the vehicle passed); lanes parallel to its track cannot miss
+it, so the next sweep crosses the last one's lanes.
 
 Surveying (:class:`SurveyPolicy`): quarter turns after takeoff, so the depth camera maps
 all around.
@@ -66,6 +68,11 @@ FloatArray = npt.NDArray[np.float64]
 POLL_S = 0.1  # s, how often a running goal looks at its flight-control action
 LANE_STEP_M = 0.5  # m, an unreachable explore waypoint is tried this much nearer its lane
 LANE_DETOUR = 1.2  # a replacement's path is at most this times the straight line (+ a step)
+# m, a lane's point is flown to by a path at most this much longer than the straight line:
+# round a block in the lane (the contest's 3 m wall across the lane at y = 9 m: 4.3 m more),
+# not round the far end of a wall that runs across the lane's whole width (its far side is
+# the other sweep's, whose lanes run along the wall)
+LANE_POINT_DETOUR_M = 5.0
 FACE_LEG_MIN_M = 0.3  # m, a waypoint nearer than this (horizontally) keeps the heading
 END_TOLERANCE_M = 1e-6  # m, a plan to a leg's end that ends farther away snapped it: not free
 
@@ -106,6 +113,7 @@ class ExploreTuning:
     down_camera_fovy_deg: float  # deg
     down_camera_aspect: float
     lane_overlap: float
+    lane_point_spacing: float  # m
     wall_margin: float  # m
     arena: str
     start_pad: int
@@ -281,18 +289,21 @@ def explore_waypoints(tuning: ExploreTuning, explore_paths: Mapping[str, Mapping
                       ) -> tuple[FloatArray, str]:
     """The explore path (N, 3) for an area ((M, 2) polygon; empty = the field [m] between
     ``field_min`` and ``field_max``) and where it came from. Sweep 0 is the predefined path
-    (when the field has one) or lanes along the area's longer side; later sweeps are lanes,
-    across the area (along its shorter side) on odd sweeps, each from the corner nearest
-    ``here``."""
+    (when the field has one); the lane sweeps are along the area's longer side, then across
+    it (along its shorter side), in turn, each from the corner nearest ``here``. The lanes
+    along come first because they are the fewest, so the quickest full cover; a predefined
+    path, not being lanes, says nothing of which way a robot it missed moves."""
     t = tuning
-    across = sweep % 2 == 1
+    predefined = (explore_paths.get(t.arena, {}).get(t.start_pad) if len(area) == 0
+                  else None)
+    lane_sweep = sweep - (predefined is not None)
+    across = lane_sweep % 2 == 1
     how = "coverage lanes across" if across else "coverage lanes over"
     spacing = lane_spacing(altitude, t.down_camera_fovy_deg, t.down_camera_aspect,
                            t.lane_overlap)
     start = here[:2]
     if len(area) == 0:
-        predefined = explore_paths.get(t.arena, {}).get(t.start_pad)
-        if predefined is not None and sweep == 0:
+        if predefined is not None and lane_sweep < 0:
             xy, source = predefined, f"explore path of {t.arena} pad {t.start_pad}"
         else:
             lo = field_min[:2] + t.wall_margin
@@ -303,6 +314,18 @@ def explore_waypoints(tuning: ExploreTuning, explore_paths: Mapping[str, Mapping
         xy = coverage_lanes(area.min(axis=0), area.max(axis=0), spacing, start, across=across)
         source = f"{how} the area"
     return np.column_stack([xy, np.full(len(xy), altitude)]), source
+
+
+def lane_points(start: FloatArray, end: FloatArray, spacing: float) -> FloatArray:
+    """The points (N, 3) strictly between a lane's ``start`` and ``end``, evenly spaced at
+    most ``spacing`` [m] apart (none on a lane that short). The lane is flown through them
+    so a detour round an obstacle in it comes back to the lane at the next one; planned
+    end to end, the shortest path can leave the lane for good (the faults campaign's
+    seed 1: a lane along a robot's track, blocked by a wall at its west end, was flown as
+    a diagonal that passed 1-2 m south of the robot)."""
+    length = float(np.linalg.norm(end - start))
+    n = math.ceil(length / spacing - 1e-9)
+    return start + np.outer(np.arange(1, n) / n, end - start) if n > 1 else np.empty((0, 3))
 
 
 @dataclass(frozen=True)
@@ -394,19 +417,29 @@ class _Follower(_Policy):
         """What is left of ``path`` [m] from here, flying to waypoint ``i``."""
         return float(np.linalg.norm(path[i] - self.here)) + path_length(path[i:])
 
-    def _fly(self, goal: FloatArray, *, radius: float, speed: float) -> Script[_Flown]:
-        """Plan to ``goal`` and follow the path, re-planning as the module docstring says."""
+    def _fly(self, goal: FloatArray, *, radius: float, speed: float, stop: bool = True,
+             attempts: int | None = None, max_detour: float = math.inf) -> Script[_Flown]:
+        """Plan to ``goal`` and follow the path, re-planning as the module docstring says.
+        ``stop``: stop at the goal (else pass it, for a leg that goes on the same way);
+        ``attempts``: plans tried before NO_PATH (None: ``plan_attempts``);
+        ``max_detour`` [m]: NO_PATH when the first path is longer than the straight line
+        by more."""
         f = self.follow
         path: FloatArray | None = None
         message = ""
-        for _ in range(f.plan_attempts):
+        attempts = f.plan_attempts if attempts is None else attempts
+        for attempt in range(attempts):
             planned = yield from self._plan(self.here, goal)
             path, message = planned.path, planned.message
             if path is not None:
                 break
-            yield Sleep(f.replan_period_s)
+            if attempt + 1 < attempts:
+                yield Sleep(f.replan_period_s)
         if path is None:
             return _Flown(Outcome.NO_PATH, message)
+        detour = path_length(path) - float(np.linalg.norm(goal - self.here))
+        if detour > max_detour:
+            return _Flown(Outcome.NO_PATH, f"a detour of {detour:.1f} m")
         failures = 0
         i = 1
         fresh = True  # the path was just planned (else the map may have changed under it)
@@ -441,7 +474,8 @@ class _Follower(_Policy):
             corner = not last and turn_angle(path, i) > f.turn_first_angle
             radius_i = radius if last else corner_radius(path, i, f.waypoint_radius,
                                                          f.corner_cut)
-            sent = _expect((yield SendReach(wp, heading, radius_i, speed, last or corner)), Sent)
+            sent = _expect((yield SendReach(wp, heading, radius_i, speed,
+                                            (last and stop) or corner)), Sent)
             if not sent.accepted:
                 return _Flown(Outcome.FLIGHT_ERROR, f"reach rejected: {sent.message}")
             period_ns = int(f.replan_period_s * 1e9)
@@ -651,12 +685,23 @@ class ExplorePolicy(_Follower):
                 waypoints, source = self._waypoints(sweep)
             yield Log(f"explore sweep {sweep + 1}/{sweeps}: {len(waypoints)} waypoints "
                       f"({source})")
+            lanes = source.startswith("coverage lanes")
             for k, wp in enumerate(waypoints):
                 self._waypoint = wp
                 if self._stop():
                     stopped = True
                     break
-                fly = yield from self._fly(wp, radius=f.waypoint_radius, speed=f.cruise_speed)
+                fly = _Flown(Outcome.REACHED, "")
+                if lanes and k % 2 == 1:  # a lane: along it, through the points on it
+                    for point in lane_points(waypoints[k - 1], wp, e.lane_point_spacing):
+                        fly = yield from self._fly(point, radius=f.waypoint_radius,
+                                                   speed=f.cruise_speed, stop=False,
+                                                   attempts=1, max_detour=LANE_POINT_DETOUR_M)
+                        if fly.outcome not in (Outcome.REACHED, Outcome.NO_PATH):
+                            break  # a point in an obstacle (or far round one): the next
+                if fly.outcome in (Outcome.REACHED, Outcome.NO_PATH):
+                    fly = yield from self._fly(wp, radius=f.waypoint_radius,
+                                               speed=f.cruise_speed)
                 if fly.outcome is Outcome.NO_PATH and e.replace_blocked_lane_ends:
                     # the lane's end is in an obstacle: fly the lane as far as it goes
                     partner = k ^ 1 if source.startswith("coverage lanes") else k - 1
@@ -721,6 +766,7 @@ class ExplorePolicy(_Follower):
 
 __all__ = [
     "LANE_DETOUR",
+    "LANE_POINT_DETOUR_M",
     "LANE_STEP_M",
     "POLL_S",
     "ActionState",
@@ -747,4 +793,5 @@ __all__ = [
     "Sleep",
     "SurveyPolicy",
     "explore_waypoints",
+    "lane_points",
 ]

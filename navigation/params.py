@@ -127,8 +127,12 @@ class NavigatorParams:
                     "toward its lane's other end reached along the lane (else skipped)")
     explore_sweeps: int = param(range=(1, 20),
                                 description="sweeps of the area while no stop marker is "
-                                            "seen: the explore path, then lanes across and "
-                                            "along in turn")
+                                            "seen: the explore path, then lanes along and "
+                                            "across in turn")
+    lane_point_spacing: float = param(
+        unit="m", range=(0.5, 100.0),
+        description="a coverage lane is flown through points on it at most this far apart, "
+                    "so a detour round an obstacle comes back to the lane")
     lane_overlap: float = param(unit="1", range=(0.0, 0.9),
                                 description="coverage lanes overlap of the camera footprint")
     down_camera_fovy_deg: float = param(unit="deg", range=(1.0, 179.0),

@@ -50,15 +50,24 @@ class Reach:
     @classmethod
     def toward(cls, start: Setpoint, position: npt.ArrayLike, target: npt.ArrayLike, *,
                speed: float, radius: float, tuning: ReachTuning, stop_at_target: bool = True,
-               target_yaw: float | None = None) -> Reach:
+               target_yaw: float | None = None,
+               velocity: npt.ArrayLike | None = None) -> Reach:
         """From the vehicle's ``position`` to ``target`` at ``speed`` [m/s], turning from
-        the streamed ``start`` setpoint's yaw to ``target_yaw`` (None: keep it)."""
+        the streamed ``start`` setpoint's yaw to ``target_yaw`` (None: keep it). The
+        carrot starts at the vehicle's ``velocity`` [m/s] along the segment (none
+        backwards, at most ``speed``): a reach that follows one passed on the way goes on
+        at the speed the vehicle has instead of braking to a start from rest."""
         plan = ReachPlan.build(position, target, spacing=tuning.spacing, cruise_speed=speed,
                                acceleration=tuning.acceleration,
                                waypoint_radius=tuning.waypoint_radius,
                                stop_at_target=stop_at_target, start_yaw=start.yaw,
                                target_yaw=target_yaw)
-        return cls(plan, radius=radius, stop_speed=tuning.stop_speed, settle_s=tuning.settle_s)
+        reach = cls(plan, radius=radius, stop_speed=tuning.stop_speed,
+                    settle_s=tuning.settle_s)
+        if velocity is not None:
+            along = float(np.dot(np.asarray(velocity, dtype=np.float64), plan.direction))
+            reach.progress = ReachProgress(speed=min(max(along, 0.0), plan.cruise_speed))
+        return reach
 
     @property
     def expected_s(self) -> float:

@@ -91,7 +91,10 @@ def test_the_operator_starts_the_mission_once_it_shows_idle() -> None:
     assert operator.tables == {19: {1: 5, 2: 10, 3: 20}}
 
 
-def test_the_operator_proposes_the_sequence_it_sends_priced_by_the_path_finder() -> None:
+def _operator_answer(robot_xy: tuple[float, float], *, cloud: np.ndarray | None = None,
+                     overrides: dict[str, Any] | None = None) -> tuple[list[Any], list[Any]]:
+    """The real path finder and operator on a 12 m x 12 m field: a robot seen at
+    ``robot_xy``; (the operator's proposals, its commands)."""
     from fsm.mission_node import PROPOSAL_TOPIC, ROBOT_TOPIC
     from navigation.cloud_msgs import cloud_msg
     from navigation.path_finder_node import PathFinderNode
@@ -101,7 +104,8 @@ def test_the_operator_proposes_the_sequence_it_sends_priced_by_the_path_finder()
     finder = PathFinderNode(context=ex.context, parameter_overrides={
         "field_min": [0.0, 0.0, 0.0], "field_max": [12.0, 12.0, 3.0]})
     operator = OperatorNode(context=ex.context, parameter_overrides=PADS | {
-        "robot_ids": [19], "robot_points": [5, 10, 20], "start_after_s": 0.0})
+        "robot_ids": [19], "robot_points": [5, 10, 20], "start_after_s": 0.0}
+        | (overrides or {}))
     station = Station(context=ex.context)
     proposals: list[Any] = []
     station.create_subscription("quadmission_interfaces/msg/LandingSequence", PROPOSAL_TOPIC,
@@ -114,14 +118,36 @@ def test_the_operator_proposes_the_sequence_it_sends_priced_by_the_path_finder()
         ex.add_node(node)
     map_pub = station.create_publisher("sensor_msgs/msg/PointCloud2", "/map/points",
                                        qos_profile_default)
-    map_pub.publish(cloud_msg(np.array([[11.0, 11.0, 0.5]]), Time(0).to_msg(), "map"))
+    points = np.array([[11.0, 11.0, 0.5]]) if cloud is None else cloud
+    map_pub.publish(cloud_msg(points, Time(0).to_msg(), "map"))
     ex.spin_for(0.2)
     robot = interfaces.new("quadmission_interfaces/msg/RobotFound", marker_id=19)
-    robot.pose.position.x, robot.pose.position.y = 2.0, 2.0
+    robot.pose.position.x, robot.pose.position.y = robot_xy
     robot_pub.publish(robot)
     ex.spin_for(3.0)
+    return proposals, commands
+
+
+def test_the_operator_proposes_the_sequence_it_sends_priced_by_the_path_finder() -> None:
+    proposals, commands = _operator_answer((2.0, 2.0))
     sent = [c for c in commands if c.command == COMMAND.COMMAND_SEQUENCE]
     assert len(proposals) == 1 and len(sent) == 1
     assert list(proposals[0].pad_ids) == list(sent[0].sequence.pad_ids)
     assert sorted(proposals[0].pad_ids) == [1, 2, 3]  # all three fit the default budget
     assert list(proposals[0].pad_points) == [{1: 5, 2: 10, 3: 20}[p] for p in proposals[0].pad_ids]
+
+
+def test_a_robot_against_a_wall_is_priced_from_beside_it_not_refused() -> None:
+    """The vehicle's clearance from the field's edge holds the robot's place: the planner
+    cannot start there, so the legs from it are priced by the straight line (the faults
+    campaign: robot 19 parked against the north wall, and the sequence came out empty)."""
+    proposals, commands = _operator_answer((1.5, 11.9))  # 0.1 m from the north wall
+    sent = [c for c in commands if c.command == COMMAND.COMMAND_SEQUENCE]
+    assert len(sent) == 1 and len(proposals) == 1
+    assert sorted(sent[0].sequence.pad_ids) == [1, 2, 3]
+
+
+def test_when_no_pad_fits_the_budget_the_operator_sends_the_vehicle_home() -> None:
+    _, commands = _operator_answer((2.0, 2.0), overrides={"mission_time_s": 20.0})
+    assert [c.command for c in commands] == [COMMAND.COMMAND_RETURN_HOME]
+    assert "no pad fits the budget of 20 s for robot 19" in commands[0].reason

@@ -51,16 +51,25 @@ def test_an_explore_area_overrides_the_predefined_path() -> None:
     assert points[:, :2].max(axis=0).tolist() == [8.0, 6.0]
 
 
-def test_later_sweeps_are_lanes_across_then_along_even_where_a_path_is_predefined() -> None:
+def test_after_a_predefined_path_the_lane_sweeps_run_along_then_across() -> None:
     _, nav = navigator(arena="contest", start_pad=1)
     _, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=0)
     assert source.startswith("explore path of contest")
-    across, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=1)
+    along, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=1)
+    assert source == "coverage lanes over the field"
+    assert np.allclose(np.diff(along[:, 1])[::2], 0.0)  # lanes along x, the long side
+    across, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=2)
     assert source == "coverage lanes across the field"
     assert np.allclose(np.diff(across[:, 0])[::2], 0.0)  # lanes along y, the short side
-    along, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=2)
+    assert len(along) < len(across)  # the lanes along have fewer ends: the quicker cover
+
+
+def test_without_a_predefined_path_the_first_sweep_is_lanes_along_then_across() -> None:
+    _, nav = navigator(arena="random-7", start_pad=4)
+    _, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=0)
     assert source == "coverage lanes over the field"
-    assert np.allclose(np.diff(along[:, 1])[::2], 0.0)  # lanes along x
+    _, source = nav.explore_waypoints(np.empty((0, 2)), 1.5, sweep=1)
+    assert source == "coverage lanes across the field"
 
 
 class HealthListener(Node):

@@ -39,6 +39,7 @@ from navigation.navigator_policy import (
     Sleep,
     SurveyPolicy,
     explore_waypoints,
+    lane_points,
 )
 from navigation.params import NavigatorParams
 
@@ -47,7 +48,8 @@ FOLLOW = FollowTuning(plan_attempts=3, replan_period_s=1.0, replan_tolerance=0.5
                       corner_cut=0.1, goal_radius=0.15, cruise_speed=1.0, max_reach_failures=1)
 EXPLORE = ExploreTuning(explore_sweeps=3, replace_blocked_lane_ends=False, coverage_cell=0.25,
                         down_camera_fovy_deg=60.0, down_camera_aspect=4.0 / 3.0,
-                        lane_overlap=0.2, wall_margin=1.0, arena="", start_pad=0)
+                        lane_overlap=0.2, lane_point_spacing=3.0, wall_margin=1.0, arena="",
+                        start_pad=0)
 Z = 1.5
 HERE = np.array([0.0, 0.0, Z])
 GOAL = np.array([4.0, 0.0, Z])
@@ -249,9 +251,10 @@ def test_plan_failures_are_retried_then_the_goal_ends_with_no_path() -> None:
     world = World(navigate(), lambda s, g, w: failed("GoalOccupied: in the wall"))
     end = world.run()
     assert end == Finish(Outcome.NO_PATH, "GoalOccupied: in the wall")
-    # plan_attempts plans, each followed by replan_period_s of waiting
-    assert [type(c) for c in world.log] == [Plan, Sleep] * FOLLOW.plan_attempts + [Finish]
-    assert world.of(Sleep) == [Sleep(FOLLOW.replan_period_s)] * FOLLOW.plan_attempts
+    # plan_attempts plans, replan_period_s apart; no wait after the last
+    assert [type(c) for c in world.log] == ([Plan, Sleep] * (FOLLOW.plan_attempts - 1)
+                                            + [Plan, Finish])
+    assert world.of(Sleep) == [Sleep(FOLLOW.replan_period_s)] * (FOLLOW.plan_attempts - 1)
     assert all(np.array_equal(c.start, HERE) and np.array_equal(c.goal, GOAL)
                for c in world.of(Plan))
 
@@ -756,6 +759,71 @@ def test_two_sweeps_are_counted_in_the_message() -> None:
     assert " in 2 sweeps (last: coverage lanes across the area)" in world.run().message
 
 
+def test_lane_points_split_a_lane_evenly_at_most_the_spacing_apart() -> None:
+    a, b = np.array([1.0, 9.0, Z]), np.array([19.0, 9.0, Z])
+    points = lane_points(a, b, 4.0)
+    assert points.shape == (4, 3)  # 18 m in 5 pieces of 3.6 m
+    assert np.allclose(points[:, 0], [4.6, 8.2, 11.8, 15.4]) and np.all(points[:, 1:] == [9, Z])
+    assert lane_points(a, b, 18.0).shape == (0, 3)  # one piece: no point between
+    assert lane_points(a, a, 3.0).shape == (0, 3)
+
+
+LONG_AREA = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 2.0], [1.0, 2.0]])
+
+
+def test_a_lane_is_flown_through_its_points_passing_them_and_stopping_at_its_end() -> None:
+    world = World(explore(area=LONG_AREA), straight, here=np.array([1.0, 1.0, Z]))
+    end = world.run()
+    assert end.outcome is Outcome.COVERED
+    reaches = world.of(SendReach)
+    # lane 1 west to east through x = 4 and 7, the crossing, lane 2 back through 7 and 4
+    assert [r.target[:2].tolist() for r in reaches] == [
+        [1, 1], [4, 1], [7, 1], [10, 1], [10, 2], [7, 2], [4, 2], [1, 2]]
+    assert [r.stop_at_target for r in reaches] == [True, False, False, True, True, False,
+                                                   False, True]
+    assert end.message.startswith("4/4 waypoints flown")  # the lane ends are the waypoints
+
+
+def test_a_detour_round_an_obstacle_in_a_lane_comes_back_to_the_lane() -> None:
+    """The shortest path from the lane's start to its end would leave the lane for good;
+    the lane's points bring it back. A point inside the obstacle is passed by at once."""
+    inside = np.array([4.0, 1.0, Z])
+
+    def wall_at_x4(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if np.allclose(goal, inside):
+            return failed("GoalOccupied: in the wall")
+        if start[0] < 4.0 < goal[0]:  # round the wall's north end, 3 m off the lane
+            return ok(np.array([start, [4.0, 4.0, Z], goal]), stamp_ns=world.now_ns)
+        return straight(start, goal, world)
+
+    area = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
+    world = World(explore(area=area), wall_at_x4, here=np.array([1.0, 1.0, Z]))
+    end = world.run()
+    assert end.outcome is Outcome.COVERED
+    targets = [r.target[:2].tolist() for r in world.of(SendReach)]
+    assert targets == [[1, 1], [4, 4], [7, 1], [10, 1]]  # back on the lane at x = 7
+    goals = [c.goal[:2].tolist() for c in world.of(Plan)]
+    assert goals.count([4.0, 1.0]) == 1  # the point in the wall: one plan, no retries
+    assert Sleep(FOLLOW.replan_period_s) not in world.log
+
+
+def test_a_lane_point_reached_only_far_round_an_obstacle_is_passed_by() -> None:
+    """Past the far end of a wall across the whole lane: the point is the other sweep's."""
+    def long_wall_at_x5(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if start[0] < 5.5 < goal[0]:  # round the wall's end, 6 m off the lane
+            return ok(np.array([start, [5.5, 7.0, Z], goal]), stamp_ns=world.now_ns)
+        return straight(start, goal, world)
+
+    area = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
+    world = World(explore(area=area), long_wall_at_x5, here=np.array([1.0, 1.0, Z]))
+    world.run()
+    targets = [r.target[:2].tolist() for r in world.of(SendReach)]
+    assert targets[:2] == [[1, 1], [4, 1]]  # the lane's first point, this side of the wall
+    # its second, (7, 1): 12.4 m round for 3 m straight, more than LANE_POINT_DETOUR_M more
+    assert [7.0, 1.0] not in targets
+    assert targets[-1] == [10.0, 1.0]  # the lane's end is flown to as before
+
+
 def test_a_wanted_marker_seen_on_the_way_stops_the_leg_and_holds() -> None:
     def marker_after_3_s(world: World) -> None:
         if world.now_ns >= 3_000_000_000:
@@ -1061,8 +1129,10 @@ def test_explore_waypoints_take_the_predefined_path_on_the_first_sweep_only() ->
     paths = {"a": {2: np.array([[3.0, 3.0], [5.0, 3.0]])}}
     points, source = explore_waypoints(tuning, paths, *FIELD, np.empty((0, 2)), Z, HERE)
     assert source == "explore path of a pad 2" and points.tolist() == [[3, 3, Z], [5, 3, Z]]
+    _, source = explore_waypoints(tuning, paths, *FIELD, np.empty((0, 2)), Z, HERE, sweep=1)
+    assert source == "coverage lanes over the field"  # the lanes along first: fewest ends
     _, source = explore_waypoints(tuning, paths, *FIELD, np.empty((0, 2)), Z, HERE, sweep=2)
-    assert source == "coverage lanes over the field"
+    assert source == "coverage lanes across the field"
     other = ExploreTuning(**{**EXPLORE.__dict__, "arena": "a", "start_pad": 3})
     _, source = explore_waypoints(other, paths, *FIELD, np.empty((0, 2)), Z, HERE)
     assert source == "coverage lanes over the field"

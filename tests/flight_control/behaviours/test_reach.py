@@ -131,6 +131,24 @@ def test_the_carrot_accelerates_from_the_start_along_the_segment() -> None:
     assert second.feedback.position.tolist() == [0.0, 0.0, 1.0]
 
 
+@pytest.mark.parametrize(("velocity", "speed"), [
+    ((0.8, 0.6, 0.0), 0.8),  # the part along the segment: a reach after one passed on the way
+    ((-0.5, 0.0, 0.0), 0.0),  # backwards: from rest, as before
+    ((3.0, 0.0, 0.0), 1.0),  # never above the reach's speed
+])
+def test_the_carrot_starts_at_the_vehicles_speed_along_the_segment(
+        velocity: tuple[float, float, float], speed: float) -> None:
+    reach = Reach.toward(START, START.position, (4.0, 0.0, 1.0), speed=1.0, radius=0.15,
+                         tuning=TUNING, velocity=velocity)
+    first = reach.step(observe(START.position, velocity=velocity), 0)
+    assert first.setpoint is not None
+    assert first.setpoint.velocity.tolist() == pytest.approx([speed, 0.0, 0.0])
+    later = reach.step(observe(START.position, velocity=velocity), 200_000_000)  # 0.2 s
+    assert later.setpoint is not None  # accelerating from there at 1 m/s^2, up to 1 m/s
+    assert later.setpoint.velocity[0] == pytest.approx(min(speed + 0.2, 1.0))
+    assert later.setpoint.position[0] == pytest.approx(min(speed + 0.2, 1.0) * 0.2)
+
+
 @pytest.mark.parametrize("kwargs", [{"offboard": False}, {"armed": False}, {"stale": True}])
 def test_losing_offboard_control_ends_it(kwargs: dict[str, Any]) -> None:
     reach = _reach()
