@@ -29,6 +29,7 @@ from runtime import Node, ParameterError, qos_profile_default, qos_profile_latch
 
 QM = "quadmission_interfaces"
 PLAN_PATH = interfaces.get_service(f"{QM}/srv/PlanPath")
+_PLANNED: Any = PLAN_PATH.Response
 COMMAND: Any = interfaces.get_message(f"{QM}/msg/MissionCommand")
 PHASE_IDLE = 0  # MissionState.PHASE_IDLE
 
@@ -174,7 +175,7 @@ class OperatorNode(Node):
                 response = await self.plan_client.call_async(request)
                 if response.success:
                     value = float(response.length)
-                elif i == 0 and response.result == PLAN_PATH.Response.RESULT_START_OCCUPIED:
+                elif i == 0 and response.result == _PLANNED.RESULT_START_OCCUPIED:
                     value = math.dist(xy[0], xy[j])
                 else:
                     value = math.inf
