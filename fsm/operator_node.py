@@ -152,8 +152,9 @@ class OperatorNode(Node):
         sequence.header.stamp = self.now().to_msg()
         self.proposal_pub.publish(sequence)
         if not exact.pads:  # the mission would refuse an empty sequence and wait for one
-            self.send(COMMAND.COMMAND_RETURN_HOME,
-                      f"no pad fits the budget of {budget:.0f} s for robot {marker}")
+            why = (f"no pad fits the budget of {budget:.0f} s" if np.isfinite(lengths[0, 1:]).any()
+                   else "no path from the robot to any pad")
+            self.send(COMMAND.COMMAND_RETURN_HOME, f"{why} for robot {marker}")
             return
         self.send(COMMAND.COMMAND_SEQUENCE, f"best of {len(ids)} pads for robot {marker}",
                   sequence)

@@ -32,7 +32,11 @@ then gives up with no path. A failed reach is re-planned from where the vehicle 
 Exploring (:class:`ExplorePolicy`): the predefined exploration path of the arena and start
 pad (with loop closures) or, when there is none or the goal gives an area, boustrophedon
 lanes spaced by the down camera's footprint (:func:`explore_waypoints`); each leg is
-followed as above; a waypoint with no path is skipped or, with
+followed as above, a lane through points on it (:func:`lane_points`), passed without
+stopping where the lane goes on their way, so a detour round an obstacle comes back to the
+lane (a point in an obstacle, or reached only by a detour longer than
+``LANE_POINT_DETOUR_M``, is passed by after one plan); a waypoint with no path is skipped
+or, with
 ``replace_blocked_lane_ends``, replaced by the nearest point toward its lane's other end
 that has one. It stops as soon as a wanted marker is seen (the vehicle then holds where it
 is) or the time budget is used up. While none is seen, it sweeps again, up to
@@ -316,16 +320,28 @@ def explore_waypoints(tuning: ExploreTuning, explore_paths: Mapping[str, Mapping
     return np.column_stack([xy, np.full(len(xy), altitude)]), source
 
 
-def lane_points(start: FloatArray, end: FloatArray, spacing: float) -> FloatArray:
+def lane_points(start: FloatArray, end: FloatArray, spacing: float,
+                past: FloatArray | None = None) -> FloatArray:
     """The points (N, 3) strictly between a lane's ``start`` and ``end``, evenly spaced at
-    most ``spacing`` [m] apart (none on a lane that short). The lane is flown through them
-    so a detour round an obstacle in it comes back to the lane at the next one; planned
-    end to end, the shortest path can leave the lane for good (the faults campaign's
-    seed 1: a lane along a robot's track, blocked by a wall at its west end, was flown as
-    a diagonal that passed 1-2 m south of the robot)."""
-    length = float(np.linalg.norm(end - start))
-    n = math.ceil(length / spacing - 1e-9)
-    return start + np.outer(np.arange(1, n) / n, end - start) if n > 1 else np.empty((0, 3))
+    most ``spacing`` [m] apart (none on a lane that short); with ``past``, only those
+    beyond it along the lane (the vehicle, when the lane's start was replaced by a point
+    further on). The lane is flown through them so a detour round an obstacle in it comes
+    back to the lane at the next one; planned end to end, the shortest path can leave the
+    lane for good (the faults campaign's seed 1: a lane along a robot's track, blocked by
+    a wall at its west end, was flown as a diagonal that passed 1-2 m south of the
+    robot)."""
+    d = end - start
+    n = math.ceil(float(np.linalg.norm(d)) / spacing - 1e-9)
+    if n <= 1:
+        return np.empty((0, 3))
+    fractions = np.arange(1, n) / n
+    if past is not None:
+        fractions = fractions[fractions > float((past - start) @ d) / float(d @ d)]
+    return start + np.outer(fractions, d)
+
+
+def _xy(point: FloatArray) -> str:
+    return f"({point[0]:.2f}, {point[1]:.2f})"
 
 
 @dataclass(frozen=True)
@@ -417,17 +433,19 @@ class _Follower(_Policy):
         """What is left of ``path`` [m] from here, flying to waypoint ``i``."""
         return float(np.linalg.norm(path[i] - self.here)) + path_length(path[i:])
 
-    def _fly(self, goal: FloatArray, *, radius: float, speed: float, stop: bool = True,
-             attempts: int | None = None, max_detour: float = math.inf) -> Script[_Flown]:
+    def _fly(self, goal: FloatArray, *, radius: float, speed: float,
+             then: FloatArray | None = None, attempts: int | None = None,
+             max_detour: float = math.inf) -> Script[_Flown]:
         """Plan to ``goal`` and follow the path, re-planning as the module docstring says.
-        ``stop``: stop at the goal (else pass it, for a leg that goes on the same way);
-        ``attempts``: plans tried before NO_PATH (None: ``plan_attempts``);
-        ``max_detour`` [m]: NO_PATH when the first path is longer than the straight line
-        by more."""
+        ``then``: the way [m] the flight goes on from ``goal`` (None: it stops there); the
+        goal is passed without stopping when the path's last leg turns into it by at most
+        ``turn_first_angle``. ``attempts``: plans tried before NO_PATH (None:
+        ``plan_attempts``), also when the way turns out blocked; ``max_detour`` [m]: NO_PATH
+        when a path (the first or a re-plan) is longer than the straight line by more."""
         f = self.follow
+        attempts = f.plan_attempts if attempts is None else attempts
         path: FloatArray | None = None
         message = ""
-        attempts = f.plan_attempts if attempts is None else attempts
         for attempt in range(attempts):
             planned = yield from self._plan(self.here, goal)
             path, message = planned.path, planned.message
@@ -437,18 +455,25 @@ class _Follower(_Policy):
                 yield Sleep(f.replan_period_s)
         if path is None:
             return _Flown(Outcome.NO_PATH, message)
-        detour = path_length(path) - float(np.linalg.norm(goal - self.here))
-        if detour > max_detour:
-            return _Flown(Outcome.NO_PATH, f"a detour of {detour:.1f} m")
+
+        def too_long(p: FloatArray) -> str | None:
+            detour = path_length(p) - float(np.linalg.norm(goal - self.here))
+            return f"a detour of {detour:.1f} m" if detour > max_detour else None
+
+        if (why := too_long(path)) is not None:
+            return _Flown(Outcome.NO_PATH, why)
         failures = 0
         i = 1
         fresh = True  # the path was just planned (else the map may have changed under it)
         while i < len(path):
             if not fresh:  # a new leg on a path planned legs ago: is it still clear?
-                new, no_path = yield from self._recheck(path, i, goal, flying=False)
+                new, no_path = yield from self._recheck(path, i, goal, flying=False,
+                                                        attempts=attempts)
                 if no_path is not None:
                     return _Flown(Outcome.NO_PATH, no_path)
                 if new is not None:
+                    if (why := too_long(new)) is not None:
+                        return _Flown(Outcome.NO_PATH, why)
                     path, i = new, 1
                 fresh = True
             wp = path[i]
@@ -464,18 +489,22 @@ class _Follower(_Policy):
                                   else Outcome.STOPPED, self.why)
                 new, blocked = yield from self._look_again(path, i, goal)
                 if new is None and blocked:
-                    new, message = yield from self._plan_again(goal)
+                    new, message = yield from self._plan_again(goal, attempts)
                     if new is None:
                         return _Flown(Outcome.NO_PATH, message)
                 if new is not None:
+                    if (why := too_long(new)) is not None:
+                        return _Flown(Outcome.NO_PATH, why)
                     path, i = new, 1
                     continue
-            # a sharp corner next: stop there (the vehicle turns in place before that leg)
-            corner = not last and turn_angle(path, i) > f.turn_first_angle
+            # a sharp corner next: stop there (the vehicle turns in place before that leg);
+            # at the goal, the way on from it (``then``) is the next leg
+            ahead = path if not last or then is None else np.vstack([path, wp + then])
+            corner = (not last or then is not None) and turn_angle(ahead, i) > f.turn_first_angle
             radius_i = radius if last else corner_radius(path, i, f.waypoint_radius,
                                                          f.corner_cut)
             sent = _expect((yield SendReach(wp, heading, radius_i, speed,
-                                            (last and stop) or corner)), Sent)
+                                            (last and then is None) or corner)), Sent)
             if not sent.accepted:
                 return _Flown(Outcome.FLIGHT_ERROR, f"reach rejected: {sent.message}")
             period_ns = int(f.replan_period_s * 1e9)
@@ -492,10 +521,13 @@ class _Follower(_Policy):
                 yield self._progress(path, i)
                 if self._now.now_ns >= next_plan_ns:
                     next_plan_ns = self._now.now_ns + period_ns
-                    new, no_path = yield from self._recheck(path, i, goal, flying=True)
+                    new, no_path = yield from self._recheck(path, i, goal, flying=True,
+                                                            attempts=attempts)
                     if no_path is not None:
                         return _Flown(Outcome.NO_PATH, no_path)
                     if new is not None:
+                        if (why := too_long(new)) is not None:
+                            return _Flown(Outcome.NO_PATH, why)  # its reach was canceled
                         path, i, switched = new, 1, True
                         break
                 yield Sleep(POLL_S)
@@ -510,6 +542,8 @@ class _Follower(_Policy):
             planned = yield from self._plan(self.here, goal)
             if planned.path is None:
                 return _Flown(Outcome.NO_PATH, planned.message)
+            if (why := too_long(planned.path)) is not None:
+                return _Flown(Outcome.NO_PATH, why)
             path, i = planned.path, 1
         return _Flown(Outcome.REACHED, "reached")
 
@@ -524,18 +558,19 @@ class _Follower(_Policy):
                                                             rtol=0.0, atol=END_TOLERANCE_M)
         return planned.blocks_leg
 
-    def _recheck(self, path: FloatArray, i: int, goal: FloatArray, *, flying: bool
-                 ) -> Script[tuple[FloatArray | None, str | None]]:
+    def _recheck(self, path: FloatArray, i: int, goal: FloatArray, *, flying: bool,
+                 attempts: int) -> Script[tuple[FloatArray | None, str | None]]:
         """Plan again from here to ``goal`` and judge leg ``i`` of ``path`` on the map as it
         is now: (the path to switch to or None, why there is no path or None). A blocked
-        leg with no new path holds and plans again (:meth:`_plan_again`). ``flying``: the
-        leg's reach is under way and is canceled before a switch or a hold."""
+        leg with no new path holds and plans again (:meth:`_plan_again`, ``attempts``
+        times). ``flying``: the leg's reach is under way and is canceled before a switch or
+        a hold."""
         planned = yield from self._plan(self.here, goal)
         new, blocked = yield from self._changed_path(path, i, planned.path)
         if flying and (new is not None or blocked):
             yield CancelAction()
         if new is None and blocked:
-            new, message = yield from self._plan_again(goal)
+            new, message = yield from self._plan_again(goal, attempts)
             if new is None:
                 return None, message
         return new, None
@@ -571,21 +606,23 @@ class _Follower(_Policy):
             yield Sleep(POLL_S)
         return (yield from self._changed_path(path, i, planned.path))
 
-    def _plan_again(self, goal: FloatArray) -> Script[tuple[FloatArray | None, str]]:
+    def _plan_again(self, goal: FloatArray, attempts: int
+                    ) -> Script[tuple[FloatArray | None, str]]:
         """The path ahead is blocked and the re-plan found none: hold here and try
-        ``plan_attempts`` times, ``replan_period_s`` apart (the map settles as the camera
+        ``attempts`` times, ``replan_period_s`` apart (the map settles as the camera
         looks); (path or None, the last planner message)."""
         yield from self._hold()
         path: FloatArray | None = None
         message = ""
-        for _ in range(self.follow.plan_attempts):
+        for attempt in range(attempts):
             if self._now.cancel_requested or self._stop():
                 break
             planned = yield from self._plan(self.here, goal)
             path, message = planned.path, planned.message
             if path is not None:
                 break
-            yield Sleep(self.follow.replan_period_s)
+            if attempt + 1 < attempts:
+                yield Sleep(self.follow.replan_period_s)
         return path, f"the path ahead is blocked and no other path was found: {message}"
 
 
@@ -691,20 +728,22 @@ class ExplorePolicy(_Follower):
                 if self._stop():
                     stopped = True
                     break
-                fly = _Flown(Outcome.REACHED, "")
+                fly, at = _Flown(Outcome.REACHED, ""), f"waypoint {k + 1}"
                 if lanes and k % 2 == 1:  # a lane: along it, through the points on it
-                    for point in lane_points(waypoints[k - 1], wp, e.lane_point_spacing):
+                    start = waypoints[k - 1]
+                    for point in lane_points(start, wp, e.lane_point_spacing, past=self.here):
                         fly = yield from self._fly(point, radius=f.waypoint_radius,
-                                                   speed=f.cruise_speed, stop=False,
+                                                   speed=f.cruise_speed, then=wp - start,
                                                    attempts=1, max_detour=LANE_POINT_DETOUR_M)
                         if fly.outcome not in (Outcome.REACHED, Outcome.NO_PATH):
-                            break  # a point in an obstacle (or far round one): the next
+                            at = f"the point {_xy(point)} m of the lane to waypoint {k + 1}"
+                            break  # (a point in an obstacle, or far round one: the next)
                 if fly.outcome in (Outcome.REACHED, Outcome.NO_PATH):
                     fly = yield from self._fly(wp, radius=f.waypoint_radius,
                                                speed=f.cruise_speed)
                 if fly.outcome is Outcome.NO_PATH and e.replace_blocked_lane_ends:
                     # the lane's end is in an obstacle: fly the lane as far as it goes
-                    partner = k ^ 1 if source.startswith("coverage lanes") else k - 1
+                    partner = k ^ 1 if lanes else k - 1
                     nearer = ((yield from self._reachable_toward(wp, waypoints[partner]))
                               if 0 <= partner < len(waypoints) else None)
                     if nearer is not None:
@@ -718,7 +757,7 @@ class ExplorePolicy(_Follower):
                     break
                 if fly.outcome is Outcome.FLIGHT_ERROR:
                     outcome = Finish(Outcome.FLIGHT_ERROR,
-                                     f"sweep {sweep + 1}, waypoint {k + 1}: {fly.message}")
+                                     f"sweep {sweep + 1}, {at}: {fly.message}")
                     break
                 if fly.outcome is Outcome.STOPPED:
                     stopped = True

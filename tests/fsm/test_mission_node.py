@@ -151,3 +151,13 @@ def test_when_no_pad_fits_the_budget_the_operator_sends_the_vehicle_home() -> No
     _, commands = _operator_answer((2.0, 2.0), overrides={"mission_time_s": 20.0})
     assert [c.command for c in commands] == [COMMAND.COMMAND_RETURN_HOME]
     assert "no pad fits the budget of 20 s for robot 19" in commands[0].reason
+
+
+def test_when_no_pad_can_be_reached_the_operator_says_so_and_sends_the_vehicle_home() -> None:
+    """A wall across the field between the robot and every pad."""
+    wall = np.array([(x, 1.0, z) for x in np.arange(0.05, 12.0, 0.1)
+                     for z in np.arange(0.05, 3.0, 0.1)])
+    _, commands = _operator_answer((2.0, 0.5), cloud=wall,
+                                   overrides={"pad_y": [11.5, 7.5, 10.5]})
+    assert [c.command for c in commands] == [COMMAND.COMMAND_RETURN_HOME]
+    assert commands[0].reason == "no path from the robot to any pad for robot 19"

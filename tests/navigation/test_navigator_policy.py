@@ -501,9 +501,10 @@ def test_a_blocked_leg_with_no_new_path_holds_then_plans_again_then_gives_up() -
         command = step(ActionState(True, True, "held") if attempt == 0 else None)
         assert isinstance(command, Plan), attempt
         assert np.array_equal(command.start, step.position) and np.array_equal(command.goal, GOAL)
-        assert step(failed(f"NoPathFound {attempt}")) == Sleep(FOLLOW.replan_period_s)
-    assert step() == Finish(Outcome.NO_PATH, "the path ahead is blocked and no other path "
-                                             "was found: NoPathFound 2")
+        if attempt + 1 < FOLLOW.plan_attempts:  # replan_period_s apart, none after the last
+            assert step(failed(f"NoPathFound {attempt}")) == Sleep(FOLLOW.replan_period_s)
+    assert step(failed("NoPathFound 2")) == Finish(
+        Outcome.NO_PATH, "the path ahead is blocked and no other path was found: NoPathFound 2")
 
 
 def test_a_blocked_leg_whose_later_plan_finds_a_path_flies_it() -> None:
@@ -611,9 +612,9 @@ def test_a_goal_found_blocked_after_the_turn_holds_and_gives_up_with_no_path() -
     for _ in range(FOLLOW.plan_attempts - 1):
         assert isinstance(step(failed("NoPathFound: cut off")), Sleep)
         assert isinstance(step(), Plan)
-    assert isinstance(step(failed("NoPathFound: cut off")), Sleep)
-    assert step() == Finish(Outcome.NO_PATH, "the path ahead is blocked and no other path was "
-                                             "found: NoPathFound: cut off")
+    assert step(failed("NoPathFound: cut off")) == Finish(
+        Outcome.NO_PATH, "the path ahead is blocked and no other path was found: "
+                         "NoPathFound: cut off")
 
 
 def test_a_failed_turn_still_looks_again_before_the_leg() -> None:
@@ -822,6 +823,66 @@ def test_a_lane_point_reached_only_far_round_an_obstacle_is_passed_by() -> None:
     # its second, (7, 1): 12.4 m round for 3 m straight, more than LANE_POINT_DETOUR_M more
     assert [7.0, 1.0] not in targets
     assert targets[-1] == [10.0, 1.0]  # the lane's end is flown to as before
+
+
+@pytest.mark.parametrize(("via", "passed"), [
+    ((4.0, 3.0), True),  # back onto the lane 34 deg off it: passed, turning on the way
+    ((6.0, 3.0), False),  # 63 deg off: stopped there, to turn and face the lane first
+])
+def test_a_lane_point_after_a_detour_is_passed_only_if_the_lane_goes_on_its_way(
+        via: tuple[float, float], passed: bool) -> None:
+    def detour_to_x7(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if start[0] < via[0] - 1e-9 and np.allclose(goal, [7.0, 1.0, Z]):
+            return ok(np.array([start, [*via, Z], goal]), stamp_ns=world.now_ns)
+        return straight(start, goal, world)
+
+    area = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
+    world = World(explore(area=area), detour_to_x7, here=np.array([1.0, 1.0, Z]))
+    world.run()
+    at_x7 = [r for r in world.of(SendReach) if np.allclose(r.target, [7.0, 1.0, Z])]
+    assert len(at_x7) == 1 and at_x7[0].stop_at_target is not passed
+
+
+def test_the_points_behind_a_lane_start_replaced_further_on_are_not_flown_back_to() -> None:
+    tuning = ExploreTuning(**{**EXPLORE.__dict__, "replace_blocked_lane_ends": True})
+
+    def block_west_of_x4_2(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if goal[0] < 4.2:
+            return failed("GoalOccupied: in the block")
+        return straight(start, goal, world)
+
+    area = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
+    world = World(explore(tuning, area=area), block_west_of_x4_2, here=np.array([2.0, 3.0, Z]))
+    end = world.run()
+    # the lane's start (1, 1) is replaced by (4.5, 1); its point (4, 1) is behind it
+    assert [r.target[:2].tolist() for r in world.of(SendReach)] == [[4.5, 1], [7, 1], [10, 1]]
+    assert end.message.startswith("2/2 waypoints flown")
+
+
+def test_a_wanted_marker_seen_on_the_way_to_a_lane_point_ends_the_exploration() -> None:
+    def marker_on_the_way_to_the_first_point(world: World) -> None:
+        flying = world.flying
+        if isinstance(flying, SendReach) and flying.target[0] == 4.0 and world.polled >= 2:
+            world.markers = {19: world.now_ns}
+
+    world = World(explore(area=LONG_AREA, wanted=frozenset({19})), straight, polls=10,
+                  during=marker_on_the_way_to_the_first_point, here=np.array([1.0, 1.0, Z]))
+    end = world.run()
+    assert end.outcome is Outcome.MARKER_FOUND
+    reaches = world.of(SendReach)
+    assert reaches[1].target[:2].tolist() == [4, 1] and not reaches[1].stop_at_target
+    assert reaches[-1].stop_at_target and reaches[-1].radius == FOLLOW.goal_radius  # held
+    assert len(reaches) == 3  # the lane's start, its first point, the hold
+
+
+def test_a_failed_reach_to_a_lane_point_is_reported_with_the_point() -> None:
+    world = World(explore(area=LONG_AREA), straight, here=np.array([1.0, 1.0, Z]))
+    world.fail = lambda c: "motors off" if (isinstance(c, SendReach)
+                                            and c.target[0] == 4.0) else None
+    end = world.run()
+    assert end.outcome is Outcome.FLIGHT_ERROR
+    assert end.message.startswith("sweep 1, the point (4.00, 1.00) m of the lane to "
+                                  "waypoint 2: reach failed")
 
 
 def test_a_wanted_marker_seen_on_the_way_stops_the_leg_and_holds() -> None:
