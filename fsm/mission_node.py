@@ -11,6 +11,8 @@ driver's inputs, carries out its commands and feeds the answers back; the decisi
 - ``/mission/command`` (MissionCommand), answered on ``/mission/events`` (MissionEvent);
 - ``/mission/state`` (MissionState) on every change and at ``state_rate_hz``;
 - ``/mission/robot`` (RobotFound): the pictures of the target robot;
+- ``/aruco_scanner/enable`` (SetBool): the scanner on in the states that read markers,
+  off in the others (:func:`fsm.mission_table.scans`), asked on each change;
 - inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each of
   ``health_topics``; preflight also needs every action of ``action_servers``;
   ``/fcu/odometry`` gives the position (a take-off resumed in the air, the robot's
@@ -30,8 +32,9 @@ import interfaces
 from flight_control.clients import arm, arm_client
 from fsm import mission_driver as d
 from fsm.mission_machine import Mission, MissionConfig, MissionEvent
-from fsm.mission_table import phase_of
+from fsm.mission_table import phase_of, scans
 from fsm.params import FIELD_SOURCE, MissionParams, PadsParams
+from perception.aruco_scanner_node import ENABLE_SERVICE as SCANNER_ENABLE
 from runtime import (
     ActionClient,
     Duration,
@@ -60,6 +63,7 @@ STATE: Any = interfaces.get_message(f"{QM}/msg/MissionState")
 EVENT: Any = interfaces.get_message(f"{QM}/msg/MissionEvent")
 HEALTH: Any = interfaces.get_message(f"{QM}/msg/ModuleHealth")
 ROBOT = f"{QM}/msg/RobotFound"
+SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
 
 STATE_TOPIC = "/mission/state"
 EVENTS_TOPIC = "/mission/events"
@@ -114,6 +118,8 @@ class MissionNode(Node):
         self._active: tuple[ActionClient, ClientGoalHandle] | None = None
 
         self.arm_client = arm_client(self)
+        self.scanner_enable = self.create_client(SET_BOOL, SCANNER_ENABLE)
+        self._scanning = True  # the scanner's own default (asked again on each change)
         self.clients = {action: ActionClient(self, kind, topic)
                         for action, (kind, topic) in ACTIONS.items()}
         self.state_pub = self.create_publisher(STATE, STATE_TOPIC, LATCHED)
@@ -232,8 +238,13 @@ class MissionNode(Node):
             active[0].cancel_goal_async(active[1])
 
     def state_changed(self, state: str) -> None:
-        """The machine entered ``state`` (a hook for a launch watching the mission)."""
+        """The machine entered ``state`` (a hook for a launch watching the mission; one
+        that overrides it calls this one too)."""
         self.get_logger().info(f"mission: {state}")
+        scanning = scans(state)
+        if scanning != self._scanning and self.scanner_enable.service_is_ready():
+            self._scanning = scanning
+            self.scanner_enable.call_async(interfaces.new(SET_BOOL.Request, data=scanning))
 
     # -- messages out ----------------------------------------------------------------------
     def publish_state(self) -> None:

@@ -195,6 +195,20 @@ RESUMABLE: tuple[str, ...] = ("mission.takeoff", "mission.explore", "mission.rep
                               "mission.pad.land", "mission.pad.search", "mission.pad.takeoff")
 
 
+#: The states that read the down camera's markers: the modules' checks before the start,
+#: the robot search and its pictures, and the landings on a pad (precision landing, its
+#: search; the start pad's on the way home). Elsewhere (take-offs, the flights between
+#: pads, holds) the ArUco scanner is switched off, and the down camera, with no one to
+#: render for, renders nothing: a third of the contest mission's time.
+SCANNING: tuple[str, ...] = ("idle", "preflight", "mission.explore", "mission.report_robot",
+                             "mission.pad.land", "mission.pad.search", "returning.land")
+
+
+def scans(state: str) -> bool:
+    """Whether the ArUco scanner is on in ``state`` (a nested name; see :data:`SCANNING`)."""
+    return state in SCANNING
+
+
 class Phase(Enum):
     """The coarse phase of a state, as ``MissionState.PHASE_*`` numbers it."""
 

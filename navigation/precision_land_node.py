@@ -35,6 +35,7 @@ from navigation.precision_land_policy import (
     pad_marker,
 )
 from navigation.precision_landing import Measurement, Pose
+from perception.aruco_scanner_node import ENABLE_SERVICE as SCANNER_ENABLE_SERVICE
 from runtime import (
     ActionClient,
     ActionServer,
@@ -52,7 +53,6 @@ ACTION_NAME = "/navigation/precision_land"
 MARKERS_TOPIC = "/perception/markers"
 ODOMETRY_TOPIC = "/fcu/odometry"
 POSE_AT_SERVICE = "/fcu/pose_at"
-SCANNER_ENABLE = "/aruco_scanner/enable"
 
 PRECISION_LAND = interfaces.get_action("quadmission_interfaces/action/PrecisionLand")
 REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
@@ -104,7 +104,7 @@ class PrecisionLandNode(Node):
         self.reach = ActionClient(self, REACH, "/flight_control/reach")
         self.land = ActionClient(self, LAND, "/flight_control/land")
         self.pose_at = self.create_client(POSE_AT, POSE_AT_SERVICE)
-        self.scanner_enable = self.create_client(SET_BOOL, SCANNER_ENABLE)
+        self.scanner_enable = self.create_client(SET_BOOL, SCANNER_ENABLE_SERVICE)
         self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
                                  MARKERS_TOPIC, self._on_markers, qos_profile_default)
         self.create_subscription("nav_msgs/msg/Odometry", ODOMETRY_TOPIC, self._on_odometry,

@@ -17,8 +17,10 @@ due when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure
   as captured and annotated), at most once per ``robot_report_interval_s`` per robot;
 - ``~/health`` (HealthReport): camera stale, disabled, frames and detections.
 
-``~/enable`` (std_srvs/SetBool) switches scanning on and off; the ``mode`` parameter
-(pads, robots, both) chooses the ID whitelist and can be set at run time.
+``~/enable`` (std_srvs/SetBool, :data:`ENABLE_SERVICE`) switches scanning on and off; off,
+the node also leaves the image topic, so a camera that renders only for its subscribers
+renders nothing (the mission switches it off where no phase reads markers). The ``mode``
+parameter (pads, robots, both) chooses the ID whitelist and can be set at run time.
 Parameters: ``config/aruco_scanner.yaml`` (:class:`perception.params.ScannerParams`).
 """
 
@@ -48,6 +50,7 @@ from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sens
 from runtime.parameters import SetParametersResult
 
 NODE_NAME = "aruco_scanner"
+ENABLE_SERVICE = f"/{NODE_NAME}/enable"  # std_srvs/SetBool: scanning on or off
 IMAGE_TOPIC = "/camera/down/image_raw"
 INFO_TOPIC = "/camera/down/camera_info"
 MARKERS_TOPIC = "/perception/markers"
@@ -140,8 +143,8 @@ class ArucoScannerNode(Node):
         self.pose_at = self.create_client(POSE_AT, POSE_AT_SERVICE)
         self.create_subscription("sensor_msgs/msg/CameraInfo", INFO_TOPIC, self._on_info,
                                  qos_profile_sensor_data)
-        self.create_subscription("sensor_msgs/msg/Image", IMAGE_TOPIC, self._on_image,
-                                 qos_profile_sensor_data)
+        self._image_sub: Any = None  # on the image topic while enabled
+        self._follow_images()
         self.create_subscription("nav_msgs/msg/Odometry", ODOMETRY_TOPIC, self._on_odometry,
                                  qos_profile_sensor_data)
         self.create_service(SET_BOOL, "~/enable", self._on_enable)
@@ -153,8 +156,21 @@ class ArucoScannerNode(Node):
         return self.policy.enabled
 
     # -- control ---------------------------------------------------------------------------
+    def _set_enabled(self, on: bool) -> None:
+        if self.policy.enable(self.now().nanoseconds, on):
+            self._follow_images()
+
+    def _follow_images(self) -> None:
+        """On the image topic while enabled, off it while not (no frame to render)."""
+        if self.enabled and self._image_sub is None:
+            self._image_sub = self.create_subscription(
+                "sensor_msgs/msg/Image", IMAGE_TOPIC, self._on_image, qos_profile_sensor_data)
+        elif not self.enabled and self._image_sub is not None:
+            self.destroy_subscription(self._image_sub)
+            self._image_sub = self._waiting = None
+
     def _on_enable(self, request: Any, response: Any) -> Any:
-        self.policy.enabled = bool(request.data)
+        self._set_enabled(bool(request.data))
         response.success = True
         response.message = f"scanning {'enabled' if self.enabled else 'disabled'}"
         return response
@@ -165,7 +181,7 @@ class ArucoScannerNode(Node):
                 if (problem := self.policy.set_mode(p.value)) is not None:
                     return SetParametersResult(False, problem)
             elif p.name == "enabled":
-                self.policy.enabled = bool(p.value)
+                self._set_enabled(bool(p.value))
         return SetParametersResult(True)
 
     # -- images ----------------------------------------------------------------------------
@@ -281,5 +297,5 @@ class ArucoScannerNode(Node):
         self.health_pub.publish(health_report(NODE_NAME, level, message, values, now.to_msg()))
 
 
-__all__ = ["MARKERS_TOPIC", "NODE_NAME", "ROBOT_FOUND_TOPIC", "ArucoScannerNode",
+__all__ = ["ENABLE_SERVICE", "MARKERS_TOPIC", "NODE_NAME", "ROBOT_FOUND_TOPIC", "ArucoScannerNode",
            "ScannerParams", "detection_msg", "jpeg_msg"]

@@ -119,7 +119,18 @@ class ScanPolicy:
         self.detections = 0
         self.robots: dict[int, RobotTrack] = {}  # by marker ID, once reported
         self._last_image_ns: int | None = None
+        self._enabled_ns: int | None = None  # when last switched on (None: on from the start)
         self._last_annotated_ns: int | None = None
+
+    def enable(self, now_ns: int, on: bool) -> bool:
+        """Switch scanning on or off; whether that changed anything. Switched on, the
+        images are awaited from now: no image for ``image_timeout_s`` from here is stale."""
+        if on == self.enabled:
+            return False
+        self.enabled = on
+        if on:
+            self._enabled_ns = now_ns
+        return True
 
     def set_mode(self, value: str) -> str | None:
         """Switch to the mode named ``value``; else say why not (and keep the mode)."""
@@ -188,7 +199,8 @@ class ScanPolicy:
         """What is wrong with the inputs while enabled (nothing while disabled)."""
         if not self.enabled:
             return []
-        last = self._last_image_ns
+        last = max((t for t in (self._last_image_ns, self._enabled_ns) if t is not None),
+                   default=None)
         stale = last is None or now_ns - last > self.image_timeout_s * 1e9
         return ([Problem.IMAGE_STALE] if stale else []) + \
             ([] if camera_known else [Problem.NO_CAMERA_INFO])

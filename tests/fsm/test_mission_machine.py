@@ -435,3 +435,22 @@ def test_return_home_on_the_operators_command_lands_home_and_is_not_a_completion
     m.landed()
     assert m.state == "landed"
     assert m.stop is not None and m.stop.cause is ErrorCause.OPERATOR_RETURN
+
+
+def test_the_scanner_is_on_where_a_state_reads_markers_and_off_where_it_flies_between():
+    """The states that explore or land on a pad (precision landing, its searches, the
+    start pad on the way home) have the ArUco scanner on; those that take off, navigate,
+    hold or land blind have it off, so the down camera renders nothing there."""
+    from fsm.mission_machine import ACTIONS
+    from fsm.mission_table import scans
+
+    reads = {"_do_explore", "_do_report_robot", "_do_pad_land", "_do_pad_search",
+             "_do_return_land", "_do_preflight"}
+    blind = {"_do_takeoff", "_do_pad_navigate", "_do_return_navigate", "_do_land_now",
+             "_do_hold", "_do_await_sequence", "_do_stopped"}
+    for state, action in ACTIONS.items():
+        if action in reads:
+            assert scans(state), state
+        elif action in blind:
+            assert not scans(state), state
+    assert {a for a in ACTIONS.values()} <= reads | blind | {"_do_completed", "_do_landed"}

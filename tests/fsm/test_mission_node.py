@@ -161,3 +161,33 @@ def test_when_no_pad_can_be_reached_the_operator_says_so_and_sends_the_vehicle_h
                                    overrides={"pad_y": [11.5, 7.5, 10.5]})
     assert [c.command for c in commands] == [COMMAND.COMMAND_RETURN_HOME]
     assert commands[0].reason == "no path from the robot to any pad for robot 19"
+
+
+def test_the_mission_switches_the_scanner_with_its_states() -> None:
+    """The real scanner: off (and off its image topic) while the mission takes off or flies
+    between pads, on where it explores or lands on a pad."""
+    from perception.aruco_scanner_node import ArucoScannerNode
+    from sim.sensors import DOWN_IMAGE_TOPIC
+
+    ex = DeterministicExecutor()
+    mission = MissionNode(context=ex.context, parameter_overrides=PADS)
+    scanner = ArucoScannerNode(context=ex.context)
+    camera = Node("camera", context=ex.context)
+    image = camera.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
+                                    qos_profile_default)
+    for node in (mission, scanner, camera):
+        ex.add_node(node)
+    ex.spin_for(0.5)
+    assert scanner.enabled and image.get_subscription_count() == 1
+    seen = []
+    for state in ("mission.takeoff", "mission.explore", "mission.report_robot",
+                  "mission.await_sequence", "mission.pad", "mission.pad.navigate",
+                  "mission.pad.land", "mission.pad.search", "mission.pad.takeoff",
+                  "mission.pad.navigate", "returning", "returning.navigate", "returning.land",
+                  "completed"):
+        mission.state_changed(state)
+        ex.spin_for(0.1)
+        seen.append(scanner.enabled)
+        assert image.get_subscription_count() == int(scanner.enabled), state
+    assert seen == [False, True, True, False, False, False, True, True, False, False, False,
+                    False, True, False]

@@ -242,3 +242,18 @@ def test_health_says_no_camera_info():
 def test_disabled_nothing_is_wrong():
     policy = _policy(enabled=False)
     assert policy.problems(10 * S, camera_known=False) == []
+
+
+def test_switched_on_again_the_images_are_awaited_from_then():
+    """Off for a while, the last image is long past; on again, that is not stale until
+    image_timeout_s after the switch (the camera's first frame is on its way)."""
+    policy = _policy(image_timeout_s=1.0)
+    policy.image(0, camera_known=True)
+    assert policy.enable(1 * S, False) and not policy.enabled
+    assert not policy.enable(2 * S, False), "already off: nothing changed"
+    assert policy.problems(30 * S, camera_known=True) == []
+    assert policy.enable(30 * S, True) and policy.enabled
+    assert policy.problems(31 * S, camera_known=True) == []
+    assert policy.problems(31 * S + 1, camera_known=True) == [Problem.IMAGE_STALE]
+    policy.image(31 * S + 2, camera_known=True)
+    assert policy.problems(32 * S, camera_known=True) == []
