@@ -97,6 +97,42 @@ def test_chunks_are_sealed_on_disk_once_the_flush_period_passes(tmp_path: Path) 
     assert bag.flushes == 1
 
 
+def test_metadata_follows_new_topics_at_once_and_counts_within_its_period(
+        tmp_path: Path) -> None:
+    """A seal rewrites metadata.yaml when a topic came since the last rewrite (a reader of
+    a crashed bag must know every topic), else only every METADATA_PERIOD_S."""
+    from ground_station.bag import METADATA_PERIOD_S
+
+    host = [0.0]
+    folder = tmp_path / "bag"
+    bag = BagWriter(folder, flush_period_s=0.5, host_clock=lambda: host[0])
+
+    def on_disk() -> dict[str, int]:
+        meta = yaml.safe_load((folder / METADATA_NAME).read_text())
+        return {t["topic_metadata"]["name"]: t["message_count"]
+                for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]}
+
+    chatter = bag.add_topic("/chatter", "std_msgs/msg/String", QoSProfile())
+    bag.write(chatter, 0, _string("0"))
+    host[0] = 1.0
+    bag.flush()
+    assert on_disk() == {"/chatter": 1}  # the new topic
+    bag.write(chatter, 1, _string("1"))
+    host[0] = 2.0
+    bag.flush()
+    assert on_disk() == {"/chatter": 1}  # no new topic, within the period: not rewritten
+    odom = bag.add_topic("/odom", "nav_msgs/msg/Odometry", QoSProfile())
+    bag.write(odom, 2, interfaces.serialize(interfaces.new("nav_msgs/msg/Odometry")))
+    host[0] = 3.0
+    bag.flush()
+    assert on_disk() == {"/chatter": 2, "/odom": 1}
+    bag.write(chatter, 3, _string("3"))
+    host[0] = 3.0 + METADATA_PERIOD_S
+    bag.flush()
+    assert on_disk() == {"/chatter": 3, "/odom": 1}  # the period passed
+    bag.close()
+
+
 def test_repair_after_a_real_sigkill_keeps_every_sealed_message(tmp_path: Path) -> None:
     folder = tmp_path / "bag"
     script = textwrap.dedent(f"""
