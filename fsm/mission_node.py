@@ -12,7 +12,8 @@ driver's inputs, carries out its commands and feeds the answers back; the decisi
 - ``/mission/state`` (MissionState) on every change and at ``state_rate_hz``;
 - ``/mission/robot`` (RobotFound): the pictures of the target robot;
 - ``/aruco_scanner/enable`` (SetBool): the scanner on in the states that read markers,
-  off in the others (:func:`fsm.mission_table.scans`), asked on each change;
+  off in the others (:func:`fsm.mission_table.scans`), asked on each change and again at
+  each watchdog tick until the scanner has answered that it is so;
 - inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each of
   ``health_topics``; preflight also needs every action of ``action_servers``;
   ``/fcu/odometry`` gives the position (a take-off resumed in the air, the robot's
@@ -34,7 +35,7 @@ from fsm import mission_driver as d
 from fsm.mission_machine import Mission, MissionConfig, MissionEvent
 from fsm.mission_table import phase_of, scans
 from fsm.params import FIELD_SOURCE, MissionParams, PadsParams
-from perception.aruco_scanner_node import ENABLE_SERVICE as SCANNER_ENABLE
+from perception.names import SCANNER_ENABLE_SERVICE
 from runtime import (
     ActionClient,
     Duration,
@@ -118,8 +119,10 @@ class MissionNode(Node):
         self._active: tuple[ActionClient, ClientGoalHandle] | None = None
 
         self.arm_client = arm_client(self)
-        self.scanner_enable = self.create_client(SET_BOOL, SCANNER_ENABLE)
-        self._scanning = True  # the scanner's own default (asked again on each change)
+        self.scanner_enable = self.create_client(SET_BOOL, SCANNER_ENABLE_SERVICE)
+        self._scan_wanted = scans(self.mission.state)
+        self._scan_answered: bool | None = None  # what the scanner last said it does
+        self._scan_asked: Any = None  # the request in flight
         self.clients = {action: ActionClient(self, kind, topic)
                         for action, (kind, topic) in ACTIONS.items()}
         self.state_pub = self.create_publisher(STATE, STATE_TOPIC, LATCHED)
@@ -165,6 +168,24 @@ class MissionNode(Node):
 
     def _watchdog(self) -> None:
         self._feed(d.Tick())
+        if self._scan_answered is not self._scan_wanted:
+            self._ask_scanner()
+
+    def _ask_scanner(self) -> None:
+        """Ask the scanner to be as the state wants it, unless a request is in flight or
+        the service is not up yet (the watchdog asks again)."""
+        if (self._scan_asked is not None and not self._scan_asked.done()) \
+                or not self.scanner_enable.service_is_ready():
+            return
+        wanted = self._scan_wanted
+        self._scan_asked = future = self.scanner_enable.call_async(
+            interfaces.new(SET_BOOL.Request, data=wanted))
+
+        def answered(f: Any) -> None:
+            if not f.cancelled() and f.exception() is None and f.result().success \
+                    and wanted is self._scan_wanted:
+                self._scan_answered = wanted
+        future.add_done_callback(answered)
 
     # -- the driver's commands -------------------------------------------------------------
     def _feed(self, event: d.Input, job: int | None = None) -> d.Job | None:
@@ -241,10 +262,9 @@ class MissionNode(Node):
         """The machine entered ``state`` (a hook for a launch watching the mission; one
         that overrides it calls this one too)."""
         self.get_logger().info(f"mission: {state}")
-        scanning = scans(state)
-        if scanning != self._scanning and self.scanner_enable.service_is_ready():
-            self._scanning = scanning
-            self.scanner_enable.call_async(interfaces.new(SET_BOOL.Request, data=scanning))
+        self._scan_wanted = scans(state)
+        self._scan_answered = None  # asked on each change: another node may have switched it
+        self._ask_scanner()
 
     # -- messages out ----------------------------------------------------------------------
     def publish_state(self) -> None:

@@ -170,8 +170,8 @@ def _metadata(file: Path, topics: list[_Topic], start_ns: int | None,
     }}
 
 
-#: libyaml's safe dumper where PyYAML has it: the same text, 6x faster (metadata.yaml is
-#: written again at every flush, twice a second; in Python it took 7 % of a recorded
+#: libyaml's safe dumper where PyYAML has it: the same text, 6x faster (metadata.yaml was
+#: written again at every seal, twice a second: in Python that took 7 % of a recorded
 #: mission's main thread)
 _YAML_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
 

@@ -35,7 +35,7 @@ from navigation.precision_land_policy import (
     pad_marker,
 )
 from navigation.precision_landing import Measurement, Pose
-from perception.aruco_scanner_node import ENABLE_SERVICE as SCANNER_ENABLE_SERVICE
+from perception.names import SCANNER_ENABLE_SERVICE
 from runtime import (
     ActionClient,
     ActionServer,
@@ -196,7 +196,7 @@ class PrecisionLandNode(Node):
         self.active = True
         self.watch_id = int(goal.pad_id)
         self.frames = []
-        if self.scanner_enable.service_is_ready():
+        if self.scanner_enable.service_is_ready() and not handle.is_cancel_requested:
             self.scanner_enable.call_async(interfaces.new(SET_BOOL.Request, data=True))
         reach_result: Any = None  # the running reach's result future
         while True:

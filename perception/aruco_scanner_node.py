@@ -43,14 +43,15 @@ from perception.aruco import (
     annotate,
     measure_all,
 )
+from perception.names import SCANNER_ENABLE_SERVICE, SCANNER_NODE_NAME
 from perception.params import ScannerParams
 from perception.scan_policy import Problem, ScanPolicy, marker_in_map, yaw_of
 from perception.tracking import RegionTracker
 from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sensor_data
 from runtime.parameters import SetParametersResult
 
-NODE_NAME = "aruco_scanner"
-ENABLE_SERVICE = f"/{NODE_NAME}/enable"  # std_srvs/SetBool: scanning on or off
+NODE_NAME = SCANNER_NODE_NAME
+ENABLE_SERVICE = SCANNER_ENABLE_SERVICE
 IMAGE_TOPIC = "/camera/down/image_raw"
 INFO_TOPIC = "/camera/down/camera_info"
 MARKERS_TOPIC = "/perception/markers"
@@ -158,6 +159,8 @@ class ArucoScannerNode(Node):
     # -- control ---------------------------------------------------------------------------
     def _set_enabled(self, on: bool) -> None:
         if self.policy.enable(self.now().nanoseconds, on):
+            if on:
+                self.tracker.reset()  # the regions it knew are minutes old
             self._follow_images()
 
     def _follow_images(self) -> None:

@@ -100,6 +100,12 @@ ODOMETRY_TIMEOUT_S = 0.1
 markers farther than its height says."""
 
 
+#: s, allowed on top of ``image_timeout_s`` for the first image after the scanner is
+#: switched on: it subscribes to the image topic again, and across processes the new
+#: reader is matched (DDS discovery) before a frame can come
+ENABLE_GRACE_S = 2.0
+
+
 class ScanPolicy:
     """The scanner's state and decisions; see the module docstring. Times are int
     nanoseconds on the node's clock."""
@@ -124,7 +130,8 @@ class ScanPolicy:
 
     def enable(self, now_ns: int, on: bool) -> bool:
         """Switch scanning on or off; whether that changed anything. Switched on, the
-        images are awaited from now: no image for ``image_timeout_s`` from here is stale."""
+        images are awaited from now: the first is stale only after ``image_timeout_s``
+        plus :data:`ENABLE_GRACE_S`."""
         if on == self.enabled:
             return False
         self.enabled = on
@@ -199,14 +206,17 @@ class ScanPolicy:
         """What is wrong with the inputs while enabled (nothing while disabled)."""
         if not self.enabled:
             return []
-        last = max((t for t in (self._last_image_ns, self._enabled_ns) if t is not None),
-                   default=None)
-        stale = last is None or now_ns - last > self.image_timeout_s * 1e9
+        last, on = self._last_image_ns, self._enabled_ns
+        if on is not None and (last is None or last < on):  # none since switched on
+            stale = now_ns - on > (self.image_timeout_s + ENABLE_GRACE_S) * 1e9
+        else:
+            stale = last is None or now_ns - last > self.image_timeout_s * 1e9
         return ([Problem.IMAGE_STALE] if stale else []) + \
             ([] if camera_known else [Problem.NO_CAMERA_INFO])
 
 
 __all__ = [
+    "ENABLE_GRACE_S",
     "ODOMETRY_TIMEOUT_S",
     "Problem",
     "Quaternion",

@@ -181,6 +181,8 @@ class _Reader:
         if not self.closed:
             self.closed = True
             self._transport._forget(self.entity)
+            if self.endpoint.kind is EndpointKind.TOPIC:  # a service's halves share it
+                self._transport.rcl_node(self.endpoint.node).destroy_subscription(self.entity)
 
 
 class Ros2Transport:

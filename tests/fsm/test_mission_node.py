@@ -165,7 +165,7 @@ def test_when_no_pad_can_be_reached_the_operator_says_so_and_sends_the_vehicle_h
 
 def test_the_mission_switches_the_scanner_with_its_states() -> None:
     """The real scanner: off (and off its image topic) while the mission takes off or flies
-    between pads, on where it explores or lands on a pad."""
+    between pads, on where it explores or lands on a pad. Each state change asks."""
     from perception.aruco_scanner_node import ArucoScannerNode
     from sim.sensors import DOWN_IMAGE_TOPIC
 
@@ -181,13 +181,36 @@ def test_the_mission_switches_the_scanner_with_its_states() -> None:
     assert scanner.enabled and image.get_subscription_count() == 1
     seen = []
     for state in ("mission.takeoff", "mission.explore", "mission.report_robot",
-                  "mission.await_sequence", "mission.pad", "mission.pad.navigate",
-                  "mission.pad.land", "mission.pad.search", "mission.pad.takeoff",
-                  "mission.pad.navigate", "returning", "returning.navigate", "returning.land",
-                  "completed"):
+                  "mission.await_sequence", "mission.pad.navigate", "mission.pad.land",
+                  "mission.pad.search", "mission.pad.takeoff", "mission.pad.navigate",
+                  "returning.navigate", "returning.land", "completed"):
         mission.state_changed(state)
         ex.spin_for(0.1)
         seen.append(scanner.enabled)
         assert image.get_subscription_count() == int(scanner.enabled), state
-    assert seen == [False, True, True, False, False, False, True, True, False, False, False,
-                    False, True, False]
+    assert seen == [False, True, True, False, False, True, True, False, False, False, True,
+                    False]
+    # someone else switches it on (a precision landing's own request): the next state
+    # change asks again, though it wants what it wanted before
+    scanner._set_enabled(True)
+    mission.state_changed("stopped")
+    ex.spin_for(0.1)
+    assert not scanner.enabled
+
+
+def test_a_scanner_that_comes_up_late_is_switched_as_the_state_wants() -> None:
+    """The state changed before the scanner's service was up: the watchdog asks until the
+    scanner answers."""
+    from perception.aruco_scanner_node import ArucoScannerNode
+
+    ex = DeterministicExecutor()
+    mission = MissionNode(context=ex.context, parameter_overrides=PADS)
+    ex.add_node(mission)
+    ex.spin_for(0.2)
+    mission.state_changed("mission.pad.navigate")  # no scanner yet: nobody to ask
+    ex.spin_for(0.5)
+    scanner = ArucoScannerNode(context=ex.context)
+    ex.add_node(scanner)
+    assert scanner.enabled
+    ex.spin_for(1.0)
+    assert not scanner.enabled

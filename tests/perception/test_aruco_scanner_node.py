@@ -169,14 +169,17 @@ def test_disabled_it_leaves_the_image_topic_so_the_camera_renders_nothing(frames
     the topic, and on again it is, scans the next frame, and its health stays OK meanwhile."""
     ex, camera, scanner = _rig()
     assert camera.image.get_subscription_count() == 1
+    camera.send(frames["pad"], frames["intrinsics"], 10_000_000)  # the intrinsics known
+    ex.spin_for(0.1)
     request = "std_srvs/srv/SetBool_Request"
     camera.enable.call_async(interfaces.new(request, data=False))
     ex.spin_for(3.0)  # longer than image_timeout_s with no image: no error while off
     assert camera.image.get_subscription_count() == 0
     assert camera.health[-1].level == 0 and camera.health[-1].modules[0].message == "disabled"
     camera.enable.call_async(interfaces.new(request, data=True))
-    ex.spin_for(0.05)
+    ex.spin_for(2.1)  # past image_timeout_s with no frame yet: within the grace, still OK
     assert scanner.enabled and camera.image.get_subscription_count() == 1
+    assert camera.health[-1].level == 0, camera.health[-1].modules[0].message
     camera.send(frames["pad"], frames["intrinsics"], 5_000_000_000)
     ex.spin_for(1.1)
     assert [d.id for d in camera.markers[-1].detections] == [4]

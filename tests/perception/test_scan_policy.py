@@ -246,14 +246,20 @@ def test_disabled_nothing_is_wrong():
 
 def test_switched_on_again_the_images_are_awaited_from_then():
     """Off for a while, the last image is long past; on again, that is not stale until
-    image_timeout_s after the switch (the camera's first frame is on its way)."""
+    image_timeout_s plus ENABLE_GRACE_S after the switch (the image topic is subscribed
+    again: the camera's first frame is on its way); from the first image on, the plain
+    timeout again."""
+    from perception.scan_policy import ENABLE_GRACE_S
+
     policy = _policy(image_timeout_s=1.0)
     policy.image(0, camera_known=True)
     assert policy.enable(1 * S, False) and not policy.enabled
     assert not policy.enable(2 * S, False), "already off: nothing changed"
     assert policy.problems(30 * S, camera_known=True) == []
     assert policy.enable(30 * S, True) and policy.enabled
-    assert policy.problems(31 * S, camera_known=True) == []
-    assert policy.problems(31 * S + 1, camera_known=True) == [Problem.IMAGE_STALE]
-    policy.image(31 * S + 2, camera_known=True)
-    assert policy.problems(32 * S, camera_known=True) == []
+    due = 30 * S + int((1.0 + ENABLE_GRACE_S) * S)
+    assert policy.problems(due, camera_known=True) == []
+    assert policy.problems(due + 1, camera_known=True) == [Problem.IMAGE_STALE]
+    policy.image(due + 2, camera_known=True)
+    assert policy.problems(due + 2 + S, camera_known=True) == []
+    assert policy.problems(due + 3 + S, camera_known=True) == [Problem.IMAGE_STALE]

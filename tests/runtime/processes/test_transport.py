@@ -61,6 +61,21 @@ def test_topic_samples_cross_in_order(pair: Any) -> None:
     assert [m.data for m in heard] == ["hello 0", "hello 1", "hello 2"]
 
 
+def test_a_destroyed_subscription_leaves_the_topic(pair: Any) -> None:
+    """rclpy's destroy_subscription: the DDS reader goes, so a publisher that publishes
+    (or renders) only for its subscribers sees none; subscribing again makes one, not two."""
+    a, b, spin = pair
+    talker = Node("talker", context=a.context)
+    listener = Node("listener", context=b.context)
+    pub = talker.create_publisher("std_msgs/msg/String", "/chatter", qos_profile_default)
+    for _ in range(2):
+        sub = listener.create_subscription("std_msgs/msg/String", "/chatter", list().append,
+                                           qos_profile_default)
+        assert spin(lambda: pub.get_subscription_count() == 1)
+        assert listener.destroy_subscription(sub)
+        assert spin(lambda: pub.get_subscription_count() == 0), pub.get_subscription_count()
+
+
 def test_service_answers_the_caller_by_request_id(pair: Any) -> None:
     a, b, spin = pair
     server, caller = Node("server", context=a.context), Node("caller", context=b.context)
