@@ -3,13 +3,25 @@
 Pure numpy and numba (:mod:`sim.fcu.kernels`); frames as on the FCU (world NED, body
 FRD, ``q_ned_frd`` Hamilton ``[w, x, y, z]``); time is the FCU clock in integer microseconds.
 
-* Attitude: a Mahony complementary filter. Gyro integration with a gyro-bias estimate;
-  the accelerometer pulls roll and pitch towards gravity only while the specific force is
-  within ``accel_gate`` of 1 g; external-vision yaw corrects the heading.
-* Position and velocity: three independent per-axis Kalman filters (NED x, y, z), each
-  with state ``[position, velocity, acceleration bias]``, driven by the IMU specific
-  force rotated to NED with gravity removed, and fusing external-vision position (and
-  velocity, when given).
+* Attitude: gyro integration with a gyro-bias estimate (a Mahony filter's structure);
+  external-vision yaw corrects the heading. Aided, roll and pitch are corrected by the
+  tilt error the horizontal position filter estimates, which also teaches the gyro bias;
+  unaided (before the first vision sample, and after ``noaid_timeout_us`` of dead
+  reckoning) the accelerometer pulls them towards gravity while the specific force is
+  within ``accel_gate`` of 1 g.
+* Horizontal position and velocity: one Kalman filter with state ``[north, east, v north,
+  v east, tilt error north, east, accelerometer bias x, y]``. The tilt error (the
+  horizontal specific force a wrong roll or pitch adds, fixed in the world) and the
+  accelerometer's bias (fixed in the body) make the same error at one heading: the
+  filter tells them apart by the turns (the bias turns with the vehicle, the tilt error
+  does not), as EKF2 does with its delta-velocity bias. Both are fed back continuously
+  (``accel_correction_gain``): the tilt into the attitude, the bias into the correction
+  subtracted from every accelerometer sample, each leaving the filter's state as a known
+  input. Without this, a tilt error cancelled the bias in aided flight and turned
+  against it in dead reckoning: a turn without vision accelerated the vehicle at the bias.
+* Vertical: a Kalman filter ``[down, v down, acceleration bias down]``.
+* Both are driven by the bias-corrected specific force rotated to NED with gravity
+  removed, and fuse external-vision position (and velocity, when given).
 * Delay: like EKF2's buffers, a bounded history (``buffer_length_us``) of (time, filter
   state, covariance, IMU input) is kept. A vision sample is fused at its own sample time:
   the filter rewinds to the buffered state at that time, updates, and re-propagates the
@@ -37,13 +49,15 @@ from sim.fcu.kernels import (
     ATTITUDE_GYRO,
     EST_BUF_COLS,
     EST_GYRO_BIAS,
+    EST_H,
+    EST_HP,
     EST_OUTPUT_INDEX,
-    EST_P,
     EST_PARAMS_SIZE,
     EST_Q,
     EST_RATE,
     EST_STATE_SIZE,
-    EST_X,
+    EST_V,
+    EST_VP,
     est_fuse,
     est_predict,
     est_push,
@@ -68,18 +82,20 @@ class EstimatorParams:
 
     accel_correction_gain: float = param(unit="1/s", range=(0.0, 20.0))
     accel_gate: float = param(unit="m/s^2", range=(0.0, 10.0))
-    motion_compensation: float = param(unit="-", range=(0.0, 1.0))
     gyro_bias_gain: float = param(unit="1/s^2", range=(0.0, 10.0))
     gyro_bias_limit: float = param(unit="rad/s", range=(0.0, 1.0))
     yaw_correction_fraction: float = param(unit="per vision sample", range=(0.0, 1.0))
     yaw_bias_gain: float = param(unit="1/s per vision sample", range=(0.0, 10.0))
     accel_noise: float = param(unit="m/s^2/sqrt(Hz)", range=(1e-4, 100.0))
     accel_bias_noise: float = param(unit="m/s^3/sqrt(Hz)", range=(0.0, 10.0))
+    body_accel_bias_noise: float = param(unit="m/s^3/sqrt(Hz)", range=(0.0, 10.0))
+    tilt_noise: float = param(unit="m/s^3/sqrt(Hz)", range=(0.0, 10.0))
     vision_position_std: float = param(unit="m", range=(1e-4, 100.0))
     vision_velocity_std: float = param(unit="m/s", range=(1e-4, 100.0))
     initial_position_std: float = param(unit="m", range=(1e-3, 1000.0))
     initial_velocity_std: float = param(unit="m/s", range=(1e-3, 100.0))
     initial_accel_bias_std: float = param(unit="m/s^2", range=(0.0, 10.0))
+    initial_tilt_std: float = param(unit="m/s^2", range=(0.0, 10.0))
     buffer_length_us: int = param(unit="us", range=(1_000, 10_000_000))
     vision_timeout_us: int = param(unit="us", range=(1_000, 100_000_000))
     noaid_timeout_us: int = param(unit="us", range=(1_000, 100_000_000))
@@ -117,7 +133,7 @@ class EstimatorOutput(NamedTuple):
     state: VehicleState
     position_variance_ned: FloatArray  # m^2
     velocity_variance_ned: FloatArray  # (m/s)^2
-    accel_bias_ned: FloatArray  # m/s^2
+    accel_bias_frd: FloatArray  # m/s^2: x, y the body's; z the vertical filter's (down)
     gyro_bias_frd: FloatArray  # rad/s
     position_valid: bool  # vision fused within vision_timeout_us
     dead_reckoning_time_us: int  # since the last fused vision sample (0 right after one)
@@ -129,13 +145,11 @@ _INITIAL_BUFFER_ROWS = 64  # grows by doubling when full
 
 
 class Estimator:
-    """Attitude complementary filter + per-axis position/velocity Kalman filters.
+    """Attitude filter + horizontal (tilt and body-bias) and vertical Kalman filters.
 
     Feed IMU samples with :meth:`predict` (body FRD specific force and rate) and vision
     samples with :meth:`fuse_vision`; read :meth:`output`. The arithmetic runs in
-    :mod:`sim.fcu.kernels` (compiled) on a state array and a ring buffer of past states;
-    ``tests/sim/fcu/test_fcu_math_recorded.py`` holds it within 1e-6 of the numpy version
-    it replaced.
+    :mod:`sim.fcu.kernels` (compiled) on a state array and a ring buffer of past states.
     """
 
     def __init__(
@@ -150,10 +164,10 @@ class Estimator:
         self.params = params
         self.fuse_at_arrival = fuse_at_arrival
         self._prm = np.array([
-            params.accel_correction_gain, params.accel_gate, params.motion_compensation,
+            params.accel_correction_gain, params.accel_gate, params.tilt_noise**2,
             params.gyro_bias_gain, params.gyro_bias_limit, params.yaw_correction_fraction,
-            params.yaw_bias_gain, params.accel_noise**2, params.accel_bias_noise**2],
-            dtype=np.float64)
+            params.yaw_bias_gain, params.accel_noise**2, params.accel_bias_noise**2,
+            params.body_accel_bias_noise**2], dtype=np.float64)
         assert self._prm.shape == (EST_PARAMS_SIZE,)
         self.reset(time_us, position_ned, q)
 
@@ -170,17 +184,21 @@ class Estimator:
         n, e, d = np.asarray(position_ned, dtype=np.float64).reshape(3).tolist()
         s = np.zeros(EST_STATE_SIZE)
         s[EST_Q:EST_Q + 4] = _fq_normalise((q_list[0], q_list[1], q_list[2], q_list[3]))
-        s[EST_X:EST_X + 9] = (n, 0.0, 0.0, e, 0.0, 0.0, d, 0.0, 0.0)
-        p0 = (prm.initial_position_std**2, 0.0, 0.0, prm.initial_velocity_std**2,
-              0.0, prm.initial_accel_bias_std**2)
-        s[EST_P:EST_P + 18] = p0 * 3
+        s[EST_H:EST_H + 2] = (n, e)
+        s[EST_V] = d
+        s[EST_HP:EST_HP + 64] = np.diag(np.repeat(
+            [prm.initial_position_std**2, prm.initial_velocity_std**2,
+             prm.initial_tilt_std**2, prm.initial_accel_bias_std**2], 2)).ravel()
+        s[EST_VP:EST_VP + 6] = (prm.initial_position_std**2, 0.0, 0.0,
+                                prm.initial_velocity_std**2, 0.0, prm.initial_accel_bias_std**2)
         self._s = s
         self._last_vision_us: int | None = None
         self._fused = 0
         self._rejected = 0
         self._buf = np.zeros((_INITIAL_BUFFER_ROWS, EST_BUF_COLS))
         self._meta = np.zeros(2, dtype=np.int64)  # ring head, count
-        est_push(self._buf, self._meta, s, float(time_us), 0.0, 0.0, 0.0, 0.0, -math.inf)
+        est_push(self._buf, self._meta, s, float(time_us), 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+                 np.zeros(4), -math.inf)
         self._buffer_full = False  # (the ring starts with room for more than one entry)
 
     def _grow(self) -> None:
@@ -211,10 +229,11 @@ class Estimator:
             gz, self._attitude_mode(), float(time_us - self.params.buffer_length_us))
 
     def _attitude_mode(self) -> int:
-        """The attitude filter's accelerometer reference: the aided one while vision comes
-        (within ``vision_timeout_us``); none, the gyro alone, while dead reckoning (up to
-        ``noaid_timeout_us``, EKF2_NOAID_TOUT); gravity before the first vision sample and
-        after the dead reckoning (levelling, as EKF2's fake-position fusion does then).
+        """The attitude filter's reference: the position filter's tilt error while vision
+        comes (within ``vision_timeout_us``); the gyro, and the tilt error and bias the
+        filter last knew, while dead reckoning (up to ``noaid_timeout_us``,
+        EKF2_NOAID_TOUT); gravity before the first vision sample and after the dead
+        reckoning (levelling, as EKF2's fake-position fusion does then).
 
         Not gravity at once: a multicopter's accelerometer measures the thrust, along the
         body's z, not gravity, so "the specific force is vertical" levels the estimate
@@ -288,7 +307,8 @@ class Estimator:
         [FRD] as floats (what :meth:`output` would give in ``state``), without building the
         output."""
         s = self._s.tolist()
-        n, vn, _, e, ve, _, d, vd, _ = s[EST_X:EST_X + 9]
+        n, e, vn, ve = s[EST_H:EST_H + 4]
+        d, vd = s[EST_V:EST_V + 2]
         w, x, y, z = s[EST_Q:EST_Q + 4]
         p, q, r = s[EST_RATE:EST_RATE + 3]
         return (n, e, d), (vn, ve, vd), (w, x, y, z), (p, q, r)
@@ -296,7 +316,7 @@ class Estimator:
     def eph(self) -> float:
         """Horizontal position accuracy [m]: the larger north/east standard deviation (what
         the firmware publishes as ``vehicle_local_position.eph``)."""
-        return math.sqrt(max(float(self._s[EST_P]), float(self._s[EST_P + 6])))
+        return math.sqrt(max(float(self._s[EST_HP]), float(self._s[EST_HP + 9])))
 
     def output(self) -> EstimatorOutput:
         """The current estimate."""
@@ -309,7 +329,7 @@ class Estimator:
             state=VehicleState.from_unit_arrays(out[0:3], out[3:6], out[6:10], out[10:13]),
             position_variance_ned=out[13:16],
             velocity_variance_ned=out[16:19],
-            accel_bias_ned=out[19:22],
+            accel_bias_frd=out[19:22],
             gyro_bias_frd=out[22:25],
             position_valid=self.position_valid(),
             dead_reckoning_time_us=dead_reckoning,

@@ -2,9 +2,10 @@
 
 At 500 Hz the rate loop, the mixer and the estimator's prediction run 500 times per
 simulated second on 3- and 4-vectors: in Python, the cost is the interpreter's, not the
-arithmetic's. These kernels do the same operations in the same order as the float code
-they replaced (``tests/sim/fcu/test_fcu_math_recorded.py`` replays a recorded flight
-through them within 1e-6), on state held in small float64 arrays that the owning class
+arithmetic's. The controllers' and the mixer's kernels do the same operations in the same
+order as the float code they replaced (``tests/sim/fcu/test_fcu_math_recorded.py`` replays
+a recorded flight through them within 1e-6); all hold their state in small float64 arrays
+that the owning class
 (:class:`~sim.fcu.control.RateController`, :class:`~sim.fcu.estimator.Estimator`, the
 mixer) keeps and exposes through its usual API.
 
@@ -244,25 +245,36 @@ def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
 
 # --- estimator ----------------------------------------------------------------------------
 
-# state: q (4), gyro bias (3), bias-corrected rate (3), per axis [position, velocity,
-# acceleration bias] (9), per axis the symmetric 3x3 covariance (p00, p01, p02, p11, p12,
-# p22) (18)
-EST_STATE_SIZE = 37
-EST_Q, EST_GYRO_BIAS, EST_RATE, EST_X, EST_P = 0, 4, 7, 10, 19
+# state:
+# - q (4), gyro bias (3), bias-corrected rate (3);
+# - the accelerometer bias applied, body x and y (2): subtracted from every sample;
+# - horizontal filter x (8): north, east [m], v north, v east [m/s], tilt error as the
+#   acceleration it makes, north and east [m/s^2] (world-fixed), the accelerometer bias not yet
+#   applied, body x and y [m/s^2] (body-fixed); its covariance P, 8x8 row-major (64);
+# - vertical filter x (3): down [m], v down [m/s], acceleration bias down [m/s^2]; its
+#   symmetric covariance (p00, p01, p02, p11, p12, p22) (6);
+# - the accelerometer bias estimate, FRD (3): applied + horizontal filter's, and the vertical's
+EST_Q, EST_GYRO_BIAS, EST_RATE, EST_ACCEL_BIAS = 0, 4, 7, 10
+EST_H, EST_HP, EST_V, EST_VP, EST_BIAS_OUT = 12, 20, 84, 87, 93
+EST_STATE_SIZE = 96
+_H_TILT, _H_BIAS = 4, 6  # in the horizontal x
 # the output block (the state at EST_OUTPUT_INDEX): position NED (3), velocity NED (3),
-# q (4), rate FRD (3), position variance (3), velocity variance (3), acceleration bias (3),
-# gyro bias (3)
+# q (4), rate FRD (3), position variance (3), velocity variance (3), accelerometer bias FRD
+# (3), gyro bias (3)
 EST_OUTPUT_SIZE = 25
-# buffer row: time [us], x (9), p (18), NED acceleration input (3), dt [s], yaw [rad]
-EST_BUF_COLS = 33
-_B_X, _B_P, _B_U, _B_DT, _B_YAW = 1, 10, 28, 31, 32
-# the attitude filter's accelerometer reference (est_predict's mode)
-ATTITUDE_AIDED = 0  # the specific force the filter explains with its position filter's bias
-ATTITUDE_GYRO = 1  # none: the gyro alone (dead reckoning)
+# buffer row: time [us], horizontal x (8) and P (64), vertical x (3) and P (6), NED
+# acceleration input (3), dt [s], yaw after the step [rad], cos and sin of the yaw the input
+# was rotated with, the feedback applied in the step (tilt north, east, bias x, y) [m/s^2]
+EST_BUF_COLS = 93
+_B_H, _B_HP, _B_V, _B_VP, _B_U, _B_DT, _B_YAW, _B_ROT, _B_FB = 1, 9, 73, 76, 82, 85, 86, 87, 89
+# the attitude filter's reference (est_predict's mode)
+ATTITUDE_AIDED = 0  # the position filter's tilt error (vision aided): fed back, gyro bias learnt
+ATTITUDE_GYRO = 1  # the gyro, and the tilt error the position filter holds (dead reckoning)
 ATTITUDE_GRAVITY = 2  # gravity (unaided: levelling)
-# params: accel correction gain, accel gate, motion compensation, gyro bias gain, gyro bias
-# limit, yaw correction fraction, yaw bias gain, accel noise^2, accel bias noise^2
-EST_PARAMS_SIZE = 9
+# params: feedback gain, accel gate, tilt noise^2, gyro bias gain, gyro bias limit, yaw
+# correction fraction, yaw bias gain, accel noise^2, vertical accel bias noise^2, body accel
+# bias noise^2
+EST_PARAMS_SIZE = 10
 
 
 @njit(cache=True)
@@ -318,88 +330,178 @@ def _dcm(s: np.ndarray) -> tuple[float, float, float, float, float, float, float
 
 @njit(cache=True)
 def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az: float,
-                        gx: float, gy: float, gz: float, dt: float, mode: int) -> None:
-    """Mahony step (see :meth:`sim.fcu.estimator.Estimator._propagate_attitude`)."""
+                        gx: float, gy: float, gz: float, dt: float, mode: int,
+                        fb: np.ndarray) -> None:
+    """One attitude step on the bias-corrected gyro, with the step's tilt correction, and
+    the feedback it applies from the position filter into ``fb`` (see
+    :meth:`sim.fcu.estimator.Estimator.predict`).
+
+    Aided or dead reckoning: the position filter's tilt error ``t`` [m/s^2] (the horizontal
+    specific force the estimate's tilt adds, NED) is a world rotation ``phi`` with
+    ``g * (-phi_y, phi_x) = t``; a fraction ``gain * dt`` of it is rotated out of the
+    estimate, and of the accelerometer bias it holds moved into the applied one, both
+    subtracted from the filter's states (``fb``). The rotation is a Mahony correction
+    ``gain * err`` on the rate (``err`` the body-frame angle to remove); aided, ``err`` also
+    learns the gyro bias (``- gyro_bias_gain * err * dt``). Gravity: Mahony on the
+    accelerometer against gravity while the specific force is within the gate of 1 g.
+    """
     bx, by, bz = s[4], s[5], s[6]
     r0, r1, r2 = gx - bx, gy - by, gz - bz
     s[7], s[8], s[9] = r0, r1, r2
-    norm = math.sqrt(ax * ax + ay * ay + az * az)
-    aided = mode == ATTITUDE_AIDED
-    if mode != ATTITUDE_GYRO and prm[0] > 0.0 and abs(norm - GRAVITY_M_S2) < prm[1]:
+    fb[0] = fb[1] = fb[2] = fb[3] = 0.0
+    k, kb, lim = prm[0], prm[3], prm[4]
+    if mode == ATTITUDE_GRAVITY:
+        ax = ax - s[EST_ACCEL_BIAS]
+        ay = ay - s[EST_ACCEL_BIAS + 1]
+        norm = math.sqrt(ax * ax + ay * ay + az * az)
+        if k > 0.0 and abs(norm - GRAVITY_M_S2) < prm[1]:
+            r = _dcm(s)
+            # the body's view of "down is gravity": R^T (0, 0, -g), normalised
+            p0, p1, p2 = -r[6], -r[7], -r[8]
+            a0, a1, a2 = ax / norm, ay / norm, az / norm
+            ex = a1 * p2 - a2 * p1
+            ey = a2 * p0 - a0 * p2
+            ez = a0 * p1 - a1 * p0
+            r0, r1, r2 = r0 + k * ex, r1 + k * ey, r2 + k * ez
+            s[4] = min(max(bx - kb * ex * dt, -lim), lim)
+            s[5] = min(max(by - kb * ey * dt, -lim), lim)
+            s[6] = min(max(bz - kb * ez * dt, -lim), lim)
+    elif k > 0.0:
+        tn, te = s[EST_H + _H_TILT], s[EST_H + _H_TILT + 1]
         r = _dcm(s)
-        f0 = r[0] * ax + r[1] * ay + r[2] * az - s[12]
-        f1 = r[3] * ax + r[4] * ay + r[5] * az - s[15]
-        f2 = r[6] * ax + r[7] * ay + r[8] * az - s[18]
-        weight = prm[2] if aided else 0.0
-        rest = 1.0 - weight
-        f0 = weight * f0 + rest * 0.0
-        f1 = weight * f1 + rest * 0.0
-        f2 = weight * f2 + rest * -GRAVITY_M_S2
-        p0 = r[0] * f0 + r[3] * f1 + r[6] * f2
-        p1 = r[1] * f0 + r[4] * f1 + r[7] * f2
-        p2 = r[2] * f0 + r[5] * f1 + r[8] * f2
-        pn = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
-        a0, a1, a2 = ax / norm, ay / norm, az / norm
-        b0, b1, b2 = p0 / pn, p1 / pn, p2 / pn
-        ex = a1 * b2 - a2 * b1
-        ey = a2 * b0 - a0 * b2
-        ez = a0 * b1 - a1 * b0
-        k = prm[0]
+        # the world angle to remove, -phi = (-t_e / g, t_n / g, 0), in the body
+        wx, wy = -te / GRAVITY_M_S2, tn / GRAVITY_M_S2
+        ex = r[0] * wx + r[3] * wy
+        ey = r[1] * wx + r[4] * wy
+        ez = r[2] * wx + r[5] * wy
         r0, r1, r2 = r0 + k * ex, r1 + k * ey, r2 + k * ez
-        kb, lim = prm[3], prm[4]
-        s[4] = min(max(bx - kb * ex * dt, -lim), lim)
-        s[5] = min(max(by - kb * ey * dt, -lim), lim)
-        s[6] = min(max(bz - kb * ez * dt, -lim), lim)
+        if mode == ATTITUDE_AIDED:
+            s[4] = min(max(bx - kb * ex * dt, -lim), lim)
+            s[5] = min(max(by - kb * ey * dt, -lim), lim)
+            s[6] = min(max(bz - kb * ez * dt, -lim), lim)
+        step = min(k * dt, 1.0)
+        fb[0], fb[1] = step * tn, step * te
+        fb[2] = step * s[EST_H + _H_BIAS]
+        fb[3] = step * s[EST_H + _H_BIAS + 1]
+        s[EST_ACCEL_BIAS] += fb[2]
+        s[EST_ACCEL_BIAS + 1] += fb[3]
     dw, dx, dy, dz = _q_from_rotation(r0 * dt, r1 * dt, r2 * dt)
     w, x, y, z = _q_multiply(s[0], s[1], s[2], s[3], dw, dx, dy, dz)
     s[0], s[1], s[2], s[3] = _q_normalise(w, x, y, z)
 
 
 @njit(cache=True)
-def _propagate(x: np.ndarray, p: np.ndarray, u0: float, u1: float, u2: float, dt: float,
-               qa: float, qb: float) -> None:
-    """One Kalman prediction of every axis in place (see
-    :meth:`sim.fcu.estimator.Estimator._propagate`)."""
+def _propagate_horizontal(x: np.ndarray, p: np.ndarray, un: float, ue: float, dt: float,
+                          c: float, sn: float, fb: np.ndarray, qa: float, qt: float,
+                          qb: float) -> None:
+    """One Kalman prediction of the horizontal filter in place: the step's feedback ``fb``
+    leaves the tilt and bias states first (a known input: the error it corrects went with
+    it), then ``a = u - tilt - R(yaw) bias`` drives velocity and position. ``c``, ``sn``:
+    the cosine and sine of the yaw ``u`` was rotated to NED with."""
+    x[4] -= fb[0]
+    x[5] -= fb[1]
+    x[6] -= fb[2]
+    x[7] -= fb[3]
+    an = un - x[4] - (c * x[6] - sn * x[7])
+    ae = ue - x[5] - (sn * x[6] + c * x[7])
+    h = 0.5 * dt * dt
+    x[0] += dt * x[2] + h * an
+    x[1] += dt * x[3] + h * ae
+    x[2] += dt * an
+    x[3] += dt * ae
+    # F = I + (position <- velocity: dt; position <- tilt: -h, <- bias: -h R;
+    #          velocity <- tilt: -dt, <- bias: -dt R)
+    f = np.zeros((8, 8))
+    for i in range(8):
+        f[i, i] = 1.0
+    for i in range(2):
+        f[i, 2 + i] = dt
+        f[i, 4 + i] = -h
+        f[2 + i, 4 + i] = -dt
+    f[0, 6], f[0, 7], f[1, 6], f[1, 7] = -h * c, h * sn, -h * sn, -h * c
+    f[2, 6], f[2, 7], f[3, 6], f[3, 7] = -dt * c, dt * sn, -dt * sn, -dt * c
+    pm = p.reshape((8, 8))
+    fp = np.zeros((8, 8))
+    for i in range(8):
+        for j in range(8):
+            acc = 0.0
+            for m in range(8):
+                fim = f[i, m]
+                if fim != 0.0:
+                    acc += fim * pm[m, j]
+            fp[i, j] = acc
+    for i in range(8):
+        for j in range(i, 8):
+            acc = 0.0
+            for m in range(8):
+                fjm = f[j, m]
+                if fjm != 0.0:
+                    acc += fp[i, m] * fjm
+            pm[i, j] = acc
+            pm[j, i] = acc
+    q00, q01, q11 = qa * dt**3.0 / 3.0, qa * dt * dt / 2.0, qa * dt
+    for i in range(2):
+        pm[i, i] += q00
+        pm[i, 2 + i] += q01
+        pm[2 + i, i] += q01
+        pm[2 + i, 2 + i] += q11
+        pm[4 + i, 4 + i] += qt * dt
+        pm[6 + i, 6 + i] += qb * dt
+
+
+@njit(cache=True)
+def _propagate_vertical(x: np.ndarray, p: np.ndarray, u: float, dt: float, qa: float,
+                        qb: float) -> None:
+    """One Kalman prediction of the vertical filter ``[down, v down, bias]`` in place."""
     a, h, g = dt, -0.5 * dt * dt, -dt
     hdt2 = 0.5 * dt * dt
     q00, q01, q11, q22 = qa * dt**3.0 / 3.0, qa * dt * dt / 2.0, qa * dt, qb * dt
-    u = (u0, u1, u2)
-    for i in range(3):
-        j = 3 * i
-        pos, vel, bias = x[j], x[j + 1], x[j + 2]
-        ui = u[i]
-        x[j] = pos + a * vel + h * bias + hdt2 * ui
-        x[j + 1] = vel + g * bias + dt * ui
-        k = 6 * i
-        p00, p01, p02, p11, p12, p22 = p[k], p[k + 1], p[k + 2], p[k + 3], p[k + 4], p[k + 5]
-        f00 = p00 + a * p01 + h * p02
-        f01 = p01 + a * p11 + h * p12
-        f02 = p02 + a * p12 + h * p22
-        f11 = p11 + g * p12
-        f12 = p12 + g * p22
-        p[k] = f00 + a * f01 + h * f02 + q00
-        p[k + 1] = f01 + g * f02 + q01
-        p[k + 2] = f02
-        p[k + 3] = f11 + g * f12 + q11
-        p[k + 4] = f12
-        p[k + 5] = p22 + q22
+    pos, vel, bias = x[0], x[1], x[2]
+    x[0] = pos + a * vel + h * bias + hdt2 * u
+    x[1] = vel + g * bias + dt * u
+    p00, p01, p02, p11, p12, p22 = p[0], p[1], p[2], p[3], p[4], p[5]
+    f00 = p00 + a * p01 + h * p02
+    f01 = p01 + a * p11 + h * p12
+    f02 = p02 + a * p12 + h * p22
+    f11 = p11 + g * p12
+    f12 = p12 + g * p22
+    p[0] = f00 + a * f01 + h * f02 + q00
+    p[1] = f01 + g * f02 + q01
+    p[2] = f02
+    p[3] = f11 + g * f12 + q11
+    p[4] = f12
+    p[5] = p22 + q22
+
+
+@njit(cache=True)
+def _bias_out(s: np.ndarray) -> None:
+    """The accelerometer bias estimate, FRD: applied + the horizontal filter's, and the
+    vertical filter's (down, as the body's z near level)."""
+    s[EST_BIAS_OUT] = s[EST_ACCEL_BIAS] + s[EST_H + _H_BIAS]
+    s[EST_BIAS_OUT + 1] = s[EST_ACCEL_BIAS + 1] + s[EST_H + _H_BIAS + 1]
+    s[EST_BIAS_OUT + 2] = s[EST_V + 2]
 
 
 @njit(cache=True)
 def est_push(buf: np.ndarray, meta: np.ndarray, s: np.ndarray, time_us: float, u0: float,
-             u1: float, u2: float, dt: float, horizon_us: float) -> None:
-    """Append the state at ``time_us`` to the ring buffer (``meta``: head, count; the
-    caller grows a full buffer first), then drop entries older than ``horizon_us`` while
-    one older than it remains."""
+             u1: float, u2: float, dt: float, c: float, sn: float, fb: np.ndarray,
+             horizon_us: float) -> None:
+    """Append the state at ``time_us`` and the step's inputs to the ring buffer (``meta``:
+    head, count; the caller grows a full buffer first), then drop entries older than
+    ``horizon_us`` while one older than it remains."""
     cap = buf.shape[0]
     head, count = meta[0], meta[1]
     row = buf[(head + count) % cap]
     row[0] = time_us
-    row[_B_X:_B_X + 9] = s[EST_X:EST_X + 9]
-    row[_B_P:_B_P + 18] = s[EST_P:EST_P + 18]
+    row[_B_H:_B_H + 8] = s[EST_H:EST_H + 8]
+    row[_B_HP:_B_HP + 64] = s[EST_HP:EST_HP + 64]
+    row[_B_V:_B_V + 3] = s[EST_V:EST_V + 3]
+    row[_B_VP:_B_VP + 6] = s[EST_VP:EST_VP + 6]
     row[_B_U], row[_B_U + 1], row[_B_U + 2] = u0, u1, u2
     row[_B_DT] = dt
     row[_B_YAW] = _q_yaw(s[0], s[1], s[2], s[3])
+    row[_B_ROT], row[_B_ROT + 1] = c, sn
+    row[_B_FB:_B_FB + 4] = fb
     count += 1
     while count > 1 and buf[(head + 1) % cap, 0] <= horizon_us:
         head = (head + 1) % cap
@@ -413,45 +515,64 @@ def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarra
                 gy: float, gz: float, mode: int, horizon_us: float) -> bool:
     """:meth:`sim.fcu.estimator.Estimator.predict` after its checks; True when the
     buffer is full afterwards (the caller grows it before the next push)."""
-    _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, mode)
+    fb = np.zeros(4)
+    _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, mode, fb)
+    ax = ax - s[EST_ACCEL_BIAS]
+    ay = ay - s[EST_ACCEL_BIAS + 1]
     r = _dcm(s)
     u0 = r[0] * ax + r[1] * ay + r[2] * az
     u1 = r[3] * ax + r[4] * ay + r[5] * az
     u2 = r[6] * ax + r[7] * ay + r[8] * az + GRAVITY_M_S2
-    _propagate(s[EST_X:EST_X + 9], s[EST_P:EST_P + 18], u0, u1, u2, dt, prm[7], prm[8])
-    est_push(buf, meta, s, time_us, u0, u1, u2, dt, horizon_us)
+    yaw = math.atan2(r[3], r[0])
+    c, sn = math.cos(yaw), math.sin(yaw)
+    _propagate_horizontal(s[EST_H:EST_H + 8], s[EST_HP:EST_HP + 64], u0, u1, dt, c, sn, fb,
+                          prm[7], prm[2], prm[9])
+    _propagate_vertical(s[EST_V:EST_V + 3], s[EST_VP:EST_VP + 6], u2, dt, prm[7], prm[8])
+    _bias_out(s)
+    est_push(buf, meta, s, time_us, u0, u1, u2, dt, c, sn, fb, horizon_us)
     return meta[1] == buf.shape[0]
 
 
 @njit(cache=True)
-def _update(x: np.ndarray, p: np.ndarray, state: int, z0: float, z1: float, z2: float,
-            r: float) -> None:
-    """Scalar measurement of state ``state`` on every axis, in place (see
-    :meth:`sim.fcu.estimator.Estimator._update`)."""
-    z = (z0, z1, z2)
-    for i in range(3):
-        k6 = 6 * i
-        p00, p01, p02, p11, p12, p22 = (p[k6], p[k6 + 1], p[k6 + 2], p[k6 + 3], p[k6 + 4],
-                                        p[k6 + 5])
-        if state == 0:
-            c0, c1, c2 = p00, p01, p02
-            s = c0 + r
-        else:
-            c0, c1, c2 = p01, p11, p12
-            s = c1 + r
-        k0, k1, k2 = c0 / s, c1 / s, c2 / s
-        j = 3 * i
-        pos, vel, bias = x[j], x[j + 1], x[j + 2]
-        innovation = z[i] - (pos if state == 0 else vel)
-        x[j] = pos + k0 * innovation
-        x[j + 1] = vel + k1 * innovation
-        x[j + 2] = bias + k2 * innovation
-        p[k6] = p00 - k0 * c0
-        p[k6 + 1] = p01 - 0.5 * (k0 * c1 + k1 * c0)
-        p[k6 + 2] = p02 - 0.5 * (k0 * c2 + k2 * c0)
-        p[k6 + 3] = p11 - k1 * c1
-        p[k6 + 4] = p12 - 0.5 * (k1 * c2 + k2 * c1)
-        p[k6 + 5] = p22 - k2 * c2
+def _update_horizontal(x: np.ndarray, p: np.ndarray, i: int, z: float, r: float) -> None:
+    """Scalar measurement of horizontal state ``i`` in place."""
+    pm = p.reshape((8, 8))
+    s = pm[i, i] + r
+    row = pm[i].copy()
+    innovation = z - x[i]
+    for a in range(8):
+        k = row[a] / s
+        x[a] += k * innovation
+        for b in range(8):
+            pm[a, b] -= k * row[b]
+    for a in range(8):  # symmetric against rounding
+        for b in range(a + 1, 8):
+            mean = 0.5 * (pm[a, b] + pm[b, a])
+            pm[a, b] = mean
+            pm[b, a] = mean
+
+
+@njit(cache=True)
+def _update_vertical(x: np.ndarray, p: np.ndarray, state: int, z: float, r: float) -> None:
+    """Scalar measurement of vertical state ``state`` (0 position, 1 velocity) in place."""
+    p00, p01, p02, p11, p12, p22 = p[0], p[1], p[2], p[3], p[4], p[5]
+    if state == 0:
+        c0, c1, c2 = p00, p01, p02
+        s = c0 + r
+    else:
+        c0, c1, c2 = p01, p11, p12
+        s = c1 + r
+    k0, k1, k2 = c0 / s, c1 / s, c2 / s
+    innovation = z - x[state]
+    x[0] += k0 * innovation
+    x[1] += k1 * innovation
+    x[2] += k2 * innovation
+    p[0] = p00 - k0 * c0
+    p[1] = p01 - 0.5 * (k0 * c1 + k1 * c0)
+    p[2] = p02 - 0.5 * (k0 * c2 + k2 * c0)
+    p[3] = p11 - k1 * c1
+    p[4] = p12 - 0.5 * (k1 * c2 + k2 * c1)
+    p[5] = p22 - k2 * c2
 
 
 @njit(cache=True)
@@ -460,8 +581,9 @@ def est_fuse(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarray,
              r_pos: float, has_velocity: bool, v0: float, v1: float, v2: float, r_vel: float,
              has_yaw: bool, sample_yaw: float) -> bool:
     """:meth:`sim.fcu.estimator.Estimator.fuse_vision`: rewind to the buffered state at
-    ``sample_us``, update, re-propagate the stored inputs to now, correct the heading.
-    False (nothing changed) when the sample is older than the buffer."""
+    ``sample_us``, update, re-propagate the stored inputs (and the feedback each step
+    applied) to now, correct the heading. False (nothing changed) when the sample is older
+    than the buffer."""
     cap = buf.shape[0]
     head, count = meta[0], meta[1]
     if at_arrival or sample_us >= buf[(head + count - 1) % cap, 0]:
@@ -478,21 +600,36 @@ def est_fuse(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarray,
         if index < 0:
             return False
     entry = buf[(head + index) % cap]
-    x = entry[_B_X:_B_X + 9].copy()
-    p = entry[_B_P:_B_P + 18].copy()
-    _update(x, p, 0, z0, z1, z2, r_pos)
+    xh = entry[_B_H:_B_H + 8].copy()
+    ph = entry[_B_HP:_B_HP + 64].copy()
+    xv = entry[_B_V:_B_V + 3].copy()
+    pv = entry[_B_VP:_B_VP + 6].copy()
+    _update_horizontal(xh, ph, 0, z0, r_pos)
+    _update_horizontal(xh, ph, 1, z1, r_pos)
+    _update_vertical(xv, pv, 0, z2, r_pos)
     if has_velocity:
-        _update(x, p, 1, v0, v1, v2, r_vel)
-    entry[_B_X:_B_X + 9] = x
-    entry[_B_P:_B_P + 18] = p
+        _update_horizontal(xh, ph, 2, v0, r_vel)
+        _update_horizontal(xh, ph, 3, v1, r_vel)
+        _update_vertical(xv, pv, 1, v2, r_vel)
+    entry[_B_H:_B_H + 8] = xh
+    entry[_B_HP:_B_HP + 64] = ph
+    entry[_B_V:_B_V + 3] = xv
+    entry[_B_VP:_B_VP + 6] = pv
     for k in range(index + 1, count):
         later = buf[(head + k) % cap]
-        _propagate(x, p, later[_B_U], later[_B_U + 1], later[_B_U + 2], later[_B_DT], prm[7],
-                   prm[8])
-        later[_B_X:_B_X + 9] = x
-        later[_B_P:_B_P + 18] = p
-    s[EST_X:EST_X + 9] = x
-    s[EST_P:EST_P + 18] = p
+        _propagate_horizontal(xh, ph, later[_B_U], later[_B_U + 1], later[_B_DT],
+                              later[_B_ROT], later[_B_ROT + 1], later[_B_FB:_B_FB + 4],
+                              prm[7], prm[2], prm[9])
+        _propagate_vertical(xv, pv, later[_B_U + 2], later[_B_DT], prm[7], prm[8])
+        later[_B_H:_B_H + 8] = xh
+        later[_B_HP:_B_HP + 64] = ph
+        later[_B_V:_B_V + 3] = xv
+        later[_B_VP:_B_VP + 6] = pv
+    s[EST_H:EST_H + 8] = xh
+    s[EST_HP:EST_HP + 64] = ph
+    s[EST_V:EST_V + 3] = xv
+    s[EST_VP:EST_VP + 6] = pv
+    _bias_out(s)
     if has_yaw:
         _correct_yaw(s, prm, sample_yaw - entry[_B_YAW])
     return True
@@ -515,15 +652,16 @@ def _correct_yaw(s: np.ndarray, prm: np.ndarray, innovation: float) -> None:
 
 
 EST_OUTPUT_INDEX = np.array(
-    [EST_X + 3 * i for i in range(3)]  # position NED
-    + [EST_X + 3 * i + 1 for i in range(3)]  # velocity NED
+    [EST_H, EST_H + 1, EST_V]  # position NED
+    + [EST_H + 2, EST_H + 3, EST_V + 1]  # velocity NED
     + [EST_Q + i for i in range(4)]  # q
     + [EST_RATE + i for i in range(3)]  # bias-corrected rate FRD
-    + [EST_P + 6 * i for i in range(3)]  # position variance (p00 per axis)
-    + [EST_P + 6 * i + 3 for i in range(3)]  # velocity variance (p11 per axis)
-    + [EST_X + 3 * i + 2 for i in range(3)]  # acceleration bias NED
+    + [EST_HP, EST_HP + 9, EST_VP]  # position variance
+    + [EST_HP + 18, EST_HP + 27, EST_VP + 3]  # velocity variance
+    + [EST_BIAS_OUT + i for i in range(3)]  # accelerometer bias FRD
     + [EST_GYRO_BIAS + i for i in range(3)]  # gyro bias FRD
 )
 """Where the output block's values sit in the state (``state[EST_OUTPUT_INDEX]`` is the
 block :class:`~sim.fcu.estimator.EstimatorOutput` reads, a copy)."""
 assert EST_OUTPUT_INDEX.shape == (EST_OUTPUT_SIZE,)
+

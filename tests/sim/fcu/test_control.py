@@ -39,6 +39,7 @@ from sim.fcu.rigid_body import (
     SetpointSource,
     VisionModel,
     fly,
+    imu_frd,
     q_enu_flu_to_ned_frd,
 )
 from sim.quadrotor import QuadrotorParams, allocation_matrix
@@ -56,17 +57,27 @@ def gains() -> ControlGains:
 def flight(
     gains: ControlGains, setpoints: SetpointSource, duration_s: float, seed: int = 1
 ) -> FlightLog:
-    """Start hovering at 1.5 m facing North; estimator in the loop, 50 ms vision latency."""
+    """Start hovering at 1.5 m facing North; estimator in the loop, 50 ms vision latency,
+    its gyro bias calibrated at rest as the firmware's is before arming."""
     body = RigidBody(
         PARAMS, position_enu=(0.0, 0.0, ALTITUDE), yaw_enu=math.pi / 2,
         rng=np.random.default_rng(seed),
     )  # fmt: skip
     estimator = Estimator(load_parameters(EstimatorParams, ESTIMATOR_NODE_NAME),
                           position_ned=HOVER_NED)
+    estimator.set_gyro_bias(gyro_at_rest(body))
     return fly(
         body, Cascade(gains, PARAMS), setpoints, round(duration_s * 1e6),
         estimator=estimator, vision=VisionModel(latency_us=50_000, seed=seed),
     )  # fmt: skip
+
+
+def gyro_at_rest(body: RigidBody, seconds: float = 2.0, rate_hz: float = 500.0) -> np.ndarray:
+    """The gyro's mean [rad/s, FRD] over ``seconds`` with the body still (its rates zero,
+    not stepped): what the firmware's calibration at rest (sim/fcu/gyro_calibration.py)
+    hands the estimator, noise included."""
+    samples = [imu_frd(body.imu(1.0 / rate_hz)).gyro for _ in range(round(seconds * rate_hz))]
+    return np.mean(samples, axis=0)
 
 
 # --- parameters -----------------------------------------------------------------------------
