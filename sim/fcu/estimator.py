@@ -14,11 +14,11 @@ FRD, ``q_ned_frd`` Hamilton ``[w, x, y, z]``); time is the FCU clock in integer 
   horizontal specific force a wrong roll or pitch adds, fixed in the world) and the
   accelerometer's bias (fixed in the body) make the same error at one heading: the
   filter tells them apart by the turns (the bias turns with the vehicle, the tilt error
-  does not), as EKF2 does with its delta-velocity bias. Both are fed back continuously
-  (``accel_correction_gain``): the tilt into the attitude, the bias into the correction
-  subtracted from every accelerometer sample, each leaving the filter's state as a known
-  input. Without this, a tilt error cancelled the bias in aided flight and turned
-  against it in dead reckoning: a turn without vision accelerated the vehicle at the bias.
+  does not), as EKF2 does with its delta-velocity bias. The tilt is fed back continuously
+  into the attitude (``accel_correction_gain``), leaving the filter's state as a known
+  input; the bias stays a state of the filter (fed back, an unobservable split would
+  integrate). Before, a tilt error cancelled the bias in aided flight and turned against
+  it in dead reckoning: a turn without vision accelerated the vehicle at the bias.
 * Vertical: a Kalman filter ``[down, v down, acceleration bias down]``.
 * Both are driven by the bias-corrected specific force rotated to NED with gravity
   removed, and fuse external-vision position (and velocity, when given).
@@ -198,7 +198,7 @@ class Estimator:
         self._buf = np.zeros((_INITIAL_BUFFER_ROWS, EST_BUF_COLS))
         self._meta = np.zeros(2, dtype=np.int64)  # ring head, count
         est_push(self._buf, self._meta, s, float(time_us), 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
-                 np.zeros(4), -math.inf)
+                 np.zeros(2), -math.inf)
         self._buffer_full = False  # (the ring starts with room for more than one entry)
 
     def _grow(self) -> None:
@@ -266,11 +266,23 @@ class Estimator:
     # --- vision fusion ----------------------------------------------------------------------
 
     def fuse_vision(self, sample: VisionSample) -> bool:
-        """Fuse an external-vision sample; False when it is older than the buffer."""
+        """Fuse an external-vision sample; False when it is older than the buffer.
+
+        The first sample resets the position to it (EKF2's reset to external vision when
+        its fusion starts): the filter boots at the origin, metres from where the vehicle
+        stands, and pulling the estimate there through the filter made a transient
+        acceleration that the tilt and bias states learnt (0.4 m/s^2 of bias, 2 deg of tilt
+        that no turn corrected, on a pad 18 m from the origin)."""
         prm = self.params
         r_pos = sample.position_variance
         if not math.isfinite(r_pos):
             r_pos = prm.vision_position_std**2
+        oldest_us = self._buf[int(self._meta[0]), 0]
+        if self._last_vision_us is None and sample.sample_time_us >= oldest_us:
+            self._reset_position(sample.position_ned, r_pos)
+            self._last_vision_us = sample.sample_time_us
+            self._fused += 1
+            return True
         z0, z1, z2 = map(float, sample.position_ned)
         has_velocity = sample.velocity_ned is not None
         v0 = v1 = v2 = r_vel = 0.0
@@ -293,6 +305,27 @@ class Estimator:
         self._last_vision_us = max(self._last_vision_us or 0, sample.sample_time_us)
         self._fused += 1
         return True
+
+    def _reset_position(self, position_ned: npt.ArrayLike, variance: float) -> None:
+        """Position to ``position_ned`` [m] with ``variance`` [m^2], velocity to zero with
+        its initial variance, the cross terms cleared; tilt and bias as they are. The
+        buffered history restarts from now (a replay must not bring the old position back)."""
+        n, e, d = np.asarray(position_ned, dtype=np.float64).reshape(3).tolist()
+        s = self._s
+        s[EST_H:EST_H + 4] = (n, e, 0.0, 0.0)
+        s[EST_V:EST_V + 2] = (d, 0.0)
+        hp = s[EST_HP:EST_HP + 64].reshape(8, 8)  # a view
+        hp[:4, :] = 0.0
+        hp[:, :4] = 0.0
+        hp[0, 0] = hp[1, 1] = variance
+        hp[2, 2] = hp[3, 3] = self.params.initial_velocity_std**2
+        bias_var = s[EST_VP + 5]
+        s[EST_VP:EST_VP + 6] = (variance, 0.0, 0.0, self.params.initial_velocity_std**2, 0.0,
+                                bias_var)
+        self._meta[:] = 0
+        est_push(self._buf, self._meta, s, float(self._time_us), 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+                 np.zeros(2), -math.inf)
+        self._buffer_full = False
 
     # --- output -----------------------------------------------------------------------------
 

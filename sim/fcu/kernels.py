@@ -247,16 +247,15 @@ def rate_kernel(st: np.ndarray, g: np.ndarray, r0: float, r1: float, r2: float,
 
 # state:
 # - q (4), gyro bias (3), bias-corrected rate (3);
-# - the accelerometer bias applied, body x and y (2): subtracted from every sample;
 # - horizontal filter x (8): north, east [m], v north, v east [m/s], tilt error as the
-#   acceleration it makes, north and east [m/s^2] (world-fixed), the accelerometer bias not yet
-#   applied, body x and y [m/s^2] (body-fixed); its covariance P, 8x8 row-major (64);
+#   acceleration it makes, north and east [m/s^2] (world-fixed), the accelerometer's bias,
+#   body x and y [m/s^2] (body-fixed); its covariance P, 8x8 row-major (64);
 # - vertical filter x (3): down [m], v down [m/s], acceleration bias down [m/s^2]; its
 #   symmetric covariance (p00, p01, p02, p11, p12, p22) (6);
-# - the accelerometer bias estimate, FRD (3): applied + horizontal filter's, and the vertical's
-EST_Q, EST_GYRO_BIAS, EST_RATE, EST_ACCEL_BIAS = 0, 4, 7, 10
-EST_H, EST_HP, EST_V, EST_VP, EST_BIAS_OUT = 12, 20, 84, 87, 93
-EST_STATE_SIZE = 96
+# - the accelerometer bias estimate, FRD (3): the horizontal filter's, and the vertical's
+EST_Q, EST_GYRO_BIAS, EST_RATE = 0, 4, 7
+EST_H, EST_HP, EST_V, EST_VP, EST_BIAS_OUT = 10, 18, 82, 85, 91
+EST_STATE_SIZE = 94
 _H_TILT, _H_BIAS = 4, 6  # in the horizontal x
 # the output block (the state at EST_OUTPUT_INDEX): position NED (3), velocity NED (3),
 # q (4), rate FRD (3), position variance (3), velocity variance (3), accelerometer bias FRD
@@ -264,8 +263,8 @@ _H_TILT, _H_BIAS = 4, 6  # in the horizontal x
 EST_OUTPUT_SIZE = 25
 # buffer row: time [us], horizontal x (8) and P (64), vertical x (3) and P (6), NED
 # acceleration input (3), dt [s], yaw after the step [rad], cos and sin of the yaw the input
-# was rotated with, the feedback applied in the step (tilt north, east, bias x, y) [m/s^2]
-EST_BUF_COLS = 93
+# was rotated with, the tilt feedback applied in the step (north, east) [m/s^2]
+EST_BUF_COLS = 91
 _B_H, _B_HP, _B_V, _B_VP, _B_U, _B_DT, _B_YAW, _B_ROT, _B_FB = 1, 9, 73, 76, 82, 85, 86, 87, 89
 # the attitude filter's reference (est_predict's mode)
 ATTITUDE_AIDED = 0  # the position filter's tilt error (vision aided): fed back, gyro bias learnt
@@ -333,26 +332,31 @@ def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az
                         gx: float, gy: float, gz: float, dt: float, mode: int,
                         fb: np.ndarray) -> None:
     """One attitude step on the bias-corrected gyro, with the step's tilt correction, and
-    the feedback it applies from the position filter into ``fb`` (see
+    the tilt it takes from the position filter into ``fb`` (see
     :meth:`sim.fcu.estimator.Estimator.predict`).
 
     Aided or dead reckoning: the position filter's tilt error ``t`` [m/s^2] (the horizontal
     specific force the estimate's tilt adds, NED) is a world rotation ``phi`` with
     ``g * (-phi_y, phi_x) = t``; a fraction ``gain * dt`` of it is rotated out of the
-    estimate, and of the accelerometer bias it holds moved into the applied one, both
-    subtracted from the filter's states (``fb``). The rotation is a Mahony correction
-    ``gain * err`` on the rate (``err`` the body-frame angle to remove); aided, ``err`` also
-    learns the gyro bias (``- gyro_bias_gain * err * dt``). Gravity: Mahony on the
-    accelerometer against gravity while the specific force is within the gate of 1 g.
+    estimate and subtracted from the filter's state (``fb``). The rotation is a Mahony
+    correction ``gain * err`` on the rate (``err`` the body-frame angle to remove); aided,
+    ``err`` also learns the gyro bias (``- gyro_bias_gain * err * dt``). Gravity: Mahony on
+    the accelerometer, less the filter's bias, against gravity while the specific force is
+    within the gate of 1 g.
+
+    The bias is not fed back: at one heading it cannot be told from the tilt, and a
+    feedback would integrate the filter's split of every standing tilt error into it (in
+    hovers without turns it grew by 0.008 m/s^2 a second). Kept as a state, it is what
+    the filter's prior and the turns make it.
     """
     bx, by, bz = s[4], s[5], s[6]
     r0, r1, r2 = gx - bx, gy - by, gz - bz
     s[7], s[8], s[9] = r0, r1, r2
-    fb[0] = fb[1] = fb[2] = fb[3] = 0.0
+    fb[0] = fb[1] = 0.0
     k, kb, lim = prm[0], prm[3], prm[4]
     if mode == ATTITUDE_GRAVITY:
-        ax = ax - s[EST_ACCEL_BIAS]
-        ay = ay - s[EST_ACCEL_BIAS + 1]
+        ax = ax - s[EST_H + _H_BIAS]
+        ay = ay - s[EST_H + _H_BIAS + 1]
         norm = math.sqrt(ax * ax + ay * ay + az * az)
         if k > 0.0 and abs(norm - GRAVITY_M_S2) < prm[1]:
             r = _dcm(s)
@@ -381,10 +385,6 @@ def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az
             s[6] = min(max(bz - kb * ez * dt, -lim), lim)
         step = min(k * dt, 1.0)
         fb[0], fb[1] = step * tn, step * te
-        fb[2] = step * s[EST_H + _H_BIAS]
-        fb[3] = step * s[EST_H + _H_BIAS + 1]
-        s[EST_ACCEL_BIAS] += fb[2]
-        s[EST_ACCEL_BIAS + 1] += fb[3]
     dw, dx, dy, dz = _q_from_rotation(r0 * dt, r1 * dt, r2 * dt)
     w, x, y, z = _q_multiply(s[0], s[1], s[2], s[3], dw, dx, dy, dz)
     s[0], s[1], s[2], s[3] = _q_normalise(w, x, y, z)
@@ -394,14 +394,12 @@ def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az
 def _propagate_horizontal(x: np.ndarray, p: np.ndarray, un: float, ue: float, dt: float,
                           c: float, sn: float, fb: np.ndarray, qa: float, qt: float,
                           qb: float) -> None:
-    """One Kalman prediction of the horizontal filter in place: the step's feedback ``fb``
-    leaves the tilt and bias states first (a known input: the error it corrects went with
-    it), then ``a = u - tilt - R(yaw) bias`` drives velocity and position. ``c``, ``sn``:
-    the cosine and sine of the yaw ``u`` was rotated to NED with."""
+    """One Kalman prediction of the horizontal filter in place: the step's tilt feedback
+    ``fb`` leaves the tilt state first (a known input: the error it corrects went with it),
+    then ``a = u - tilt - R(yaw) bias`` drives velocity and position. ``c``, ``sn``: the
+    cosine and sine of the yaw ``u`` was rotated to NED with."""
     x[4] -= fb[0]
     x[5] -= fb[1]
-    x[6] -= fb[2]
-    x[7] -= fb[3]
     an = un - x[4] - (c * x[6] - sn * x[7])
     ae = ue - x[5] - (sn * x[6] + c * x[7])
     h = 0.5 * dt * dt
@@ -475,10 +473,10 @@ def _propagate_vertical(x: np.ndarray, p: np.ndarray, u: float, dt: float, qa: f
 
 @njit(cache=True)
 def _bias_out(s: np.ndarray) -> None:
-    """The accelerometer bias estimate, FRD: applied + the horizontal filter's, and the
-    vertical filter's (down, as the body's z near level)."""
-    s[EST_BIAS_OUT] = s[EST_ACCEL_BIAS] + s[EST_H + _H_BIAS]
-    s[EST_BIAS_OUT + 1] = s[EST_ACCEL_BIAS + 1] + s[EST_H + _H_BIAS + 1]
+    """The accelerometer bias estimate, FRD: the horizontal filter's, and the vertical
+    filter's (down, as the body's z near level)."""
+    s[EST_BIAS_OUT] = s[EST_H + _H_BIAS]
+    s[EST_BIAS_OUT + 1] = s[EST_H + _H_BIAS + 1]
     s[EST_BIAS_OUT + 2] = s[EST_V + 2]
 
 
@@ -501,7 +499,7 @@ def est_push(buf: np.ndarray, meta: np.ndarray, s: np.ndarray, time_us: float, u
     row[_B_DT] = dt
     row[_B_YAW] = _q_yaw(s[0], s[1], s[2], s[3])
     row[_B_ROT], row[_B_ROT + 1] = c, sn
-    row[_B_FB:_B_FB + 4] = fb
+    row[_B_FB:_B_FB + 2] = fb
     count += 1
     while count > 1 and buf[(head + 1) % cap, 0] <= horizon_us:
         head = (head + 1) % cap
@@ -515,10 +513,8 @@ def est_predict(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarra
                 gy: float, gz: float, mode: int, horizon_us: float) -> bool:
     """:meth:`sim.fcu.estimator.Estimator.predict` after its checks; True when the
     buffer is full afterwards (the caller grows it before the next push)."""
-    fb = np.zeros(4)
+    fb = np.zeros(2)
     _propagate_attitude(s, prm, ax, ay, az, gx, gy, gz, dt, mode, fb)
-    ax = ax - s[EST_ACCEL_BIAS]
-    ay = ay - s[EST_ACCEL_BIAS + 1]
     r = _dcm(s)
     u0 = r[0] * ax + r[1] * ay + r[2] * az
     u1 = r[3] * ax + r[4] * ay + r[5] * az
@@ -618,7 +614,7 @@ def est_fuse(s: np.ndarray, buf: np.ndarray, meta: np.ndarray, prm: np.ndarray,
     for k in range(index + 1, count):
         later = buf[(head + k) % cap]
         _propagate_horizontal(xh, ph, later[_B_U], later[_B_U + 1], later[_B_DT],
-                              later[_B_ROT], later[_B_ROT + 1], later[_B_FB:_B_FB + 4],
+                              later[_B_ROT], later[_B_ROT + 1], later[_B_FB:_B_FB + 2],
                               prm[7], prm[2], prm[9])
         _propagate_vertical(xv, pv, later[_B_U + 2], later[_B_DT], prm[7], prm[8])
         later[_B_H:_B_H + 8] = xh
