@@ -20,8 +20,9 @@ FRD, ``q_ned_frd`` Hamilton ``[w, x, y, z]``); time is the FCU clock in integer 
   integrate). Before, a tilt error cancelled the bias in aided flight and turned against
   it in dead reckoning: a turn without vision accelerated the vehicle at the bias.
 * Vertical: a Kalman filter ``[down, v down, acceleration bias down]``.
-* Both are driven by the bias-corrected specific force rotated to NED with gravity
-  removed, and fuse external-vision position (and velocity, when given).
+* Both are driven by the specific force rotated to NED with gravity removed (the bias is
+  in their models), and fuse external-vision position (and velocity, when given); a
+  sample that starts the fusion resets the position to it.
 * Delay: like EKF2's buffers, a bounded history (``buffer_length_us``) of (time, filter
   state, covariance, IMU input) is kept. A vision sample is fused at its own sample time:
   the filter rewinds to the buffered state at that time, updates, and re-propagates the
@@ -238,9 +239,9 @@ class Estimator:
         Not gravity at once: a multicopter's accelerometer measures the thrust, along the
         body's z, not gravity, so "the specific force is vertical" levels the estimate
         with the body whatever its true tilt. Holding a position on the dead-reckoned
-        estimate needs a tilt (to cancel the filter's learned accel bias); the
-        gravity reference took it out of the estimate as fast as the controller put it
-        in, and the true tilt ran away (0.5 deg/s, 12 m in 7 s in the mission).
+        estimate needs the tilt the hold put in; the gravity reference took it out of the
+        estimate as fast as the controller put it in, and the true tilt ran away (0.5
+        deg/s, 12 m in 7 s in the mission, with the filter before this one).
         """
         last = self._last_vision_us
         if last is None:
@@ -268,19 +269,24 @@ class Estimator:
     def fuse_vision(self, sample: VisionSample) -> bool:
         """Fuse an external-vision sample; False when it is older than the buffer.
 
-        The first sample resets the position to it (EKF2's reset to external vision when
-        its fusion starts): the filter boots at the origin, metres from where the vehicle
-        stands, and pulling the estimate there through the filter made a transient
-        acceleration that the tilt and bias states learnt (0.4 m/s^2 of bias, 2 deg of tilt
-        that no turn corrected, on a pad 18 m from the origin)."""
+        A sample that starts the fusion (the first, or the first after
+        ``vision_timeout_us`` without one) resets the position to it, as EKF2 resets to
+        external vision when its fusion (re)starts. The filter boots at the origin, metres
+        from where the vehicle stands, and pulling the estimate there through the filter
+        made a transient acceleration that the tilt and bias states learnt (0.4 m/s^2 of
+        bias, 2 deg of tilt that no turn corrected, on a pad 18 m from the origin); after
+        an outage, the dead-reckoned drift would do the same."""
         prm = self.params
         r_pos = sample.position_variance
         if not math.isfinite(r_pos):
             r_pos = prm.vision_position_std**2
-        oldest_us = self._buf[int(self._meta[0]), 0]
-        if self._last_vision_us is None and sample.sample_time_us >= oldest_us:
-            self._reset_position(sample.position_ned, r_pos)
-            self._last_vision_us = sample.sample_time_us
+        last = self._last_vision_us
+        starts = last is None or sample.sample_time_us - last > prm.vision_timeout_us
+        in_buffer = self.fuse_at_arrival or sample.sample_time_us >= self._buf[
+            int(self._meta[0]), 0]
+        if starts and in_buffer:
+            self._reset_position(sample.position_ned, r_pos, boot=last is None)
+            self._last_vision_us = max(last or 0, sample.sample_time_us)
             self._fused += 1
             return True
         z0, z1, z2 = map(float, sample.position_ned)
@@ -306,22 +312,29 @@ class Estimator:
         self._fused += 1
         return True
 
-    def _reset_position(self, position_ned: npt.ArrayLike, variance: float) -> None:
-        """Position to ``position_ned`` [m] with ``variance`` [m^2], velocity to zero with
-        its initial variance, the cross terms cleared; tilt and bias as they are. The
-        buffered history restarts from now (a replay must not bring the old position back)."""
+    def _reset_position(self, position_ned: npt.ArrayLike, variance: float, *,
+                        boot: bool) -> None:
+        """Position to ``position_ned`` [m] with ``variance`` [m^2], its cross terms
+        cleared; tilt and bias as they are. At ``boot`` (the first sample) the velocity
+        too, to zero with its initial variance; after an outage the dead-reckoned velocity
+        is kept. The buffered history restarts from now (a replay must not bring the old
+        position back)."""
         n, e, d = np.asarray(position_ned, dtype=np.float64).reshape(3).tolist()
         s = self._s
-        s[EST_H:EST_H + 4] = (n, e, 0.0, 0.0)
-        s[EST_V:EST_V + 2] = (d, 0.0)
         hp = s[EST_HP:EST_HP + 64].reshape(8, 8)  # a view
-        hp[:4, :] = 0.0
-        hp[:, :4] = 0.0
+        s[EST_H:EST_H + 2] = (n, e)
+        s[EST_V] = d
+        reset = 4 if boot else 2  # the horizontal states reset: position (and velocity)
+        hp[:reset, :] = 0.0
+        hp[:, :reset] = 0.0
         hp[0, 0] = hp[1, 1] = variance
-        hp[2, 2] = hp[3, 3] = self.params.initial_velocity_std**2
-        bias_var = s[EST_VP + 5]
-        s[EST_VP:EST_VP + 6] = (variance, 0.0, 0.0, self.params.initial_velocity_std**2, 0.0,
-                                bias_var)
+        vp = s[EST_VP:EST_VP + 6]  # a view: p00 p01 p02 p11 p12 p22
+        vp[0], vp[1], vp[2] = variance, 0.0, 0.0
+        if boot:
+            s[EST_H + 2:EST_H + 4] = (0.0, 0.0)
+            s[EST_V + 1] = 0.0
+            hp[2, 2] = hp[3, 3] = self.params.initial_velocity_std**2
+            vp[3], vp[4] = self.params.initial_velocity_std**2, 0.0
         self._meta[:] = 0
         est_push(self._buf, self._meta, s, float(self._time_us), 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
                  np.zeros(2), -math.inf)

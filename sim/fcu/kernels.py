@@ -378,12 +378,13 @@ def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az
         ex = r[0] * wx + r[3] * wy
         ey = r[1] * wx + r[4] * wy
         ez = r[2] * wx + r[5] * wy
-        r0, r1, r2 = r0 + k * ex, r1 + k * ey, r2 + k * ez
+        step = min(k * dt, 1.0)  # the fraction removed this step (all of it, at most)
+        rate = k if k * dt <= 1.0 else 1.0 / dt
+        r0, r1, r2 = r0 + rate * ex, r1 + rate * ey, r2 + rate * ez
         if mode == ATTITUDE_AIDED:
             s[4] = min(max(bx - kb * ex * dt, -lim), lim)
             s[5] = min(max(by - kb * ey * dt, -lim), lim)
             s[6] = min(max(bz - kb * ez * dt, -lim), lim)
-        step = min(k * dt, 1.0)
         fb[0], fb[1] = step * tn, step * te
     dw, dx, dy, dz = _q_from_rotation(r0 * dt, r1 * dt, r2 * dt)
     w, x, y, z = _q_multiply(s[0], s[1], s[2], s[3], dw, dx, dy, dz)

@@ -59,7 +59,7 @@ def _setpoint_row(sp: Any) -> list[float]:
 def _estimate_row(est: Any) -> list[float]:
     s = est.state
     return [float(est.time_us), *_state_row(s), *est.position_variance_ned,
-            *est.velocity_variance_ned, *est.accel_bias_ned, *est.gyro_bias_frd,
+            *est.velocity_variance_ned, *est.accel_bias_frd, *est.gyro_bias_frd,
             float(est.position_valid), float(est.dead_reckoning_time_us), float(est.vision_fused),
             float(est.vision_rejected)]
 

@@ -88,18 +88,55 @@ def test_rewinds_to_the_sample_time_and_reports_dead_reckoning(params: Estimator
         est.predict(k * IMU_PERIOD_US, _static_imu(LEVEL), np.zeros(3))
     out = est.output()
     assert not out.position_valid and out.dead_reckoning_time_us == 200_000
-    # a pose sampled 100 ms ago says we were 0.5 m North: fused there, then propagated
+    # the first pose, sampled 100 ms ago, starts the fusion: the position is reset to it
+    # (the filter booted at the origin)
     assert est.fuse_vision(VisionSample(100_000, np.array([0.5, 0.0, 0.0]), LEVEL))
     out = est.output()
     assert out.position_valid and out.dead_reckoning_time_us == 100_000
-    assert out.state.position_ned[0] > 0.4
-    assert out.position_variance_ned[0] < params.initial_position_std**2
+    assert out.state.position_ned[0] == 0.5
+    assert out.position_variance_ned[0] == pytest.approx(params.vision_position_std**2)
+    for k in range(101, 201):  # 200 ms more
+        est.predict(k * IMU_PERIOD_US, _static_imu(LEVEL), np.zeros(3))
+    # a pose sampled 150 ms ago says 10 cm further North: fused at its sample time, so the
+    # 150 ms of the filter after it are replayed from there
+    before = est.output().state.position_ned[0]
+    assert est.fuse_vision(VisionSample(250_000, np.array([0.6, 0.0, 0.0]), LEVEL))
+    out = est.output()
+    assert out.dead_reckoning_time_us == 150_000
+    assert out.state.position_ned[0] > before + 0.05
+    assert out.state.velocity_ned[0] > 0.0, "the replay carried the update's velocity"
     # older than the buffer: rejected, counted
     assert not est.fuse_vision(VisionSample(-1_000_000, np.zeros(3)))
     assert est.output().vision_rejected == 1
 
 
-def test_converges_from_a_wrong_initial_position(params: EstimatorParams) -> None:
+def test_vision_back_after_its_timeout_resets_the_position_not_the_velocity(
+    params: EstimatorParams,
+) -> None:
+    """EKF2 resets to external vision when its fusion restarts after a timeout: pulled
+    through the filter, the drift of the outage would be learnt as tilt and bias."""
+    est = Estimator(params)
+    t = 0
+    for k in range(1, 501):  # 1 s aided at rest
+        t = k * IMU_PERIOD_US
+        est.predict(t, _static_imu(LEVEL), np.zeros(3))
+        if k % 15 == 0:
+            est.fuse_vision(VisionSample(t, np.zeros(3), LEVEL))
+    push = _static_imu(LEVEL) + np.array([0.3, 0.0, 0.0])  # FRD x: the vehicle speeds north
+    for _ in range(round(2.0 * 1e6 / IMU_PERIOD_US)):  # 2 s without vision
+        t += IMU_PERIOD_US
+        est.predict(t, push, np.zeros(3))
+    dead = est.output()
+    assert not dead.position_valid and dead.state.velocity_ned[0] > 0.5
+    assert est.fuse_vision(VisionSample(t, np.array([0.2, 0.0, 0.0]), LEVEL))
+    back = est.output()
+    assert back.position_valid and back.state.position_ned[0] == 0.2
+    assert back.state.velocity_ned[0] == dead.state.velocity_ned[0], "velocity kept"
+
+
+def test_starts_from_a_wrong_initial_position_at_the_first_vision_sample(
+    params: EstimatorParams,
+) -> None:
     gains = load_parameters(ControlGains, CONTROL_NODE_NAME)
     body = RigidBody(position_enu=(0.0, 0.0, ALTITUDE), rng=np.random.default_rng(4))
     wrong = HOVER_NED + np.array([1.0, -0.8, 0.5])
@@ -110,6 +147,8 @@ def test_converges_from_a_wrong_initial_position(params: EstimatorParams) -> Non
     )  # fmt: skip
     error = np.linalg.norm(log.estimated_position_ned - log.true_position_ned, axis=1)
     assert error[0] > 1.0
+    # the first sample arrives after its 50 ms latency and resets the position to it
+    assert error[log.time_us >= 60_000].max() < 0.1
     after = log.time_us >= 500_000
     assert error[after].max() < 0.05, f"still {error[after].max():.3f} m off after 0.5 s"
     assert est.output().position_valid
@@ -188,14 +227,19 @@ def test_dead_reckoning_keeps_the_tilt_on_the_gyro_then_levels_on_gravity(
 def _turning_in_place(est: Estimator, bias_frd: np.ndarray, yaw_rate: float, seconds: float,
                       t_us: int, yaw: float, vision: bool) -> tuple[int, float]:
     """Level and still but turning at ``yaw_rate``: the accelerometer reads gravity plus a
-    body-fixed bias; vision (position 0 and the yaw) at ~33 Hz when ``vision``."""
+    body-fixed bias; vision (position 0 and the yaw) at ~33 Hz when ``vision``, each pose
+    fused 50 ms after it was taken (the filter replays its buffer from there)."""
+    latency_us = 50_000
+    in_flight: list[VisionSample] = []
     for k in range(1, round(seconds * 1e6 / IMU_PERIOD_US) + 1):
         t_us += IMU_PERIOD_US
         yaw += yaw_rate * IMU_PERIOD_US / 1e6
         q = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
         est.predict(t_us, _static_imu(q) + bias_frd, np.array([0.0, 0.0, yaw_rate]))
         if vision and k % 15 == 0:
-            est.fuse_vision(VisionSample(t_us, np.zeros(3), q))
+            in_flight.append(VisionSample(t_us, np.zeros(3), q))
+        while in_flight and in_flight[0].sample_time_us + latency_us <= t_us:
+            est.fuse_vision(in_flight.pop(0))
     return t_us, yaw
 
 
