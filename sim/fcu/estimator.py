@@ -16,9 +16,9 @@ FRD, ``q_ned_frd`` Hamilton ``[w, x, y, z]``); time is the FCU clock in integer 
   filter tells them apart by the turns (the bias turns with the vehicle, the tilt error
   does not), as EKF2 does with its delta-velocity bias. The tilt is fed back continuously
   into the attitude (``accel_correction_gain``), leaving the filter's state as a known
-  input; the bias stays a state of the filter (fed back, an unobservable split would
-  integrate). Before, a tilt error cancelled the bias in aided flight and turned against
-  it in dead reckoning: a turn without vision accelerated the vehicle at the bias.
+  input; the bias stays a state of the filter. Before, a tilt error cancelled the bias in
+  aided flight and turned against it in dead reckoning: a turn without vision accelerated
+  the vehicle at the bias.
 * Vertical: a Kalman filter ``[down, v down, acceleration bias down]``.
 * Both are driven by the specific force rotated to NED with gravity removed (the bias is
   in their models), and fuse external-vision position (and velocity, when given); a
@@ -198,9 +198,7 @@ class Estimator:
         self._rejected = 0
         self._buf = np.zeros((_INITIAL_BUFFER_ROWS, EST_BUF_COLS))
         self._meta = np.zeros(2, dtype=np.int64)  # ring head, count
-        est_push(self._buf, self._meta, s, float(time_us), 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
-                 np.zeros(2), -math.inf)
-        self._buffer_full = False  # (the ring starts with room for more than one entry)
+        self._restart_buffer()
 
     def _grow(self) -> None:
         head, count = int(self._meta[0]), int(self._meta[1])
@@ -335,10 +333,14 @@ class Estimator:
             s[EST_V + 1] = 0.0
             hp[2, 2] = hp[3, 3] = self.params.initial_velocity_std**2
             vp[3], vp[4] = self.params.initial_velocity_std**2, 0.0
+        self._restart_buffer()
+
+    def _restart_buffer(self) -> None:
+        """The delayed-fusion history: the current state alone, at the current time."""
         self._meta[:] = 0
-        est_push(self._buf, self._meta, s, float(self._time_us), 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
-                 np.zeros(2), -math.inf)
-        self._buffer_full = False
+        est_push(self._buf, self._meta, self._s, float(self._time_us), 0.0, 0.0, 0.0, 0.0,
+                 1.0, 0.0, np.zeros(2), -math.inf)
+        self._buffer_full = False  # (the ring starts with room for more than one entry)
 
     # --- output -----------------------------------------------------------------------------
 

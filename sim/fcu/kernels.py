@@ -344,10 +344,10 @@ def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az
     the accelerometer, less the filter's bias, against gravity while the specific force is
     within the gate of 1 g.
 
-    The bias is not fed back: at one heading it cannot be told from the tilt, and a
-    feedback would integrate the filter's split of every standing tilt error into it (in
-    hovers without turns it grew by 0.008 m/s^2 a second). Kept as a state, it is what
-    the filter's prior and the turns make it.
+    The bias is not fed back: it enters the horizontal filter's model (rotated by the
+    heading), and aided nothing else reads the accelerometer's horizontal axes; the
+    unaided gravity reference subtracts it. (Fed into a correction of every sample
+    instead, the linear filter gave the same estimates.)
     """
     bx, by, bz = s[4], s[5], s[6]
     r0, r1, r2 = gx - bx, gy - by, gz - bz
