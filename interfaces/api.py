@@ -403,10 +403,12 @@ def validate(msg: Any, typename: str | None = None, path: str | None = None) -> 
     _layout(expected).check(msg, where)
 
 
-def serialize(msg: Any, typename: str | None = None) -> bytes:
-    """CDR (XCDR1, little endian) bytes of ``msg``, after validating it."""
+def serialize(msg: Any, typename: str | None = None, *, check: bool = True) -> bytes:
+    """CDR (XCDR1, little endian) bytes of ``msg``, after validating it (``check``; a
+    message validated when it was published need not be again: a recorder's tap)."""
     name = typename or type_name(msg)
-    validate(msg, name)
+    if check:
+        validate(msg, name)
     try:
         return bytes(typestore().serialize_cdr(msg, name))
     except Exception as exc:

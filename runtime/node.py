@@ -69,10 +69,11 @@ def _sender(writer: Writer, type_name: str) -> Callable[[Any, RequestId | None],
 
 def sample_bytes(data: Sample, type_name: str) -> bytes | bytearray | memoryview:
     """The CDR bytes of a received sample: bytes as they are, a message handed over
-    in-process serialized (what a raw reader, a recorder or a bridge needs)."""
+    in-process serialized (what a raw reader, a recorder or a bridge needs; its publisher
+    validated it, so it is not validated twice)."""
     if isinstance(data, bytes | bytearray | memoryview):
         return data
-    return interfaces.serialize(data, type_name)
+    return interfaces.serialize(data, type_name, check=False)
 
 
 def _message(data: Sample, type_name: str) -> Any:
