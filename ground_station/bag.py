@@ -14,18 +14,12 @@ whose complete chunks are all readable; only the summary (the index at the end) 
 missing, and the last, unsealed chunk is lost. :func:`repair_bag` reads every complete
 record of such a file and rewrites it fully indexed, with a metadata.yaml that matches.
 
-Cost: the caller (the simulation's thread, when a mission records) only queues each
-message. A writer thread builds the records, compresses the chunks (zstd lets go of the
-GIL, so it runs beside the simulation) and writes the file, a period's messages at a time.
-
 Pure module: the typestore (for schemas) and the mcap library, no runtime.
 """
 
 from __future__ import annotations
 
 import os
-import queue
-import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -195,10 +189,6 @@ class BagWriter:
     >>> cid = bag.add_topic("/chatter", "std_msgs/msg/String", QoSProfile())
     >>> bag.write(cid, t_ns, cdr_bytes)  # sealed and flushed every flush_period_s
     >>> bag.close()                       # summary, index and final metadata.yaml
-
-    :meth:`write` queues; a seal (every ``flush_period_s``) hands the queued messages to
-    the writer thread. :meth:`flush` and :meth:`close` return once the file holds them. An
-    error of the writer thread (a full disk) is raised, as a BagError, by the next call.
     """
 
     def __init__(self, folder: Path, *, flush_period_s: float = DEFAULT_FLUSH_PERIOD_S,
@@ -225,126 +215,65 @@ class BagWriter:
         self._end_ns: int | None = None
         self.flushes = 0
         self.closed = False
-        # the messages since the last seal: (channel, t_ns, data, sequence)
-        self._pending: list[tuple[int, int, bytes, int]] = []
-        # the mcap writer is the writer thread's, but for add_topic (under the lock)
-        self._lock = threading.Lock()
-        self._seals: queue.Queue[_Seal | None] = queue.Queue()
-        self._error: BaseException | None = None
         _write_metadata(folder, _metadata(self.path, [], None, None))
-        self._thread = threading.Thread(target=self._write_seals, name=f"bag {folder.name}",
-                                        daemon=True)
-        self._thread.start()
 
     def add_topic(self, topic: str, msgtype: str, qos: QoSProfile) -> int:
         """Register a topic; returns its channel id for :meth:`write`."""
         return self._add(topic, msgtype, qos_yaml(qos))
 
     def _add(self, topic: str, msgtype: str, qos: list[dict[str, Any]]) -> int:
-        self._raise_error()
-        with self._lock:
-            schema_id = self._schemas.get(msgtype)
-            if schema_id is None:
-                msgdef = message_definition(msgtype)
-                schema_id = self._writer.register_schema(msgtype, SCHEMA_ENCODING,
-                                                         msgdef.encode())
-                self._schemas[msgtype] = schema_id
-            channel_id = self._writer.register_channel(
-                topic, MESSAGE_ENCODING, schema_id,
-                {"offered_qos_profiles": yaml.safe_dump(qos, sort_keys=False).strip()})
+        schema_id = self._schemas.get(msgtype)
+        if schema_id is None:
+            msgdef = message_definition(msgtype)
+            schema_id = self._writer.register_schema(msgtype, SCHEMA_ENCODING,
+                                                     msgdef.encode())
+            self._schemas[msgtype] = schema_id
+        channel_id = self._writer.register_channel(
+            topic, MESSAGE_ENCODING, schema_id,
+            {"offered_qos_profiles": yaml.safe_dump(qos, sort_keys=False).strip()})
         self._topics[channel_id] = _Topic(topic, msgtype, qos, channel_id)
         return channel_id
 
     def write(self, channel_id: int, t_ns: int, data: bytes) -> None:
         """Add one CDR message received at ``t_ns``; seal and flush when the period is up."""
         topic = self._topics[channel_id]
-        self._pending.append((channel_id, t_ns, data, topic.count))
+        self._writer.add_message(channel_id, log_time=t_ns, data=data, publish_time=t_ns,
+                                 sequence=topic.count)
         topic.count += 1
         if self._start_ns is None or t_ns < self._start_ns:
             self._start_ns = t_ns
         if self._end_ns is None or t_ns > self._end_ns:
             self._end_ns = t_ns
         if self._clock() - self._last_flush >= self._period:
-            self._seal()
+            self.flush()
 
     @property
     def message_count(self) -> int:
         return sum(t.count for t in self._topics.values())
 
-    def _seal(self) -> None:
-        """Hand the messages since the last seal to the writer thread, with the metadata
-        to rewrite when a topic was added or ``METADATA_PERIOD_S`` passed."""
-        self._raise_error()
+    def flush(self) -> None:
+        """Seal the open chunk, write it with its indexes, flush the file; rewrite the
+        metadata when a topic was added or ``METADATA_PERIOD_S`` passed."""
+        self._writer.flush()
+        self._file.flush()
         now = self._last_flush = self._clock()
         self.flushes += 1
-        metadata = None
         if (len(self._topics) != self._topics_in_metadata
                 or now - self._last_metadata >= METADATA_PERIOD_S):
             self._last_metadata = now
             self._topics_in_metadata = len(self._topics)
-            metadata = _metadata(self.path, list(self._topics.values()),
-                                 self._start_ns, self._end_ns)
-        self._seals.put(_Seal(self._pending, metadata))
-        self._pending = []
-
-    def _write_seals(self) -> None:
-        """The writer thread: each seal's messages into the file, the chunk sealed."""
-        while (seal := self._seals.get()) is not None:
-            try:
-                if self._error is None:
-                    with self._lock:
-                        add = self._writer.add_message
-                        for channel_id, t_ns, data, sequence in seal.messages:
-                            add(channel_id, log_time=t_ns, data=data, publish_time=t_ns,
-                                sequence=sequence)
-                        self._writer.flush()
-                        self._file.flush()
-                    if seal.metadata is not None:
-                        _write_metadata(self.folder, seal.metadata)
-            except BaseException as exc:  # kept for the caller: the next call raises it
-                self._error = exc
-            finally:
-                self._seals.task_done()
-        self._seals.task_done()
-
-    def _raise_error(self) -> None:
-        if self._error is not None:
-            raise BagError(f"writing {self.path} failed: {self._error}") from self._error
-
-    def wait_sealed(self) -> None:
-        """Return once every seal handed to the writer thread is on disk."""
-        self._seals.join()
-        self._raise_error()
-
-    def flush(self) -> None:
-        """Seal the open chunk, write it with its indexes, flush the file; rewrite the
-        metadata when a topic was added or ``METADATA_PERIOD_S`` passed. Returns once on
-        disk."""
-        self._seal()
-        self.wait_sealed()
+            _write_metadata(self.folder, _metadata(self.path, list(self._topics.values()),
+                                                   self._start_ns, self._end_ns))
 
     def close(self) -> None:
         """Write the summary (statistics, chunk and message indexes) and metadata.yaml."""
         if self.closed:
             return
         self.closed = True
-        self._seals.put(_Seal(self._pending, None))
-        self._pending = []
-        self._seals.put(None)
-        self._thread.join()
-        try:
-            self._raise_error()
-        finally:
-            self._writer.finish()
-            self._file.close()
+        self._writer.finish()
+        self._file.close()
         _write_metadata(self.folder, _metadata(self.path, list(self._topics.values()),
                                                self._start_ns, self._end_ns))
-
-
-@dataclass(frozen=True)
-class _Seal:
-    messages: list[tuple[int, int, bytes, int]]
-    metadata: dict[str, Any] | None  # metadata.yaml to rewrite after them
 
 
 @dataclass(frozen=True)
