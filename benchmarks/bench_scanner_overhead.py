@@ -7,7 +7,8 @@ sensor model (light). Writes per-frame milliseconds and the ratio to ``--out`` (
 benchmarks/results/scanner_overhead.json).
 
 The halved search (``ScannerSettings.half_res_min_side_px``): on frames over random arenas'
-pads and robots, light and dark, at the cruise height and lower, the markers the scanner
+pads and robots, light and dark, at the search height (2 m), the cruise height (1.5 m) and
+lower, the markers the scanner
 reads at full resolution against halved (the node's floor at each height, from the height
 plus its margin), the corner differences and the milliseconds per frame, each.
 
@@ -99,7 +100,7 @@ def half_resolution(arena_seeds: range, repeats: int) -> dict[str, object]:
     halved = ArucoScanner(settings)
     # over each pad and robot: straight above, and off to a side or a corner of the frame
     offsets = ((0.0, 0.0), (0.9, 0.0), (0.0, -0.7), (-0.8, 0.6))
-    heights = (1.5, 1.2)  # m: the cruise height, and a lower pass
+    heights = (2.0, 1.5, 1.2)  # m: the search height, the cruise height, a lower pass
     out: dict[str, object] = {"arena_seeds": [arena_seeds.start, arena_seeds.stop - 1],
                               "heights_m": list(heights), "min_side_px": {}}
     for lighting in (Lighting.LIGHT, Lighting.DARK):
