@@ -7,8 +7,8 @@ sensor model (light). Writes per-frame milliseconds and the ratio to ``--out`` (
 benchmarks/results/scanner_overhead.json).
 
 The halved search (``ScannerSettings.half_res_min_side_px``): on frames over random arenas'
-pads and robots, light and dark, at the search height (2 m), the cruise height (1.5 m) and
-lower, the markers the scanner
+pads and robots, light and dark, at the robot search's height (1.9 m), the cruise height
+(1.5 m) and lower, the markers the scanner
 reads at full resolution against halved (the node's floor at each height, from the height
 plus its margin), the corner differences and the milliseconds per frame, each.
 
@@ -90,6 +90,7 @@ def half_resolution(arena_seeds: range, repeats: int) -> dict[str, object]:
     height: markers read, corner differences [px], ms per frame (see the docstring)."""
     import numpy as np
 
+    from fsm.params import MissionParams
     from perception.params import ScannerParams
     from runtime.parameters import load_parameters
     from sim.arena_generator import generate_arena
@@ -100,11 +101,14 @@ def half_resolution(arena_seeds: range, repeats: int) -> dict[str, object]:
     halved = ArucoScanner(settings)
     # over each pad and robot: straight above, and off to a side or a corner of the frame
     offsets = ((0.0, 0.0), (0.9, 0.0), (0.0, -0.7), (-0.8, 0.6))
-    heights = (2.0, 1.5, 1.2)  # m: the search height, the cruise height, a lower pass
+    mission = load_parameters(MissionParams, "mission")
+    # m: the robot search's height, the cruise height, a lower pass
+    heights = (mission.explore_altitude, mission.cruise_altitude, 1.2)
     out: dict[str, object] = {"arena_seeds": [arena_seeds.start, arena_seeds.stop - 1],
                               "heights_m": list(heights), "min_side_px": {}}
     for lighting in (Lighting.LIGHT, Lighting.DARK):
         frames: list[tuple[Any, float]] = []
+        frame_heights: list[float] = []
         for seed in arena_seeds:
             arena = replace(generate_arena(seed), lighting=lighting)
             scene = Scene.build(arena)
@@ -119,6 +123,7 @@ def half_resolution(arena_seeds: range, repeats: int) -> dict[str, object]:
                                                h + params.height_margin_m)
                     frames.append((to_grey(sensor.apply(renderer.down_image(scene.data))),
                                    floor))
+                    frame_heights.append(h)
         read: dict[str, list[dict[int, Any]]] = {}
         ms: dict[str, float] = {}
         for name, scanner in (("full", full), ("halved", halved)):
@@ -139,7 +144,14 @@ def half_resolution(arena_seeds: range, repeats: int) -> dict[str, object]:
                                "p95": round(float(np.percentile(diffs, 95)), 3),
                                "max": round(max(diffs), 3)},
             "ms_per_frame": {k: round(v, 2) for k, v in ms.items()},
-            "ratio_halved_over_full": round(ms["halved"] / ms["full"], 2)}
+            "ratio_halved_over_full": round(ms["halved"] / ms["full"], 2),
+            "per_height": {f"{h} m": {
+                "frames": sum(fh == h for fh in frame_heights),
+                "markers_full": sum(len(a) for (a, _), fh in zip(pairs, frame_heights,
+                                                                strict=True) if fh == h),
+                "markers_halved": sum(len(b) for (_, b), fh in zip(pairs, frame_heights,
+                                                                  strict=True) if fh == h)}
+                for h in heights}}
         out["min_side_px"] = {f"{h} m": round(params.min_side_px(
             ScanMode.BOTH, intrinsics.fy, h + params.height_margin_m), 1) for h in heights}
     return out

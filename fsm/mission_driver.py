@@ -67,7 +67,7 @@ class DriverParams:
     :class:`fsm.params.MissionParams`)."""
 
     cruise_altitude: float
-    search_altitude: float
+    explore_altitude: float
     explore_budget_s: float
     health_topics: tuple[str, ...]
     preflight_timeout_s: float
@@ -490,7 +490,7 @@ class Driver:
     def explore(self, target_robot: int) -> None:
         self.pictures.clear()
         self._collecting = True
-        goal = ExploreGoal(self.params.search_altitude, (target_robot,),
+        goal = ExploreGoal(self.params.explore_altitude, (target_robot,),
                            self.params.explore_budget_s)
         self._ask(SendGoal(self._new_job(), Action.EXPLORE, goal),
                   partial(self._explored, target_robot))

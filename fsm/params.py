@@ -51,9 +51,9 @@ class MissionParams:
     target_robot: int = param(range=(0, 1000), description="the robot marker to find")
     cruise_altitude: float = param(unit="m", range=(0.5, 10.0),
                                    description="flight height for take-off and transit")
-    search_altitude: float = param(unit="m", range=(0.5, 10.0),
-                                   description="flight height while exploring for the robot: "
-                                               "the down camera sees a wider strip")
+    explore_altitude: float = param(unit="m", range=(0.5, 10.0),
+                                    description="flight height of the robot search: the "
+                                                "down camera reads a wider strip")
     explore_budget_s: float = param(unit="s", range=(0.0, 36000.0),
                                     description="explore at most this long, then stop with "
                                                 "robot_not_found; 0 = no limit")

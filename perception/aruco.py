@@ -121,11 +121,11 @@ class ScannerSettings:
     # corners found on the full image (cornerSubPix): on 2,080 frames over random arenas'
     # pads and robots at 1.2-1.5 m, light and dark, the same 362 markers in each light as
     # at full resolution, the corners within 0.25 px (median <= 0.015 px), in 0.26-0.67x
-    # the time (benchmarks/bench_scanner_overhead.py). 40 px takes in the search height,
-    # 2 m (floor 43.4 px): there, of 1,040 frames, halved read 365 markers in the light
-    # against 267 at full resolution, 366 against 369 in the dark (3 lost, 98 px robots at
-    # the frame's side edge); a robot is read up to 1.0 m to the side of the lane halved in
-    # the dark, 0.75-0.9 m at full resolution. 0: never halved
+    # the time (benchmarks/bench_scanner_overhead.py). 40 px takes in the robot search's
+    # height, 1.9 m (floor 45.3 px): there, on 520 frames in each light, halved read 369
+    # markers against 266 at full resolution in the light, 367 against 267 in the dark
+    # (1 lost); from 2 m a robot is read ~1.0 m to the side of the lane halved in the
+    # dark, 0.75-0.9 m at full resolution. 0: never halved
     half_res_min_side_px: float = 40.0
 
     def __post_init__(self) -> None:

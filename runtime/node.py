@@ -67,13 +67,15 @@ def _sender(writer: Writer, type_name: str) -> Callable[[Any, RequestId | None],
     return serialize
 
 
-def sample_bytes(data: Sample, type_name: str) -> bytes | bytearray | memoryview:
+def sample_bytes(data: Sample, type_name: str, *, check: bool = True
+                 ) -> bytes | bytearray | memoryview:
     """The CDR bytes of a received sample: bytes as they are, a message handed over
-    in-process serialized (what a raw reader, a recorder or a bridge needs; its publisher
-    validated it, so it is not validated twice)."""
+    in-process serialized (what a raw reader, a recorder or a bridge needs). ``check``
+    False skips validating it again: for a reader called as the message is written, right
+    after its publisher validated it (a recorder's tap)."""
     if isinstance(data, bytes | bytearray | memoryview):
         return data
-    return interfaces.serialize(data, type_name, check=False)
+    return interfaces.serialize(data, type_name, check=check)
 
 
 def _message(data: Sample, type_name: str) -> Any:

@@ -9,6 +9,7 @@ Tests and scenarios use it; under ``--transport ros2`` the same nodes run as pro
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -16,6 +17,9 @@ from flight_control.bridge_node import FcuBridgeNode
 from flight_control.flight_control_node import FlightControlNode
 from flight_control.params import FlightControlParams
 from flight_control.vio_node import VioNode
+from fsm.params import MissionParams
+from navigation.params import PathFinderParams
+from runtime.errors import ParameterError
 from runtime.parameters import load_parameters
 
 if TYPE_CHECKING:
@@ -44,6 +48,32 @@ def planning_bounds(arena: ArenaSpec) -> dict[str, Any]:
     fc = load_parameters(FlightControlParams, "flight_control")
     return field_bounds(arena) | {"ceiling_clearance": fc.wall_clearance,
                                   "min_altitude": fc.min_altitude}
+
+
+def top_cube_centre(resolution: float, ceiling: float) -> float:
+    """The highest centre of the path finder's cubes (side ``resolution``, from the floor
+    up) at or below ``ceiling`` [m]."""
+    return (math.floor(ceiling / resolution + 1e-9 - 0.5) + 0.5) * resolution
+
+
+def check_mission_altitudes(arena: ArenaSpec, mission: MissionParams | None = None) -> None:
+    """ParameterError unless the mission's cruise and explore altitudes are heights the
+    path finder plans at: a goal above its top cube would be flown at that cube's height
+    (and spaced for the one asked), one above the cube's reach not flown at all."""
+    mission = mission or load_parameters(MissionParams, "mission")
+    finder = load_parameters(PathFinderParams, "path_finder")
+    bounds = planning_bounds(arena)
+    ceiling = min(finder.max_altitude, arena.field.size[2] - bounds["ceiling_clearance"])
+    top = round(top_cube_centre(finder.resolution, ceiling), 6)
+    floor = bounds["min_altitude"]
+    for name in ("cruise_altitude", "explore_altitude"):
+        value = getattr(mission, name)
+        if not floor <= value <= top + 1e-9:
+            raise ParameterError(
+                f"mission.{name}: {value} m is outside the heights the path finder plans at, "
+                f"{floor}-{top} m (its {finder.resolution} m cubes up to max_altitude "
+                f"{finder.max_altitude} m, under the {arena.field.size[2]} m ceiling less "
+                f"{bounds['ceiling_clearance']} m)")
 
 
 def start_companion(sitl: Sitl, *, flight_control: bool = True,

@@ -59,7 +59,7 @@ from fsm.mission_table import ErrorCause, Phase, Reaction
 
 TOPICS = ("/flight_control/health", "/navigator/health")
 PARAMS = DriverParams(
-    cruise_altitude=1.5, search_altitude=2.0, explore_budget_s=600.0, health_topics=TOPICS,
+    cruise_altitude=1.5, explore_altitude=1.9, explore_budget_s=600.0, health_topics=TOPICS,
     preflight_timeout_s=0.5, silence_timeout_s=3.0, sequence_timeout_s=120.0,
     report_hover_s=1.0, picture_timeout_s=0.5, max_pictures=3, battery_low_warning=1,
     battery_critical_warning=2, land_speed=0.4, arm_attempts=5, failsafe_cause_wait_s=1.5)
@@ -183,7 +183,7 @@ def test_the_contest_tick_by_tick_from_start_to_the_last_pad() -> None:
     out = rig.done(after_s=20.0)
     assert rig.state == "mission.explore"
     assert of(out, SendGoal) == [SendGoal(rig.job.job, Action.EXPLORE,
-                                          ExploreGoal(2.0, (19,), 600.0))]
+                                          ExploreGoal(1.9, (19,), 600.0))]
     assert rig.job.job != arm_job
     # the target's pictures are kept from the start of the exploration, others ignored
     rig.feed(RobotSeen(19, "first"))

@@ -492,3 +492,16 @@ def test_every_physical_float_field_states_its_unit() -> None:
                 missing.append(f"{item.path.relative_to(INTERFACE_ROOT)}:{number}: {line.strip()}")
     assert checked > 30, f"only {checked} float fields found: is the pattern still right?"
     assert not missing, "float fields without a [unit] comment:\n" + "\n".join(missing)
+
+
+def test_serialize_without_the_check_gives_the_same_bytes_and_still_refuses_what_cdr_cannot_hold(
+) -> None:
+    odom = interfaces.new("nav_msgs/msg/Odometry", child_frame_id="base_link")
+    odom.pose.pose.position.x = 1.25
+    assert interfaces.serialize(odom, check=False) == interfaces.serialize(odom)
+    bad = interfaces.new("std_msgs/msg/String")
+    bad.data = None
+    with pytest.raises(MessageError, match="data: expected a string"):
+        interfaces.serialize(bad)
+    with pytest.raises(MessageError, match="cannot serialize std_msgs/msg/String"):
+        interfaces.serialize(bad, check=False)

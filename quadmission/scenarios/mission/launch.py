@@ -28,7 +28,7 @@ from fsm.mission_node import MissionNode
 from fsm.operator_node import OperatorNode
 from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
-from quadmission.assembly.companion import field_bounds, planning_bounds
+from quadmission.assembly.companion import check_mission_altitudes, field_bounds, planning_bounds
 from quadmission.assembly.faults import APP_KINDS, AppFaults
 from quadmission.scenarios.mission.scenario import (
     flown_arena,
@@ -161,6 +161,8 @@ def mission(*, parameter_overrides: dict[str, Any] | None = None,
     arena, rest = pop_arena(parameter_overrides)
     until = rest.pop("until_state", None)
     target = target_robot(arena, rest.pop("target_robot", None))
-    return LaunchedMission(until_state=None if until is None else str(until),
+    node = LaunchedMission(until_state=None if until is None else str(until),
                            parameter_overrides=pads_overrides(arena)
                            | {"target_robot": target} | rest, **kwargs)
+    check_mission_altitudes(arena, node.params)
+    return node

@@ -45,7 +45,12 @@ from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
-from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
+from quadmission.assembly.companion import (
+    check_mission_altitudes,
+    field_bounds,
+    planning_bounds,
+    start_companion,
+)
 from quadmission.assembly.faults import AppFaults, check_faults, resolve_faults
 from quadmission.assembly.services import attach_services
 from quadmission.errors import OptionsError
@@ -260,6 +265,7 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         recorder := SetpointRecorder(context=context),
         buttons := ScriptedOperator(context=context),
     ]
+    check_mission_altitudes(arena, mission.params)
     for node in nodes:
         sitl.executor.add_node(node)
     check_faults("mission", options.faults)

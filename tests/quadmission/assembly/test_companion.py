@@ -1,0 +1,45 @@
+"""The app's checks that the nodes' configs agree on the mission's heights."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from fsm.params import MissionParams
+from perception.aruco import ScanMode, ScannerSettings
+from perception.params import ScannerParams
+from quadmission.assembly.companion import check_mission_altitudes, top_cube_centre
+from runtime.errors import ParameterError
+from runtime.parameters import load_parameters
+from sim.arena import default_arena
+from sim.quadrotor import QuadrotorParams
+from sim.render import CameraIntrinsics
+
+
+def test_the_top_cube_is_the_highest_centre_under_the_ceiling() -> None:
+    assert top_cube_centre(0.2, 2.0) == pytest.approx(1.9)
+    assert top_cube_centre(0.2, 2.09) == pytest.approx(1.9)
+    assert top_cube_centre(0.2, 2.1) == pytest.approx(2.1)
+    assert top_cube_centre(0.25, 2.0) == pytest.approx(1.875)
+
+
+def test_the_shipped_heights_are_planned_at_and_one_above_the_top_cube_is_refused() -> None:
+    mission = load_parameters(MissionParams, "mission")
+    check_mission_altitudes(default_arena(), mission)  # config/*.yaml agree
+    with pytest.raises(ParameterError,
+                       match=r"mission\.explore_altitude: 2\.0 m is outside .*-1\.9 m"):
+        check_mission_altitudes(default_arena(), replace(mission, explore_altitude=2.0))
+    with pytest.raises(ParameterError, match=r"mission\.cruise_altitude: 2\.3 m"):
+        check_mission_altitudes(default_arena(), replace(mission, cruise_altitude=2.3))
+
+
+def test_the_robot_search_is_scanned_on_the_halved_image() -> None:
+    """At the explore altitude the scanner's floor stays at or above the halving threshold:
+    searched at full resolution there, a mission cost 10 % more CPU (docs/speed.md)."""
+    mission = load_parameters(MissionParams, "mission")
+    scanner = load_parameters(ScannerParams, "aruco_scanner")
+    fy = CameraIntrinsics.from_camera(QuadrotorParams().down_camera).fy
+    floor = scanner.min_side_px(ScanMode.BOTH, fy,
+                                mission.explore_altitude + scanner.height_margin_m)
+    assert floor >= ScannerSettings().half_res_min_side_px
