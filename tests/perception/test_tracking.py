@@ -194,3 +194,12 @@ def test_a_crop_is_stretched_by_the_whole_images_levels():
     part = grey[:, :10]
     np.testing.assert_array_equal(stretch(grey, part), stretch(grey)[:, :10])
     assert stretch(grey, part).max() < stretch(part).max()
+
+
+def test_the_search_is_halved_from_the_threshold_on_and_not_below_it(descent):
+    scanner = ArucoScanner(MISSION_PASSES)
+    threshold = MISSION_PASSES.half_res_min_side_px
+    assert scanner.find(descent[0], min_side_px=threshold - 0.1).keys() == {2}
+    assert scanner.searches_halved == 0
+    assert scanner.find(descent[0], min_side_px=threshold).keys() == {2}
+    assert scanner.searches_halved == 1
