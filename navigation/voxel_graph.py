@@ -200,6 +200,12 @@ class VoxelGraph:
         return out
 
 
+
+def top_cube_centre(resolution: float, ceiling: float) -> float:
+    """The highest centre of the path finder's cubes (side ``resolution``, from the floor
+    up) at or below ``ceiling`` [m]."""
+    return (math.floor(ceiling / resolution + 1e-9 - 0.5) + 0.5) * resolution
+
 def count_points(points: npt.ArrayLike, grid: Grid) -> npt.NDArray[np.int32]:
     """Points per cube; points outside the field are dropped. Raises EmptyCloud when none
     is left."""

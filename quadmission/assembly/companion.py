@@ -9,7 +9,6 @@ Tests and scenarios use it; under ``--transport ros2`` the same nodes run as pro
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -19,6 +18,7 @@ from flight_control.params import FlightControlParams
 from flight_control.vio_node import VioNode
 from fsm.params import MissionParams
 from navigation.params import PathFinderParams
+from navigation.voxel_graph import top_cube_centre
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters
 
@@ -48,12 +48,6 @@ def planning_bounds(arena: ArenaSpec) -> dict[str, Any]:
     fc = load_parameters(FlightControlParams, "flight_control")
     return field_bounds(arena) | {"ceiling_clearance": fc.wall_clearance,
                                   "min_altitude": fc.min_altitude}
-
-
-def top_cube_centre(resolution: float, ceiling: float) -> float:
-    """The highest centre of the path finder's cubes (side ``resolution``, from the floor
-    up) at or below ``ceiling`` [m]."""
-    return (math.floor(ceiling / resolution + 1e-9 - 0.5) + 0.5) * resolution
 
 
 def check_mission_altitudes(arena: ArenaSpec, mission: MissionParams | None = None) -> None:

@@ -7,9 +7,10 @@ from dataclasses import replace
 import pytest
 
 from fsm.params import MissionParams
+from navigation.voxel_graph import top_cube_centre
 from perception.aruco import ScanMode, ScannerSettings
 from perception.params import ScannerParams
-from quadmission.assembly.companion import check_mission_altitudes, top_cube_centre
+from quadmission.assembly.companion import check_mission_altitudes
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters
 from sim.arena import default_arena
