@@ -29,7 +29,7 @@ from navigation.errors import NavigationError
 from navigation.mapping_node import MappingNode
 from navigation.navigator_node import NAVIGATE, TAKEOFF, NavigatorNode
 from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
-from quadmission.assembly.companion import field_bounds, planning_bounds, start_companion
+from quadmission.assembly.companion import navigator_overrides, planning_bounds, start_companion
 from quadmission.assembly.faults import check_faults, judge_flight
 from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
@@ -207,11 +207,9 @@ def fly_legs(options: ScenarioOptions, arena: ArenaSpec, *, scenario: str,
     sitl = build_sitl(arena, seed=options.seed)
     start_companion(sitl)
     context = sitl.executor.context
-    bounds = field_bounds(arena)
     mapping = MappingNode(context=context)
     finder = PathFinderNode(context=context, parameter_overrides=planning_bounds(arena))
-    navigator = NavigatorNode(context=context, parameter_overrides=bounds | {
-        "arena": arena.name, "start_pad": arena.start_pad})
+    navigator = NavigatorNode(context=context, parameter_overrides=navigator_overrides(arena))
     start = arena.pad(arena.start_pad).center
     legs: list[Leg] = []
     prev = arena.start_pad

@@ -45,7 +45,8 @@ from navigation.params import NavigatorParams
 
 FOLLOW = FollowTuning(plan_attempts=3, replan_period_s=1.0, replan_tolerance=0.5,
                       map_wait_s=1.0, turn_first_angle=0.785, waypoint_radius=0.3,
-                      corner_cut=0.1, goal_radius=0.15, cruise_speed=1.0, max_reach_failures=1)
+                      corner_cut=0.1, goal_radius=0.15, cruise_speed=1.0, max_reach_failures=1,
+                      braking=1.0)
 EXPLORE = ExploreTuning(explore_sweeps=3, replace_blocked_lane_ends=False, coverage_cell=0.25,
                         down_camera_fovy_deg=60.0, down_camera_aspect=4.0 / 3.0,
                         lane_overlap=0.2, lane_point_spacing=3.0, wall_margin=1.0, arena="",
@@ -715,8 +716,9 @@ AREA = np.array([[1.0, 1.0], [4.0, 1.0], [4.0, 2.5], [1.0, 2.5]])
 FIELD = (np.array([0.0, 0.0, 0.0]), np.array([20.0, 14.0, 4.0]))
 
 
-def explore(explore_tuning: ExploreTuning = EXPLORE, **kwargs: Any) -> ExplorePolicy:
-    return ExplorePolicy(FOLLOW, explore_tuning, area=kwargs.pop("area", AREA),
+def explore(explore_tuning: ExploreTuning = EXPLORE, follow: FollowTuning = FOLLOW,
+            **kwargs: Any) -> ExplorePolicy:
+    return ExplorePolicy(follow, explore_tuning, area=kwargs.pop("area", AREA),
                          altitude=kwargs.pop("altitude", Z), field_min=FIELD[0],
                          field_max=FIELD[1], explore_paths=kwargs.pop("explore_paths", {}),
                          start_ns=kwargs.pop("start_ns", 0), **kwargs)
@@ -841,6 +843,34 @@ def test_a_lane_point_after_a_detour_is_passed_only_if_the_lane_goes_on_its_way(
     world.run()
     at_x7 = [r for r in world.of(SendReach) if np.allclose(r.target, [7.0, 1.0, Z])]
     assert len(at_x7) == 1 and at_x7[0].stop_at_target is not passed
+
+
+@pytest.mark.parametrize(("wall_x", "braking", "passed"), [
+    (4.45, 1.0, False),  # 0.45 m of room past (4, 1), 0.5 m needed to stop from 1 m/s
+    (4.55, 1.0, True),  # 0.55 m of room
+    (4.45, 4.0, True),  # braking 4 m/s^2 stops in 0.125 m
+])
+def test_a_lane_point_is_passed_at_speed_only_with_room_to_stop_past_it(
+        wall_x: float, braking: float, passed: bool) -> None:
+    """A wall across the lane beyond its point (4, 1): a lane point passed at speed is
+    stopped past, not at; random arena 149's arms hit such a wall."""
+    def wall_across(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if goal[0] < wall_x or start[1] >= 5.0:  # this side, or past the wall's north end
+            return straight(start, goal, world)
+        if goal[0] < wall_x + 1.0:
+            return failed("GoalOccupied: in the wall")
+        return ok(np.array([start, [start[0], 5.0, Z], [goal[0], 5.0, Z], goal]),
+                  stamp_ns=world.now_ns)  # round its north end
+
+    follow = FollowTuning(**{**FOLLOW.__dict__, "braking": braking})
+    area = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
+    world = World(explore(area=area, follow=follow), wall_across, here=np.array([1.0, 1.0, Z]))
+    world.run()
+    at_x4 = [r for r in world.of(SendReach) if np.allclose(r.target, [4.0, 1.0, Z])]
+    assert len(at_x4) == 1 and at_x4[0].stop_at_target is not passed
+    stop = FOLLOW.cruise_speed ** 2 / (2 * braking)  # the way on is planned that far
+    assert any(np.allclose(c.start, [4.0, 1.0, Z]) and np.allclose(c.goal, [4.0 + stop, 1, Z])
+               for c in world.of(Plan))
 
 
 def test_the_points_behind_a_lane_start_replaced_further_on_are_not_flown_back_to() -> None:

@@ -28,7 +28,11 @@ from fsm.mission_node import MissionNode
 from fsm.operator_node import OperatorNode
 from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
-from quadmission.assembly.companion import check_mission_altitudes, field_bounds, planning_bounds
+from quadmission.assembly.companion import (
+    check_mission_altitudes,
+    navigator_overrides,
+    planning_bounds,
+)
 from quadmission.assembly.faults import APP_KINDS, AppFaults
 from quadmission.scenarios.mission.scenario import (
     flown_arena,
@@ -99,10 +103,10 @@ def path_finder(*, parameter_overrides: dict[str, Any] | None = None,
 
 def navigator(*, parameter_overrides: dict[str, Any] | None = None,
               **kwargs: Any) -> NavigatorNode:
-    """The navigator with the arena's field, name and start pad."""
+    """The navigator with the arena's field, name and start pad (and flight control's
+    braking)."""
     arena, rest = pop_arena(parameter_overrides)
-    return NavigatorNode(parameter_overrides=field_bounds(arena) | {
-        "arena": arena.name, "start_pad": arena.start_pad} | rest, **kwargs)
+    return NavigatorNode(parameter_overrides=navigator_overrides(arena) | rest, **kwargs)
 
 
 def operator(*, parameter_overrides: dict[str, Any] | None = None,

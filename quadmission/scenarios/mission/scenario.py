@@ -47,7 +47,7 @@ from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import (
     check_mission_altitudes,
-    field_bounds,
+    navigator_overrides,
     planning_bounds,
     start_companion,
 )
@@ -247,7 +247,6 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
     sitl = build_sitl(arena, seed=options.seed)
     companion = start_companion(sitl)
     context = sitl.executor.context
-    bounds = field_bounds(arena)
     pads = pads_overrides(published)
     sensors = SimSensorsNode(context=context)
     nodes = [
@@ -255,8 +254,7 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         ArucoScannerNode(context=context),
         MappingNode(context=context),
         PathFinderNode(context=context, parameter_overrides=planning_bounds(arena)),
-        NavigatorNode(context=context, parameter_overrides=bounds | {
-            "arena": published.name, "start_pad": published.start_pad}),
+        NavigatorNode(context=context, parameter_overrides=navigator_overrides(published)),
         PrecisionLandNode(context=context),
         mission := MissionNode(context=context, parameter_overrides=pads | {
             "target_robot": target}),

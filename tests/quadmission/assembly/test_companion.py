@@ -1,4 +1,5 @@
-"""The app's checks that the nodes' configs agree on the mission's heights."""
+"""The app's facts for the nodes, and its checks that the nodes' configs agree on the
+mission's heights."""
 
 from __future__ import annotations
 
@@ -6,11 +7,14 @@ from dataclasses import replace
 
 import pytest
 
+from flight_control.params import FlightControlParams
 from fsm.params import MissionParams
+from navigation.navigator_node import NavigatorNode
 from navigation.voxel_graph import top_cube_centre
 from perception.aruco import ScanMode, ScannerSettings
 from perception.params import ScannerParams
-from quadmission.assembly.companion import check_mission_altitudes
+from quadmission.assembly.companion import check_mission_altitudes, navigator_overrides
+from runtime import DeterministicExecutor
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters
 from sim.arena import default_arena
@@ -44,3 +48,15 @@ def test_the_robot_search_is_scanned_on_the_halved_image() -> None:
     floor = scanner.min_side_px(ScanMode.BOTH, fy,
                                 mission.explore_altitude + scanner.height_margin_m)
     assert floor >= ScannerSettings().half_res_min_side_px
+
+
+def test_the_navigator_brakes_as_flight_control_does_and_knows_the_arena() -> None:
+    arena = default_arena()
+    overrides = navigator_overrides(arena)
+    fc = load_parameters(FlightControlParams, "flight_control")
+    assert overrides["braking"] == fc.acceleration
+    assert (overrides["arena"], overrides["start_pad"]) == (arena.name, arena.start_pad)
+    assert overrides["field_max"] == list(map(float, arena.field.size))
+    node = NavigatorNode(context=DeterministicExecutor().context, parameter_overrides=overrides)
+    assert node.follow.braking == fc.acceleration  # what its policies brake with
+    node.destroy_node()
