@@ -33,7 +33,8 @@ Exploring (:class:`ExplorePolicy`): the predefined exploration path of the arena
 pad (with loop closures) or, when there is none or the goal gives an area, boustrophedon
 lanes spaced by the down camera's footprint (:func:`explore_waypoints`); each leg is
 followed as above, a lane through points on it (:func:`lane_points`), passed without
-stopping where the lane goes on their way, so a detour round an obstacle comes back to the
+stopping where the lane goes on their way and the map leaves room to stop past them
+(``pass_stop_s``), so a detour round an obstacle comes back to the
 lane (a point in an obstacle, or reached only by a detour longer than
 ``LANE_POINT_DETOUR_M``, is passed by after one plan); a waypoint with no path is skipped
 or, with
@@ -100,7 +101,7 @@ class FollowTuning:
     goal_radius: float  # m
     cruise_speed: float  # m/s
     max_reach_failures: int
-    braking: float  # m/s^2, the flight-control node's braking (its carrot's acceleration)
+    pass_stop_s: float  # s, a point passed at speed v is stopped within v * this past it
 
     @classmethod
     def of(cls, params: object) -> FollowTuning:
@@ -446,9 +447,11 @@ class _Follower(_Policy):
         """Plan to ``goal`` and follow the path, re-planning as the module docstring says.
         ``then``: the way [m] the flight goes on from ``goal`` (None: it stops there); the
         goal is passed without stopping when the path's last leg turns into it by at most
-        ``turn_first_angle``. ``attempts``: plans tried before NO_PATH (None:
-        ``plan_attempts``), also when the way turns out blocked; ``max_detour`` [m]: NO_PATH
-        when a path (the first or a re-plan) is longer than the straight line by more."""
+        ``turn_first_angle`` and the map leaves room to stop past it
+        (:meth:`_no_room_past`, asked again at each re-plan on the way). ``attempts``: plans
+        tried before NO_PATH (None: ``plan_attempts``), also when the way turns out blocked;
+        ``max_detour`` [m]: NO_PATH when a path (the first or a re-plan) is longer than the
+        straight line by more."""
         f = self.follow
         attempts = f.plan_attempts if attempts is None else attempts
         path: FloatArray | None = None
@@ -505,15 +508,16 @@ class _Follower(_Policy):
                     path, i = new, 1
                     continue
             # a sharp corner next: stop there (the vehicle turns in place before that leg);
-            # at the goal, the way on from it (``then``) is the next leg
+            # at the goal, the way on from it (``then``) is the next leg, and the goal is
+            # passed only with room to stop past it
             ahead = path if not last or then is None else np.vstack([path, wp + then])
-            corner = (not last or then is not None) and turn_angle(ahead, i) > f.turn_first_angle
-            if last and then is not None and not corner:  # passed only with room to stop
-                corner = yield from self._way_on_blocked(wp, then, speed)
+            stop = (last and then is None) or turn_angle(ahead, i) > f.turn_first_angle
+            passing_goal = last and not stop
+            if passing_goal:
+                stop = yield from self._no_room_past(path, i, speed)
             radius_i = radius if last else corner_radius(path, i, f.waypoint_radius,
                                                          f.corner_cut)
-            sent = _expect((yield SendReach(wp, heading, radius_i, speed,
-                                            (last and then is None) or corner)), Sent)
+            sent = _expect((yield SendReach(wp, heading, radius_i, speed, stop)), Sent)
             if not sent.accepted:
                 return _Flown(Outcome.FLIGHT_ERROR, f"reach rejected: {sent.message}")
             period_ns = int(f.replan_period_s * 1e9)
@@ -530,6 +534,16 @@ class _Follower(_Policy):
                 yield self._progress(path, i)
                 if self._now.now_ns >= next_plan_ns:
                     next_plan_ns = self._now.now_ns + period_ns
+                    if passing_goal and not stop and (
+                            yield from self._no_room_past(path, i, speed)):
+                        # the map now shows something just past the goal: brake to it (a
+                        # newer reach takes over at the vehicle's speed)
+                        stop = True
+                        sent = _expect((yield SendReach(wp, heading, radius_i, speed, True)),
+                                       Sent)
+                        if not sent.accepted:
+                            return _Flown(Outcome.FLIGHT_ERROR,
+                                          f"reach rejected: {sent.message}")
                     new, no_path = yield from self._recheck(path, i, goal, flying=True,
                                                             attempts=attempts)
                     if no_path is not None:
@@ -556,16 +570,20 @@ class _Follower(_Policy):
             path, i = planned.path, 1
         return _Flown(Outcome.REACHED, "reached")
 
-    def _way_on_blocked(self, goal: FloatArray, then: FloatArray, speed: float
-                        ) -> Script[bool]:
-        """Whether the way on from ``goal`` along ``then`` is not clear for the distance
-        the vehicle needs to stop from ``speed`` (``speed**2 / (2 * braking)``). A goal
-        passed at speed is stopped past, not at, when the next leg turns away: random
-        arena 149 passed a lane point 0.49 m before a wall across the lane at 1 m/s, and
-        its arms hit the wall while it stopped to turn round it."""
-        direction = then / max(float(np.linalg.norm(then)), 1e-9)
-        stop = speed * speed / (2.0 * self.follow.braking)
-        return (yield from self._straight_blocked(goal, goal + direction * stop))
+    def _no_room_past(self, path: FloatArray, i: int, speed: float) -> Script[bool]:
+        """Whether the vehicle, passing waypoint ``i`` of ``path`` at ``speed``, has no
+        room to stop past it: the straight line on from it, along the leg that arrives
+        there, is not clear for ``speed * pass_stop_s``. A point passed at speed is
+        stopped past, not at, when the next leg turns away (flight control then holds the
+        point and the vehicle carries on along its way in). Random arena 149 passed a lane
+        point 0.49 m before a wall across the lane at 1 m/s; the next leg went round the
+        wall, and the vehicle's arms hit it while it stopped to turn."""
+        arrival = path[i] - path[i - 1]
+        length = float(np.linalg.norm(arrival))
+        if length < END_TOLERANCE_M:
+            return False
+        room = speed * self.follow.pass_stop_s
+        return (yield from self._straight_blocked(path[i], path[i] + arrival * (room / length)))
 
     def _straight_blocked(self, start: FloatArray, end: FloatArray) -> Script[bool]:
         """Whether the straight line from ``start`` to ``end`` is not clear on the map: the

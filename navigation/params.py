@@ -100,10 +100,10 @@ class NavigatorParams:
     cruise_altitude: float = param(unit="m", range=(0.3, 10.0),
                                    description="flight height (map z) of takeoff and explore")
     cruise_speed: float = param(unit="m/s", range=(0.1, 5.0), description="reach speed")
-    braking: float = param(unit="m/s^2", range=(0.1, 5.0),
-                           description="how fast a reach brakes: a point is passed at speed "
-                                       "only when the way on is clear for the distance to "
-                                       "stop (the app sets flight control's acceleration)")
+    pass_stop_s: float = param(unit="s", range=(0.0, 5.0),
+                               description="a point passed at speed v is stopped within "
+                                           "v times this past it: it is passed only when "
+                                           "the way on is clear that far")
     waypoint_radius: float = param(unit="m", range=(0.02, 2.0),
                                    description="an intermediate waypoint is reached inside it")
     goal_radius: float = param(unit="m", range=(0.02, 2.0),

@@ -51,12 +51,8 @@ def planning_bounds(arena: ArenaSpec) -> dict[str, Any]:
 
 
 def navigator_overrides(arena: ArenaSpec) -> dict[str, Any]:
-    """The navigator's facts from the app: the arena's field, name and start pad, and the
-    flight-control node's braking (its reaches' acceleration), which says how far past a
-    point the vehicle needs to stop."""
-    fc = load_parameters(FlightControlParams, "flight_control")
-    return field_bounds(arena) | {"arena": arena.name, "start_pad": arena.start_pad,
-                                  "braking": fc.acceleration}
+    """The navigator's facts from the app: the arena's field, name and start pad."""
+    return field_bounds(arena) | {"arena": arena.name, "start_pad": arena.start_pad}
 
 
 def check_mission_altitudes(arena: ArenaSpec, mission: MissionParams | None = None) -> None:

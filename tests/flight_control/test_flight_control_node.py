@@ -26,9 +26,11 @@ from flight_control.flight_control_node import (
     FlightControlNode,
 )
 from flight_control.frames import quat_to_yaw
+from navigation.params import NavigatorParams
 from quadmission.assembly.companion import start_companion
 from runtime import ActionClient, GoalStatus, Node, qos_profile_default
 from runtime.future import Future
+from runtime.parameters import load_parameters
 from sim.fcu.sitl import Sitl, build_sitl
 from sim.scene import quad_state
 from sim.world import StopWhen
@@ -296,3 +298,30 @@ def test_land_at_a_chosen_speed_descends_at_that_speed_then_disarms() -> None:
     assert middle and np.mean(middle) == pytest.approx(-0.5, abs=0.1)
     assert pilot.truth()[2] < 0.2
     assert not pilot.status[-1][1].armed
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.0])
+def test_a_point_passed_at_speed_is_stopped_within_the_navigators_room_past_it(
+        speed: float) -> None:
+    """A reach that passes its target (``stop_at_target`` false) then holds it: the vehicle
+    carries on past the point and comes back, stopping within ``speed`` times the
+    navigator's ``pass_stop_s``, the room it wants clear past a lane point before it passes
+    it at speed (random arena 149's arms hit a wall 0.49 m past one)."""
+    sitl, _, pilot = _setup(seed=17)
+    _, takeoff, _ = _arm_and_take_off(pilot, 1.5)
+    assert takeoff.status == GoalStatus.SUCCEEDED
+    target = pilot.truth() + np.array([4.0, 0.0, 0.0])
+    goal = reach_goal(*target, radius=0.3)
+    goal.stop_at_target, goal.speed = False, speed
+    handle = pilot.send(pilot.reach, goal)
+    assert handle.accepted
+    passed = pilot.outcome(handle, 20.0)
+    assert passed.status == GoalStatus.SUCCEEDED, passed.result.message
+    assert pilot.truth_speed() > 0.8 * speed  # passed, not stopped at
+    past: list[float] = []  # m beyond the point, along the reach, for 3 s of the hold
+    for _ in range(30):
+        sitl.run(0.1)
+        past.append(float(pilot.truth()[0] - target[0]))
+    room = speed * load_parameters(NavigatorParams, "navigator").pass_stop_s
+    assert 0.05 * speed < max(past) <= room
+    assert abs(past[-1]) < 0.05  # back on the point, held

@@ -46,7 +46,7 @@ from navigation.params import NavigatorParams
 FOLLOW = FollowTuning(plan_attempts=3, replan_period_s=1.0, replan_tolerance=0.5,
                       map_wait_s=1.0, turn_first_angle=0.785, waypoint_radius=0.3,
                       corner_cut=0.1, goal_radius=0.15, cruise_speed=1.0, max_reach_failures=1,
-                      braking=1.0)
+                      pass_stop_s=0.5)
 EXPLORE = ExploreTuning(explore_sweeps=3, replace_blocked_lane_ends=False, coverage_cell=0.25,
                         down_camera_fovy_deg=60.0, down_camera_aspect=4.0 / 3.0,
                         lane_overlap=0.2, lane_point_spacing=3.0, wall_margin=1.0, arena="",
@@ -845,31 +845,77 @@ def test_a_lane_point_after_a_detour_is_passed_only_if_the_lane_goes_on_its_way(
     assert len(at_x7) == 1 and at_x7[0].stop_at_target is not passed
 
 
-@pytest.mark.parametrize(("wall_x", "braking", "passed"), [
-    (4.45, 1.0, False),  # 0.45 m of room past (4, 1), 0.5 m needed to stop from 1 m/s
-    (4.55, 1.0, True),  # 0.55 m of room
-    (4.45, 4.0, True),  # braking 4 m/s^2 stops in 0.125 m
+def wall_across_the_lane(wall_x: float, *, seen_at_s: float = 0.0
+                         ) -> Callable[[np.ndarray, np.ndarray, World], Planned]:
+    """A planner for a wall across the lane y = 1: its inflated cubes are x in [``wall_x``,
+    ``wall_x`` + 1], y < 5, on the map from ``seen_at_s`` on. A goal in it fails; a
+    straight line through it is flown round its north end."""
+    def inside(point: np.ndarray) -> bool:
+        return bool(wall_x <= point[0] <= wall_x + 1.0 and point[1] < 5.0)
+
+    def plan(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if world.now_ns < seen_at_s * 1e9:
+            return straight(start, goal, world)
+        if inside(goal):
+            return failed("GoalOccupied: in the wall")
+        if not any(inside(start + (goal - start) * f) for f in np.linspace(0.0, 1.0, 101)):
+            return straight(start, goal, world)
+        north = [[min(start[0], wall_x - 0.1), 5.5, Z]] if start[1] < 5.0 else []
+        return ok(np.array([start, *north, [wall_x + 1.1, 5.5, Z], goal]),
+                  stamp_ns=world.now_ns)
+    return plan
+
+
+ONE_LANE = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
+
+
+@pytest.mark.parametrize(("wall_x", "pass_stop_s", "passed"), [
+    (4.45, 0.5, False),  # 0.45 m of room past (4, 1), 0.5 m needed to stop from 1 m/s
+    (4.55, 0.5, True),  # 0.55 m of room
+    (4.45, 0.4, True),  # a vehicle that stops in 0.4 s from 1 m/s
 ])
 def test_a_lane_point_is_passed_at_speed_only_with_room_to_stop_past_it(
-        wall_x: float, braking: float, passed: bool) -> None:
+        wall_x: float, pass_stop_s: float, passed: bool) -> None:
     """A wall across the lane beyond its point (4, 1): a lane point passed at speed is
     stopped past, not at; random arena 149's arms hit such a wall."""
-    def wall_across(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
-        if goal[0] < wall_x or start[1] >= 5.0:  # this side, or past the wall's north end
-            return straight(start, goal, world)
-        if goal[0] < wall_x + 1.0:
-            return failed("GoalOccupied: in the wall")
-        return ok(np.array([start, [start[0], 5.0, Z], [goal[0], 5.0, Z], goal]),
-                  stamp_ns=world.now_ns)  # round its north end
-
-    follow = FollowTuning(**{**FOLLOW.__dict__, "braking": braking})
-    area = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 1.0], [1.0, 1.0]])
-    world = World(explore(area=area, follow=follow), wall_across, here=np.array([1.0, 1.0, Z]))
+    follow = FollowTuning(**{**FOLLOW.__dict__, "pass_stop_s": pass_stop_s})
+    world = World(explore(area=ONE_LANE, follow=follow), wall_across_the_lane(wall_x),
+                  here=np.array([1.0, 1.0, Z]))
     world.run()
     at_x4 = [r for r in world.of(SendReach) if np.allclose(r.target, [4.0, 1.0, Z])]
     assert len(at_x4) == 1 and at_x4[0].stop_at_target is not passed
-    stop = FOLLOW.cruise_speed ** 2 / (2 * braking)  # the way on is planned that far
-    assert any(np.allclose(c.start, [4.0, 1.0, Z]) and np.allclose(c.goal, [4.0 + stop, 1, Z])
+    room = FOLLOW.cruise_speed * pass_stop_s  # the way on is planned that far
+    assert any(np.allclose(c.start, [4.0, 1.0, Z]) and np.allclose(c.goal, [4.0 + room, 1, Z])
+               for c in world.of(Plan))
+
+
+def test_a_wall_mapped_past_a_lane_point_on_the_way_to_it_turns_the_pass_into_a_stop() -> None:
+    """The check is asked again at each re-plan: a newer reach brakes to the point."""
+    world = World(explore(area=ONE_LANE), wall_across_the_lane(4.45, seen_at_s=5.0),
+                  here=np.array([1.0, 1.0, Z]), polls=40)  # (4, 1) sent at 3.9 s, re-planned
+    # at 4.9 s (the wall not yet seen) and 5.9 s (seen)
+    world.run()
+    at_x4 = [r.stop_at_target for r in world.of(SendReach)
+             if np.allclose(r.target, [4.0, 1.0, Z])]
+    assert at_x4 == [False, True]
+
+
+def test_the_room_to_stop_is_looked_for_along_the_way_the_point_is_reached() -> None:
+    """Back onto the lane at (7, 1) from a detour, heading south-east: the vehicle carries
+    on that way, not along the lane, when it stops past the point."""
+    def detour_to_x7(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if start[0] < 5.0 and np.allclose(goal, [7.0, 1.0, Z]):  # arrives 27 deg off the lane
+            return ok(np.array([start, [5.0, 2.0, Z], goal]), stamp_ns=world.now_ns)
+        if goal[1] < 0.8 and goal[0] > 7.0:  # a block south-east of (7, 1)
+            return failed("GoalOccupied: in the block")
+        return straight(start, goal, world)
+
+    world = World(explore(area=ONE_LANE), detour_to_x7, here=np.array([1.0, 1.0, Z]))
+    world.run()
+    at_x7 = [r for r in world.of(SendReach) if np.allclose(r.target, [7.0, 1.0, Z])]
+    assert len(at_x7) == 1 and at_x7[0].stop_at_target
+    room = 0.5 * np.array([2.0, -1.0, 0.0]) / math.sqrt(5.0)
+    assert any(np.allclose(c.start, [7.0, 1.0, Z]) and np.allclose(c.goal, [7.0, 1.0, Z] + room)
                for c in world.of(Plan))
 
 

@@ -103,8 +103,7 @@ def path_finder(*, parameter_overrides: dict[str, Any] | None = None,
 
 def navigator(*, parameter_overrides: dict[str, Any] | None = None,
               **kwargs: Any) -> NavigatorNode:
-    """The navigator with the arena's field, name and start pad (and flight control's
-    braking)."""
+    """The navigator with the arena's field, name and start pad."""
     arena, rest = pop_arena(parameter_overrides)
     return NavigatorNode(parameter_overrides=navigator_overrides(arena) | rest, **kwargs)
 

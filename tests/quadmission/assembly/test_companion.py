@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
-from flight_control.params import FlightControlParams
 from fsm.params import MissionParams
 from navigation.navigator_node import NavigatorNode
 from navigation.voxel_graph import top_cube_centre
@@ -50,13 +50,10 @@ def test_the_robot_search_is_scanned_on_the_halved_image() -> None:
     assert floor >= ScannerSettings().half_res_min_side_px
 
 
-def test_the_navigator_brakes_as_flight_control_does_and_knows_the_arena() -> None:
+def test_the_navigator_knows_the_arena_from_the_app() -> None:
     arena = default_arena()
-    overrides = navigator_overrides(arena)
-    fc = load_parameters(FlightControlParams, "flight_control")
-    assert overrides["braking"] == fc.acceleration
-    assert (overrides["arena"], overrides["start_pad"]) == (arena.name, arena.start_pad)
-    assert overrides["field_max"] == list(map(float, arena.field.size))
-    node = NavigatorNode(context=DeterministicExecutor().context, parameter_overrides=overrides)
-    assert node.follow.braking == fc.acceleration  # what its policies brake with
+    node = NavigatorNode(context=DeterministicExecutor().context,
+                         parameter_overrides=navigator_overrides(arena))
+    assert (node.params.arena, node.params.start_pad) == (arena.name, arena.start_pad)
+    assert np.allclose(node.field_max, arena.field.size)
     node.destroy_node()
