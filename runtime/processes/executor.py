@@ -82,6 +82,9 @@ class ClockedExecutor(DeterministicExecutor):
         self._stopping = False
         self._clock_reader: Reader | None = None
         self._follower = transport if isinstance(transport, TimeFollower) else None
+        #: called when a ``/clock`` sample is not newer than the last: the simulator sends
+        #: it again while it waits for this process (run_nodes answers with its report)
+        self.on_clock_repeat: Callable[[], None] | None = None
 
     def follow_clock(self) -> None:
         """Subscribe to ``/clock`` (with ``use_sim_time``). The simulator starts its clock
@@ -103,6 +106,8 @@ class ClockedExecutor(DeterministicExecutor):
                 self._clock_rate = rate if self._clock_rate == 0.0 else (
                     0.9 * self._clock_rate + 0.1 * rate)
             self._clock_ns, self._clock_wall_ns, self._clock_step_ns = t_ns, wall_ns, step
+        elif self.on_clock_repeat is not None:
+            self.on_clock_repeat()
         if self._follower is not None:
             self._follower.set_time(t_ns)
 
