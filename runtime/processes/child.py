@@ -62,6 +62,7 @@ __all__ = ["TRANSPORTS", "ProcessSpec", "main"]
 #: exit codes of a process besides its nodes' own
 EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
+EXIT_STALLED = 5  # a node process sent no report for stall_timeout_s while it was waited for
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
 _CLOCK_PUB_QOS = QoSProfile(depth=1)  # reliable, volatile, keep last 1
 _WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
@@ -92,6 +93,7 @@ class ProcessSpec:
     max_lead_s: float = 0.005  # simulator: how far it may run ahead of them [s simulated]
     ack_period_s: float = 0.002  # node process: reports its time this often [s simulated]
     startup_timeout_s: float = 120.0
+    stall_timeout_s: float = 120.0  # simulator: gives up on a node process silent this long [s]
     log_level: str = "INFO"
 
     def __post_init__(self) -> None:
@@ -229,6 +231,7 @@ def run_simulator(spec: ProcessSpec) -> int:
         return 0
     wall0 = time.perf_counter()
     sim0 = ex.now().nanoseconds
+    stalled: list[str] = []  # the node processes that stopped reporting, once given up on
 
     def tick(t_ns: int) -> None:
         sec, nsec = divmod(t_ns, 1_000_000_000)
@@ -236,14 +239,23 @@ def run_simulator(spec: ProcessSpec) -> int:
             "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec))
         clock_pub.publish(clock)
         transport.dispatch()
-        repeat_at = time.monotonic() + _CLOCK_REPEAT_S
+        waiting_since = time.monotonic()
+        repeat_at = waiting_since + _CLOCK_REPEAT_S
         while reached and min(reached.values()) < t_ns - max_lead_ns and not stop["now"]:
             transport.wait(_WAIT_S)  # a node process lags: let it catch up
             transport.dispatch()
             ex.spin_until(ex.now().nanoseconds)  # its reports, taken at this time
-            if time.monotonic() >= repeat_at:  # /clock is best effort: a process that
+            now = time.monotonic()
+            if now >= repeat_at:  # /clock is best effort: a process that
                 clock_pub.publish(clock)  # lost the last samples would wait forever
-                repeat_at = time.monotonic() + _CLOCK_REPEAT_S
+                repeat_at = now + _CLOCK_REPEAT_S
+            if now - waiting_since > spec.stall_timeout_s:  # said, not waited on forever
+                late = ", ".join(f"{who} (at {t / 1e9:.3f} s)" for who, t in reached.items()
+                                 if t < t_ns - max_lead_ns)
+                _say(spec.name, f"stalled at {t_ns / 1e9:.3f} s simulated: no report from "
+                                f"{late} for {spec.stall_timeout_s:g} s")
+                stalled.append(late)
+                stop["now"] = True
         if spec.rtf > 0:
             ahead = (t_ns - sim0) / 1e9 / spec.rtf - (time.perf_counter() - wall0)
             if ahead > 0:
@@ -254,6 +266,8 @@ def run_simulator(spec: ProcessSpec) -> int:
     sim_s, wall_s = (ex.now().nanoseconds - sim0) / 1e9, time.perf_counter() - wall0
     _say(spec.name, f"ran {sim_s:.3f} s simulated in {wall_s:.3f} s "
                     f"(real-time factor {sim_s / max(wall_s, 1e-9):.2f})")
+    if stalled:
+        return EXIT_STALLED
     if stop["now"]:
         return 0
     _say(spec.name, result.reason)
