@@ -26,9 +26,9 @@ simulator sends the current ``/clock`` again every 0.1 s of host time: ``/clock`
 effort (as rclcpp subscribes it), and a process that lost the last samples could not
 catch up otherwise (a full mission once stalled at 281 s with every process idle,
 most likely so). A node process answers such a repeat with its report at once: its
-reports are timed on simulated time, which does not move while the simulator waits, and
-the first ones can be lost while discovery matches the report's reader (a square launch
-on a loaded host stalled at 5 ms of simulated time for 15 minutes).
+reports are timed on simulated time, which advances at most one /clock step while the
+simulator waits, and the first ones can be lost while discovery matches the report's
+reader (a square launch on a loaded host stalled at 5 ms of simulated time for 15 minutes).
 """
 
 from __future__ import annotations

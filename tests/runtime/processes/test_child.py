@@ -7,6 +7,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import interfaces
@@ -14,7 +15,7 @@ from interfaces.qos import QoSProfile
 from runtime.clock import Time
 from runtime.launch import LaunchDescription, NodeSpec
 from runtime.processes.child import EXIT_STALLED, ProcessSpec, ack_topic
-from runtime.processes.executor import CLOCK_TOPIC, CLOCK_TYPE
+from runtime.processes.executor import CLOCK_TOPIC, CLOCK_TYPE, ProcessTransport
 from runtime.processes.launcher import process_specs
 from runtime.transport import Endpoint
 from tests.runtime.processes.conftest import make_transport
@@ -24,16 +25,15 @@ QOS = QoSProfile(depth=1)  # the simulator's /clock writer and the reports: reli
 
 
 def _clock(t_ns: int) -> bytes:
-    sec, nsec = divmod(t_ns, 1_000_000_000)
-    return interfaces.serialize(interfaces.new(CLOCK_TYPE, clock=interfaces.new(
-        "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec)), CLOCK_TYPE)
+    return interfaces.serialize(interfaces.new(CLOCK_TYPE, clock=Time(t_ns).to_msg()),
+                                CLOCK_TYPE)
 
 
-def _until(transport: object, done: object, timeout_s: float) -> None:
+def _until(transport: ProcessTransport, done: Callable[[], bool], timeout_s: float) -> None:
     deadline = time.monotonic() + timeout_s
-    while not done() and time.monotonic() < deadline:  # type: ignore[operator]
-        transport.wait(0.05)  # type: ignore[attr-defined]
-        transport.dispatch()  # type: ignore[attr-defined]
+    while not done() and time.monotonic() < deadline:
+        transport.wait(0.05)
+        transport.dispatch()
 
 
 def test_a_clock_sent_again_is_answered_with_a_report_when_the_first_ones_were_lost(
