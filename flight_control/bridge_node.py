@@ -184,6 +184,13 @@ class FcuBridgeNode(Node):
         self._last_fcu_ns = self.now().nanoseconds
         if est.converged and not was_synced:  # stamps move from receive to sample time
             self.history = PoseHistory(self.history.span_ns)
+            self.get_logger().info(
+                f"time sync converged: companion minus FCU clock {est.offset_us} us, "
+                f"{est.samples} samples; visual odometry forwarded")
+        elif was_synced and not est.converged:
+            self.get_logger().warning(
+                f"time sync restarted (restart {est.resets}, the FCU clock jumped): "
+                "visual odometry held back until it converges again")
         if not self.timesync_pub.get_subscription_count():
             return  # diagnostics nobody reads are not built
         self.timesync_pub.publish(fcu_messages.timesync_diagnostics(est, self.now().to_msg()))

@@ -63,7 +63,7 @@ class KalmanParams:
     converged_std_us: float = param(20.0, unit="us", range=(0.0, 1e6), lo_open=True)
     """Converged once the offset 1-sigma is below this ..."""
     converged_min_samples: int = param(10, range=(1, 100_000))
-    """... and at least this many samples are in."""
+    """... and at least this many samples are in; it stays converged until a reset."""
 
     def __post_init__(self) -> None:
         try:
@@ -94,6 +94,14 @@ class KalmanTimesync:
     in a row is a clock jump: the filter restarts from those rejected samples (after a jump
     they all sit on the new clock, so none is lost and the estimate is right at once). The RTT floor
     survives a jump (RTT uses the local clock only); :meth:`reset` clears everything.
+
+    Converged, as PX4's ``sync_converged()``, is a latch: set once ``converged_min_samples``
+    are in with the offset 1-sigma at most ``converged_std_us``, cleared only by a restart
+    (a clock jump or :meth:`reset`). The 1-sigma itself rises between accepted samples
+    and falls with each; on a starved host it crossed 20 us every few tenths of a second
+    (an exchange at 2.7 ms of RTT after a run of gated ones), and a flag that followed it
+    made the bridge drop the visual odometry for those spells and once for long enough
+    that the FCU lost its position (``tests/quadmission/scenarios/square/test_launch.py``).
 
     Limits: the path asymmetry (mean of one-way latency difference at the RTT floor) is not
     observable by any two-way exchange and stays in the estimate; offset steps smaller
@@ -126,6 +134,7 @@ class KalmanTimesync:
         self._p11 = 0.0
         self._pending: list[TimesyncSample] = []
         self._high_deviation_count = 0
+        self._has_converged = False
 
     # --- protocol --------------------------------------------------------------------
     @property
@@ -242,8 +251,10 @@ class KalmanTimesync:
         return max(0, rtt_us - self._rtt_sorted[k])
 
     def _converged(self) -> bool:
-        return (self._n >= self.params.converged_min_samples
-                and self._p00 <= self.params.converged_std_us**2)
+        if not self._has_converged:
+            self._has_converged = (self._n >= self.params.converged_min_samples
+                                   and self._p00 <= self.params.converged_std_us**2)
+        return self._has_converged
 
     def _offset_at(self, t_us: int) -> float:
         return self._x0 + self._x1 * (t_us - self._t_ref)

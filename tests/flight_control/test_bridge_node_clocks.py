@@ -11,6 +11,7 @@ the wrong sign.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -186,3 +187,15 @@ def test_a_sample_without_a_time_is_stamped_at_its_arrival() -> None:
     assert loop.odometry_sampled_at(0) == now_ns
     # the FCU clock's first microsecond is a time like any other (7.25 s on ours)
     assert loop.odometry_sampled_at(1) == (1 + 7_250_000) * NS_PER_US
+
+
+def test_the_bridge_says_when_the_time_sync_converges(caplog: pytest.LogCaptureFixture) -> None:
+    """Until then the visual odometry is held back: the log line says when it starts."""
+    loop = _loop()
+    with caplog.at_level(logging.INFO, logger="quadmission.fcu_bridge"):
+        loop.report_offset(-25_300_000, round_trip_us=0)
+        assert not [r for r in caplog.records if "time sync" in r.getMessage()]
+        loop.report_offset(-25_300_000)
+        loop.report_offset(-25_300_000)
+    said = [r.getMessage() for r in caplog.records if "time sync" in r.getMessage()]
+    assert len(said) == 1 and "converged: companion minus FCU clock -25300000 us" in said[0], said

@@ -454,3 +454,26 @@ def test_registry_and_parameter_errors() -> None:
                                                      r"integer in the allowed range "
                                                      r"\(0, 1000000\] us$"):
         KalmanParams(max_rtt_us=10_000.0)  # type: ignore[arg-type]
+
+
+def test_kalman_stays_converged_through_a_starved_spell_until_a_clock_jump() -> None:
+    # A starved host: after a clean start, two seconds of exchanges over the RTT gate, then
+    # one through it with 2.7 ms of excess RTT. The offset 1-sigma is far above 20 us
+    # after the gap, but the filter has converged and nothing says the clock moved: the
+    # bridge keeps forwarding the visual odometry (it drops it while not converged).
+    est = KalmanTimesync()
+    t = _feed_constant(est, 50, offset_us=5_000)
+    assert est.estimate.converged
+    for _ in range(400):
+        assert est.update(*_exchange(t, 5_000, 6_000, 6_000)).rejected is RejectReason.HIGH_RTT
+        t += 5_000
+    e = est.update(*_exchange(t, 5_000, 1_000, 3_700))
+    assert e.rejected is RejectReason.NONE and est.offset_std_us > KalmanParams().converged_std_us
+    assert e.converged
+    t += 5_000
+    for _ in range(6):  # the clock jumps 50 ms: a restart, not converged until it is again
+        e = est.update(*_exchange(t, 55_000))
+        t += 5_000
+    assert e.resets == 1 and not e.converged
+    _feed_constant(est, 100, offset_us=55_000, t0_us=t)  # converges again on the new clock
+    assert est.estimate.converged
