@@ -83,6 +83,7 @@ class FcuBridgeNode(Node):
         self.history = PoseHistory(round(self.params.pose_history_s * 1e9))
         self.exchange = TimesyncExchange(self.timesync)
         self._last_fcu_ns: int | None = None
+        self._synced_offset_us = 0  # the offset while last converged, for the restart's log
         self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
                                       battery_remaining=math.nan)
         px4_out = BRIDGE_QOS
@@ -189,8 +190,11 @@ class FcuBridgeNode(Node):
                 f"{est.samples} samples; visual odometry forwarded")
         elif was_synced and not est.converged:
             self.get_logger().warning(
-                f"time sync restarted (restart {est.resets}, the FCU clock jumped): "
-                "visual odometry held back until it converges again")
+                f"time sync restarted (restart {est.resets}): the clock offset stepped from "
+                f"{self._synced_offset_us} to {est.observed_offset_us} us; visual odometry "
+                "held back until it converges again")
+        if est.converged:
+            self._synced_offset_us = est.offset_us
         if not self.timesync_pub.get_subscription_count():
             return  # diagnostics nobody reads are not built
         self.timesync_pub.publish(fcu_messages.timesync_diagnostics(est, self.now().to_msg()))

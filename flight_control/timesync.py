@@ -99,7 +99,7 @@ class KalmanTimesync:
     are in with the offset 1-sigma at most ``converged_std_us``, cleared only by a restart
     (a clock jump or :meth:`reset`). The 1-sigma itself rises between accepted samples
     and falls with each; on a starved host it crossed 20 us every few tenths of a second
-    (an exchange at 2.7 ms of RTT after a run of gated ones), and a flag that followed it
+    (an exchange with 2.7 ms of excess RTT after a run of gated ones), and a flag that followed it
     made the bridge drop the visual odometry for those spells and once for long enough
     that the FCU lost its position (``tests/quadmission/scenarios/square/test_launch.py``).
 

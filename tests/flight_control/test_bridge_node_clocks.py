@@ -21,7 +21,7 @@ import pytest
 
 import interfaces
 from flight_control.bridge_node import ACK_QOS, BRIDGE_QOS, FcuBridgeNode
-from interfaces.px4.topics import FMU_IN, FMU_OUT
+from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
 from runtime import (
     DeterministicExecutor,
     Node,
@@ -199,3 +199,40 @@ def test_the_bridge_says_when_the_time_sync_converges(caplog: pytest.LogCaptureF
         loop.report_offset(-25_300_000)
     said = [r.getMessage() for r in caplog.records if "time sync" in r.getMessage()]
     assert len(said) == 1 and "converged: companion minus FCU clock -25300000 us" in said[0], said
+
+
+def test_the_bridge_says_when_its_time_sync_restarts_after_the_offset_steps(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """Our Kalman filter on the bridge's own exchanges: converged, then the FCU's clock
+    steps 50 ms. The filter restarts (six gated exchanges in a row), the bridge warns once
+    and says when it has converged again."""
+    ex = DeterministicExecutor()
+    bridge = FcuBridgeNode(context=ex.context)
+    fcu = Node("scripted_fcu_side", context=ex.context)
+    request, reply = XRCE_SESSION["request"], XRCE_SESSION["reply"]
+    replies = fcu.create_publisher(reply.type, reply.name, BRIDGE_QOS)
+    fcu_minus_companion_ns = [25_000_000_000]
+
+    def answer(msg: Any) -> None:
+        replies.publish(interfaces.new(reply.type, seq=msg.seq, ts1=msg.ts1,
+                                       tc1=int(msg.ts1) + fcu_minus_companion_ns[0]))
+
+    fcu.create_subscription(request.type, request.name, answer, BRIDGE_QOS)
+    for node in (bridge, fcu):
+        ex.add_node(node)
+    with caplog.at_level(logging.INFO, logger="quadmission.fcu_bridge"):
+        ex.spin_for(5.0)
+        assert bridge.synced
+        fcu_minus_companion_ns[0] += 50_000_000
+        ex.spin_for(0.2)  # 10 exchanges: the 6th restarts, too few since to converge
+        assert not bridge.synced
+        ex.spin_for(5.0)
+    said = [r.getMessage().split("] ", 2)[-1] for r in caplog.records
+            if "time sync" in r.getMessage()]
+    assert len(said) == 3, said
+    assert said[0].startswith("time sync converged: companion minus FCU clock -25000000 us")
+    assert said[1].startswith(
+        "time sync restarted (restart 1): the clock offset stepped from -25000000 to "
+        "-25050000 us")
+    assert said[2].startswith("time sync converged: companion minus FCU clock -25050000 us")
+    assert bridge.synced
