@@ -35,7 +35,7 @@ from flight_control.behaviours import (
     Setpoint,
 )
 from flight_control.command_protocol import CommandProtocol
-from flight_control.goal_checks import GoalProblem, VehicleState, check_vehicle
+from flight_control.goal_checks import GoalProblem, VehicleState, check_vehicle, nav_state_text
 from flight_control.params import FlightControlParams
 from interfaces.px4 import CommandResult
 from runtime import (
@@ -264,8 +264,8 @@ class BehaviourServer:
             handle.abort()
         if outcome is Outcome.LOST_CONTROL and not reason:
             state = self.vehicle.vehicle_state()
-            nav = "unknown" if state is None else str(state.nav_state)
-            reason = f"lost offboard control (FCU nav_state {nav})"
+            nav = "unknown" if state is None else nav_state_text(int(state.nav_state))
+            reason = f"lost offboard control (FCU {nav})"
         elif outcome is Outcome.TIMEOUT:
             reason = f"timed out after {timeout_ns / NS_PER_S:.1f} s: {summary}"
         result.message = reason or summary

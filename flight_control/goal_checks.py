@@ -16,6 +16,8 @@ from enum import Enum
 import numpy as np
 import numpy.typing as npt
 
+from interfaces.px4.constants import NavigationState
+
 #: A goal rejected for want of a position estimate says this (a state that can pass: a
 #: client may send the goal again).
 NO_POSITION_MESSAGE = "no valid position estimate"
@@ -137,6 +139,15 @@ def battery_critical(warning: int, critical_warning: int) -> bool:
     return warning >= critical_warning
 
 
+def nav_state_text(nav_state: int) -> str:
+    """``DESCEND (nav_state 12)``: PX4's name with the number, so a message says what the
+    FCU is doing."""
+    try:
+        return f"{NavigationState(nav_state).name} (nav_state {nav_state})"
+    except ValueError:
+        return f"nav_state {nav_state}"
+
+
 def check_vehicle(state: VehicleState | None, *, battery_critical_warning: int | None,
                   need_armed: bool = False, need_disarmed: bool = False,
                   need_flying: bool = False, need_landed: bool = False,
@@ -162,7 +173,7 @@ def check_vehicle(state: VehicleState | None, *, battery_critical_warning: int |
         return GoalProblem(GoalError.ALREADY_FLYING, "already flying")
     if need_offboard and not state.offboard:
         return GoalProblem(GoalError.NOT_IN_CONTROL,
-                           f"not in offboard control (FCU nav_state {state.nav_state})")
+                           f"not in offboard control (FCU {nav_state_text(state.nav_state)})")
     return None
 
 

@@ -115,7 +115,7 @@ def test_losing_offboard_mid_goal_aborts_with_the_nav_state() -> None:
     out = rig.result(handle, 2.0)
     assert out.status == GoalStatus.ABORTED
     assert out.result.result == out.result.RESULT_NOT_FLYING
-    assert out.result.message == "lost offboard control (FCU nav_state 4)"
+    assert out.result.message == "lost offboard control (FCU AUTO_LOITER (nav_state 4))"
 
 
 def test_turn_then_takeoff_and_land_through_the_base() -> None:

@@ -241,7 +241,7 @@ def _state(**kw: bool | int) -> VehicleState:
     (_state(armed=False), GoalError.NOT_ARMED, "not armed"),
     (_state(landed=True), GoalError.NOT_FLYING, "not flying (landed)"),
     (_state(offboard=False, nav_state=4), GoalError.NOT_IN_CONTROL,
-     "not in offboard control (FCU nav_state 4)"),
+     "not in offboard control (FCU AUTO_LOITER (nav_state 4))"),
 ])
 def test_vehicle_checks_name_the_problem(state: VehicleState | None, error: GoalError,
                                          message: str) -> None:
