@@ -419,8 +419,20 @@ def _refined(grey: Image, found: dict[int, FloatArray]) -> dict[int, FloatArray]
         return found
     ids = list(found)
     corners = np.concatenate([found[i] for i in ids]).astype(np.float32).reshape(-1, 1, 2)
-    cv2.cornerSubPix(grey, corners, (SUBPIX_WINDOW_PX, SUBPIX_WINDOW_PX), (-1, -1),
-                     SUBPIX_CRITERIA)
+    # a corner fitted outside the image (a marker cut by the frame's edge) has no pixels
+    # to refine on, and cornerSubPix raises for it: it stays as found (random arena 111
+    # in the dark, a whole mission lost to the exception)
+    h, w = grey.shape[:2]
+    xy = corners[:, 0, :]
+    inside = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)  # OpenCV's test
+    if inside.all():
+        cv2.cornerSubPix(grey, corners, (SUBPIX_WINDOW_PX, SUBPIX_WINDOW_PX), (-1, -1),
+                         SUBPIX_CRITERIA)
+    elif inside.any():
+        some = np.ascontiguousarray(corners[inside])
+        cv2.cornerSubPix(grey, some, (SUBPIX_WINDOW_PX, SUBPIX_WINDOW_PX), (-1, -1),
+                         SUBPIX_CRITERIA)
+        corners[inside] = some
     refined = corners.reshape(-1, 4, 2).astype(np.float64)
     return {i: refined[k] for k, i in enumerate(ids)}
 

@@ -217,3 +217,19 @@ def test_small_decoding_rejects_a_square_that_is_no_whitelisted_marker():
     assert hit is not None
     assert hit.correlation < settings.small_min_correlation or \
         hit.margin < settings.small_min_margin
+
+
+def test_a_corner_outside_the_image_is_kept_as_found_and_the_others_refined() -> None:
+    # The small-marker path doubles a crop's corners (2c + 0.5): a marker cut by the
+    # frame's edge can get a corner past it, for which cv2.cornerSubPix raises ("initial
+    # corner is outside the image"); a dark random arena lost a whole mission to it.
+    from perception.aruco import _refined
+
+    grey = np.zeros((60, 80), dtype=np.uint8)
+    grey[20:40, 30:50] = 255  # a white square, corners at (29.5, 19.5)...(49.5, 39.5)
+    near = np.array([[31.0, 21.0], [48.0, 21.0], [48.0, 38.0], [31.0, 38.0]])
+    cut = np.array([[70.0, 10.0], [80.2, 10.0], [80.2, 20.0], [70.0, 20.0]])  # x >= w
+    out = _refined(grey, {7: near, 9: cut})
+    np.testing.assert_allclose(out[9][1:3], cut[1:3], atol=1e-5)  # nothing to refine on: as found
+    assert np.abs(out[7] - [[29.5, 19.5], [49.5, 19.5], [49.5, 39.5], [29.5, 39.5]]).max() < 0.6
+    assert np.abs(near - [[29.5, 19.5], [49.5, 19.5], [49.5, 39.5], [29.5, 39.5]]).max() > 1.4
