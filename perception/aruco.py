@@ -425,11 +425,8 @@ def _refined(grey: Image, found: dict[int, FloatArray]) -> dict[int, FloatArray]
     h, w = grey.shape[:2]
     xy = corners[:, 0, :]
     inside = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)  # OpenCV's test
-    if inside.all():
-        cv2.cornerSubPix(grey, corners, (SUBPIX_WINDOW_PX, SUBPIX_WINDOW_PX), (-1, -1),
-                         SUBPIX_CRITERIA)
-    elif inside.any():
-        some = np.ascontiguousarray(corners[inside])
+    if inside.any():  # each corner is refined on its own window: a subset refines the same
+        some = corners[inside]
         cv2.cornerSubPix(grey, some, (SUBPIX_WINDOW_PX, SUBPIX_WINDOW_PX), (-1, -1),
                          SUBPIX_CRITERIA)
         corners[inside] = some
