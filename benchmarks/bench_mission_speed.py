@@ -3,6 +3,7 @@ the bare world's real-time factor measured beside it (issue 21).
 
     python benchmarks/bench_mission_speed.py --out benchmarks/results/mission_speed.json
     python benchmarks/bench_mission_speed.py --runs 3 --out ...   # the median of 3 processes
+    python benchmarks/bench_mission_speed.py --runs 3 --make-sim-runs 3 --out ...
 
 Flies ``quadmission sim`` (default arena, seed 0, every node, the cameras with their
 configured rates and latency) once in this process and reports:
@@ -14,6 +15,9 @@ configured rates and latency) once in this process and reports:
   every thread's stack ``--sample-hz`` times a second (a thread waiting on a lock or a
   queue is not busy; a thread in a C call that released the GIL is);
 - the mission's result: completed, score, landings inside, touchdown RMSE;
+- with ``--make-sim-runs N``, ``make_sim``: ``make sim`` itself timed N times (the mission
+  with its bag, from the command to the report and its pictures; each after a mission run),
+  its median wall time against the 2-minute target;
 - ``rtf_bare_world``: the world loop without companion or cameras (hover actuation,
   robots, crash detector, executor in lockstep; ``bench_sim.bench_physics``), measured
   right after on the same host, so the ratio ``rtf_mission / rtf_bare_world`` compares
@@ -223,6 +227,30 @@ def one_run(sample_hz: float, bare_seconds: float) -> dict[str, Any]:
     return run
 
 
+MAKE_SIM = "make sim OUT=<tmp>"
+MAKE_SIM_TARGET_S = 120.0  # issue 21: `make sim` in under 2 minutes
+_ROOT = Path(__file__).resolve().parent.parent
+
+
+def time_make_sim() -> dict[str, Any]:
+    """``make sim`` as a user types it (the mission with its bag, the report and its
+    pictures), into a temporary folder: its wall time from the command to its exit."""
+    from ground_station.bag import bag_info
+    from ground_station.errors import BagError
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run"
+        wall0 = time.perf_counter()
+        done = subprocess.run(["make", "-s", "sim", f"OUT={out}"], cwd=_ROOT,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        wall = time.perf_counter() - wall0
+        try:
+            messages = bag_info(out / "bag").message_count
+        except BagError:  # no bag: the run failed early (its exit code says so)
+            messages = 0
+    return {"wall_s": round(wall, 1), "exit_code": done.returncode, "bag_messages": messages}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path,
@@ -231,6 +259,10 @@ def main() -> None:
                         help="stack samples per second (default 100)")
     parser.add_argument("--bare-seconds", type=float, default=10.0,
                         help="simulated seconds of the bare world (default 10)")
+    parser.add_argument("--make-sim-runs", type=int, default=0,
+                        help="also time `make sim` (the mission with its bag, from the "
+                             "command line to the report) this many times, one after each "
+                             "mission run (default 0)")
     parser.add_argument("--runs", type=int, default=1,
                         help="fly the mission this many times, one after the other, each "
                              "in a fresh process with its bare world after it; the run of "
@@ -238,8 +270,11 @@ def main() -> None:
     args = parser.parse_args()
     if args.runs < 1:
         parser.error(f"--runs: {args.runs} < 1")
+    if args.make_sim_runs < 0:
+        parser.error(f"--make-sim-runs: {args.make_sim_runs} < 0")
 
-    runs = []
+    runs: list[dict[str, Any]] = []
+    make_sims: list[dict[str, Any]] = []
     for i in range(args.runs):
         if args.runs == 1:
             runs.append(one_run(args.sample_hz, args.bare_seconds))
@@ -253,12 +288,30 @@ def main() -> None:
         run = runs[-1]
         print(f"run {i + 1}/{args.runs}: RTF {run['rtf_mission']} ({run['wall_s']} s), "
               f"{run['result']}, score {run['score']}", file=sys.stderr)
+        if i < args.make_sim_runs:
+            make_sims.append(time_make_sim())
+            print(f"make sim {i + 1}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
+                  f"exit {make_sims[-1]['exit_code']}", file=sys.stderr)
+    for i in range(args.runs, args.make_sim_runs):
+        make_sims.append(time_make_sim())
+        print(f"make sim {i + 1}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
+              f"exit {make_sims[-1]['exit_code']}", file=sys.stderr)
     result = sorted(runs, key=lambda r: r["rtf_mission"])[(len(runs) - 1) // 2]
     if len(runs) > 1:
         result["rtf_runs"] = [r["rtf_mission"] for r in runs]
         result["wall_s_runs"] = [r["wall_s"] for r in runs]
         result["same_flight_every_run"] = len({(r["sim_s"], r["touchdown_rmse_m"])
                                                for r in runs}) == 1
+    if make_sims:
+        walls = sorted(m["wall_s"] for m in make_sims)
+        result["make_sim"] = {
+            "command": MAKE_SIM, "wall_s": walls[(len(walls) - 1) // 2],
+            "wall_s_runs": [m["wall_s"] for m in make_sims],
+            "exit_codes": [m["exit_code"] for m in make_sims],
+            "bag_messages": [m["bag_messages"] for m in make_sims],
+            "target_s": MAKE_SIM_TARGET_S,
+            "every_run_under_target": all(m["wall_s"] < MAKE_SIM_TARGET_S
+                                          and m["exit_code"] == 0 for m in make_sims)}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result, indent=2))

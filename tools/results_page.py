@@ -594,6 +594,10 @@ def _mission_speed(d: Json) -> list[str]:
          f"{d['result']}, {d['score']}/{d['max_score']}, {d['landings_inside']}/"
          f"{d['landings']}, {cm(d['touchdown_rmse_m'])} / {cm(d['touchdown_max_m'])}",
          "every landing inside, RMSE <= 3 cm"],
+        *([[f"`make sim` (with its bag), wall time, median of {len(m['wall_s_runs'])} runs",
+            f"{m['wall_s']:.0f} s (runs: {', '.join(f'{w:.0f}' for w in m['wall_s_runs'])} s;"
+            f" exit codes {', '.join(str(c) for c in m['exit_codes'])})",
+            f"under {m['target_s']:.0f} s"]] if (m := d.get("make_sim")) else []),
     ]) + host_line(None, d.get("load_before"))
 
 
