@@ -73,3 +73,26 @@ def test_the_readme_outside_the_generated_block_is_left_as_it_is(tmp_path: Path)
                       encoding="utf-8")
     assert run("--results-dir", results, "--page", page, "--readme", readme).returncode == 0
     assert readme.read_text(encoding="utf-8").startswith("# quadmission (edited)\n")
+
+
+def test_make_sim_timings_are_shown_against_their_target_and_older_results_lack_the_row(
+        tmp_path: Path) -> None:
+    results, page, readme = copy_of_the_inputs(tmp_path)
+    paths = ("--results-dir", results, "--page", page, "--readme", readme)
+    speed = json.loads((results / "mission_speed.json").read_text(encoding="utf-8"))
+    speed["make_sim"] = {"command": "make sim OUT=<tmp>", "wall_s": 119.6,
+                         "wall_s_runs": [119.6, 125.2, 101.0], "exit_codes": [0, 0, 0],
+                         "bag_messages": [1, 1, 1], "target_s": 120.0,
+                         "every_run_under_target": False}
+    (results / "mission_speed.json").write_text(json.dumps(speed), encoding="utf-8")
+    assert run(*paths).returncode == 0
+    text = page.read_text(encoding="utf-8")
+    assert "| `make sim` (with its bag), wall time, median of 3 runs | 119.6 s (runs: 119.6, " \
+           "125.2, 101.0 s; exit codes 0, 0, 0) | under 120 s: NOT every run under it" in text
+
+    del speed["make_sim"]  # a result from before --make-sim-runs
+    (results / "mission_speed.json").write_text(json.dumps(speed), encoding="utf-8")
+    assert run(*paths).returncode == 0
+    text = page.read_text(encoding="utf-8")
+    assert "real-time factor (simulated / wall seconds)" in text
+    assert "`make sim`" not in text.split("## Contest mission speed")[1].split("\n## ")[0]
