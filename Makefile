@@ -105,7 +105,8 @@ typecheck: $(STAMP)
 
 ## make bench: every benchmark, each writing benchmarks/results/<name>.json
 bench: $(STAMP)
-	@$(BIN)/python -c 'import tcod, networkx' 2>/dev/null || $(UV_INSTALL) -e '.[test,ros2,bench]'
+	@{ $(BIN)/python -c 'import tcod, networkx' 2>/dev/null && test -x $(BIN)/py-spy; } \
+	  || $(UV_INSTALL) -e '.[test,ros2,bench]'
 	@for script in benchmarks/bench_*.py; do \
 	  name=$$(basename $$script .py); name=$${name#bench_}; \
 	  echo "== $$name"; \

@@ -589,7 +589,7 @@ def _make_sim_row(m: Json) -> list[str]:
 
 
 def _mission_speed(d: Json) -> list[str]:
-    share = d["cpu_share"]
+    share, t = d["cpu_share"], d["thread_cpu_per_sim_s"]
     return table(["figure", "value", "baseline"], [
         ["real-time factor (simulated / wall seconds)"
          + (f", median of {len(d['rtf_runs'])} runs" if "rtf_runs" in d else ""),
@@ -599,9 +599,19 @@ def _mission_speed(d: Json) -> list[str]:
          f"{num(d['ratio_mission_over_bare_world'], 3)})"],
         ["wall / CPU time (every thread) for the simulated time",
          f"{d['wall_s']:.0f} s / {d['cpu_s']:.0f} s for {d['sim_s']:.0f} s", "-"],
-        ["busy samples per part: scanner, down camera, depth camera, mapping, FCU, other",
+        ["busy samples per part: scanner, down camera, depth camera, mapping, FCU, other"
+         + (" (py-spy, every Python thread)"
+            if d.get("cpu_share_method", "").startswith("py-spy")
+            else " (a sampler thread in the process: it sees the others mostly where they "
+                 "let go of the GIL)"),
          ", ".join(pct(share[k]) for k in ("scanner", "down_camera", "depth_camera", "mapping",
                                           "fcu", "other")), "-"],
+        ["CPU-s per simulated second by thread: main, Mesa's llvmpipe, the scan, the down "
+         "and depth render threads",
+         ", ".join(f"{t.get(k, 0.0):.3f}" for k in (
+             "MainThread", "llvmpipe", "executor_work", "scene_renderer_down_camera",
+             "scene_renderer_depth_camera"))
+         + f" (all threads {d['cpu_per_sim_s']:.3f})", "-"],
         ["the mission: result, score, landings inside, touchdown RMSE / max",
          f"{d['result']}, {d['score']}/{d['max_score']}, {d['landings_inside']}/"
          f"{d['landings']}, {cm(d['touchdown_rmse_m'])} / {cm(d['touchdown_max_m'])}",
@@ -649,8 +659,8 @@ SECTIONS: dict[str, Section] = {
         "Contest mission speed, default arena", "bench_mission_speed.py",
         "`quadmission sim` (default arena, seed 0, every node, both cameras with their 50 ms "
         "latency, the scanner off the callbacks' thread) in one process, with the bare world "
-        "loop measured right after on the same host. The CPU shares come from a sampling "
-        "profiler reading every thread's stack.",
+        "loop measured right after on the same host, and `make sim` itself timed. The CPU "
+        "shares come from py-spy reading every thread's stack from outside the process.",
         _mission_speed),
     "mission": Section(
         "Contest mission on 20 random arenas", "bench_mission.py",
