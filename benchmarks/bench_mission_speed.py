@@ -88,10 +88,14 @@ its ``id`` (code objects of two files can compare equal); the entry keeps the co
 so its ``id`` is never another's."""
 
 
+def _idle(filename: str, name: str) -> bool:
+    """Whether a thread whose innermost frame is ``name`` in ``filename`` waits."""
+    return filename.endswith(_IDLE) or (filename.endswith(_POOL) and name == "_worker")
+
+
 def classify(frame: FrameType | None) -> str | None:
     """The part a thread's stack is in, or None when the thread is idle."""
-    if frame is None or frame.f_code.co_filename.endswith(_IDLE) or (
-            frame.f_code.co_filename.endswith(_POOL) and frame.f_code.co_name == "_worker"):
+    if frame is None or _idle(frame.f_code.co_filename, frame.f_code.co_name):
         return None
     parts = _PART_OF_CODE
     while frame is not None:
@@ -257,10 +261,7 @@ def classify_stack(frames: list[str]) -> str | None:
     for frame in frames:
         name, _, where = frame.rpartition(" (")
         parsed.append((name, where.rsplit(":", 1)[0]))
-    if not parsed:
-        return None
-    name, filename = parsed[-1]
-    if filename.endswith(_IDLE) or (filename.endswith(_POOL) and name == "_worker"):
+    if not parsed or _idle(parsed[-1][1], parsed[-1][0]):
         return None
     for name, filename in reversed(parsed):
         if (part := _rule_part(filename, name)) is not None:
@@ -324,11 +325,9 @@ def one_run(sample_hz: float, bare_seconds: float) -> dict[str, Any]:
 
 MAKE_SIM = "make sim OUT=<tmp>"
 MAKE_SIM_TARGET_S = 120.0  # issue 21: `make sim` in under 2 minutes
-_ROOT = Path(__file__).resolve().parent.parent
-
-
 MAKE_SIM_TIMEOUT_S = 10 * MAKE_SIM_TARGET_S  # a hung run is stopped and counted as failed
 _STDERR_TAIL = 20  # lines of a failed run's stderr kept in the result
+_ROOT = Path(__file__).resolve().parent.parent
 
 
 def time_make_sim() -> dict[str, Any]:
@@ -389,6 +388,12 @@ def main() -> None:
 
     runs: list[dict[str, Any]] = []
     make_sims: list[dict[str, Any]] = []
+
+    def time_one_make_sim() -> None:
+        make_sims.append(time_make_sim())
+        print(f"make sim {len(make_sims)}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
+              f"exit {make_sims[-1]['exit_code']}", file=sys.stderr)
+
     for i in range(args.runs):
         if args.runs == 1:
             runs.append(one_run(args.sample_hz, args.bare_seconds))
@@ -403,13 +408,9 @@ def main() -> None:
         print(f"run {i + 1}/{args.runs}: RTF {run['rtf_mission']} ({run['wall_s']} s), "
               f"{run['result']}, score {run['score']}", file=sys.stderr)
         if i < args.make_sim_runs:
-            make_sims.append(time_make_sim())
-            print(f"make sim {i + 1}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
-                  f"exit {make_sims[-1]['exit_code']}", file=sys.stderr)
-    for i in range(args.runs, args.make_sim_runs):
-        make_sims.append(time_make_sim())
-        print(f"make sim {i + 1}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
-              f"exit {make_sims[-1]['exit_code']}", file=sys.stderr)
+            time_one_make_sim()
+    while len(make_sims) < args.make_sim_runs:  # the runs beyond --runs, after the last
+        time_one_make_sim()
     result = sorted(runs, key=lambda r: r["rtf_mission"])[(len(runs) - 1) // 2]
     if len(runs) > 1:
         result["rtf_runs"] = [r["rtf_mission"] for r in runs]
@@ -417,6 +418,7 @@ def main() -> None:
         result["same_flight_every_run"] = len({(r["sim_s"], r["touchdown_rmse_m"])
                                                for r in runs}) == 1
     if make_sims:
+        failures = [m for m in make_sims if m["exit_code"] != 0]
         result["make_sim"] = {
             "command": MAKE_SIM,
             "wall_s": round(statistics.median(m["wall_s"] for m in make_sims), 1),
@@ -427,8 +429,7 @@ def main() -> None:
             "every_run_under_target": all(
                 m["wall_s"] < MAKE_SIM_TARGET_S and m["exit_code"] == 0
                 and m["bag_messages"] > 0 for m in make_sims),
-            **({"failures": [m for m in make_sims if m["exit_code"] != 0]}
-               if any(m["exit_code"] != 0 for m in make_sims) else {})}
+            **({"failures": failures} if failures else {})}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result, indent=2))
