@@ -4,8 +4,8 @@
 commander refuses to arm while its checks settle (the estimate, the link), so the mission
 and the square's pilot both retry, a second apart, five times by default: on a starved CPU
 the bridge's time sync can reset and hold the visual odometry back until it converges
-again, and the FCU's position estimate is invalid for a second or two (a CI run of the
-DDS square at 3x beside a CPU hog was refused three times in a row).
+again, and the FCU's position estimate is then invalid for a second or two, long enough
+for several refusals in a row.
 """
 
 from __future__ import annotations

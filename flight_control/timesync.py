@@ -98,10 +98,10 @@ class KalmanTimesync:
     Converged, as PX4's ``sync_converged()``, is a latch: set once ``converged_min_samples``
     are in with the offset 1-sigma at most ``converged_std_us``, cleared only by a restart
     (a clock jump or :meth:`reset`). The 1-sigma itself rises between accepted samples
-    and falls with each; on a starved host it crossed 20 us every few tenths of a second
-    (an exchange with 2.7 ms of excess RTT after a run of gated ones), and a flag that followed it
-    made the bridge drop the visual odometry for those spells and once for long enough
-    that the FCU lost its position (``tests/quadmission/scenarios/square/test_launch.py``).
+    and falls with each; on a starved host it can cross 20 us every few tenths of a second
+    (an exchange with milliseconds of excess RTT after a run of gated ones), and a flag that
+    followed it would make the bridge drop the visual odometry for those spells, long
+    enough for the FCU to lose its position (``tests/quadmission/scenarios/square/test_launch.py``).
 
     Limits: the path asymmetry (mean of one-way latency difference at the RTT floor) is not
     observable by any two-way exchange and stays in the estimate; offset steps smaller

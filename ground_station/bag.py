@@ -46,7 +46,7 @@ SCHEMA_ENCODING = "ros2msg"
 MESSAGE_ENCODING = "cdr"
 DEFAULT_FLUSH_PERIOD_S = 0.5  # host seconds between sealed chunks (crash loses at most this)
 #: host seconds between metadata.yaml rewrites at a seal without a new topic: a rewrite
-#: costs ~10 ms (60 topics), twice a second it took a fifth of a recorded mission's cost
+#: costs ~10 ms (60 topics): twice a second, that is a fifth of a recorded mission's cost
 METADATA_PERIOD_S = 10.0
 CHUNK_SIZE = 4 * 1024 * 1024  # bytes: a chunk is sealed earlier when it grows past this
 
@@ -170,8 +170,8 @@ def _metadata(file: Path, topics: list[_Topic], start_ns: int | None,
     }}
 
 
-#: libyaml's safe dumper where PyYAML has it: the same text, 6x faster (metadata.yaml was
-#: written again at every seal, twice a second: in Python that took 7 % of a recorded
+#: libyaml's safe dumper where PyYAML has it: the same text, 6x faster (PyYAML's Python
+#: dumper, writing metadata.yaml at every seal twice a second, costs 7 % of a recorded
 #: mission's main thread)
 _YAML_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
 

@@ -5,7 +5,7 @@ over in-process is serialized first).
 Discovery asks the transport for ``topic_names_and_types()`` (the in-process and the
 ROS 2 transports offer it) every ``discovery_period_s`` of node time; the ``topics`` given as
 ``"name pkg/msg/Type"`` are tapped from the start, for a transport that cannot list its
-topics (DDS: give them in the node's YAML). Readers are BEST_EFFORT and VOLATILE, so
+topics (give them in the node's YAML). Readers are BEST_EFFORT and VOLATILE, so
 they match every writer (QoS request/offer rules) and never slow one down.
 """
 

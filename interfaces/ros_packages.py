@@ -289,7 +289,7 @@ def package_xml(spec: PackageSpec) -> str:
 #: rclpy needs the C structs, their type descriptions, the C type supports (Fast DDS's and
 #: introspection) and the Python bindings; the C++ generators and type supports, which
 #: rosidl_default_generators and the dependencies' runtime register too, are dropped: no
-#: C++ code uses these packages, and they were about half of a fresh build's time.
+#: C++ code uses these packages, and they are about half of a fresh build's time.
 _PYTHON_ONLY = ("# the generators rclpy needs: C and Python, not C++\n"
                 "list(FILTER AMENT_EXTENSIONS_rosidl_generate_idl_interfaces EXCLUDE REGEX "
                 '"_cpp:")\n')

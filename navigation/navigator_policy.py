@@ -20,10 +20,10 @@ again from here, and so it does before each leg after the first: the map has gro
 the path was planned. When the leg is no longer clear (the planner cannot go straight to
 its end, or the end is no longer free: a plan to it ends at another cube) or the new
 path's length differs from what is left of the current one by more than
-``replan_tolerance`` (the live map changed the path's cost), it switches. Random arena 100
-crashed without these two checks: its lane ended inside a 2.7 m block, the planner's snap
-made the leg to the corner beside the block look clear, and the last leg, 0.4 s long,
-went into the face the camera had mapped seconds before.
+``replan_tolerance`` (the live map changed the path's cost), it switches. Both checks are
+needed: when a lane ends inside a block, the planner's snap can make the leg to the corner
+beside the block look clear, and the last leg then flies into the face the camera mapped
+seconds before.
 When the leg is blocked and no new path is found (the goal may turn out to be inside a
 block whose faces the camera had not seen), it stops, plans again ``plan_attempts`` times,
 then gives up with no path. A failed reach is re-planned from where the vehicle is, up to
@@ -44,9 +44,9 @@ is) or the time budget is used up. While none is seen, it sweeps again, up to
 ``explore_sweeps`` times: lanes along the area's longer side, then across it, in turn
 (after a predefined path, whose shape says nothing of how a robot it missed moves, the
 lanes along come first: they have the fewest ends, so cover the area soonest). A robot
-moves while the lanes are flown, and one sweep can miss it (random arena 5's robot stayed
-1.5-2.3 m beside each lane as the vehicle passed); lanes parallel to its track cannot miss
-it, so the next sweep crosses the last one's lanes.
+moves while the lanes are flown, and one sweep can miss it (a robot driving beside a lane
+can stay out of the camera's footprint as the vehicle passes); lanes parallel to its track
+cannot miss it, so the next sweep crosses the last one's lanes.
 
 Surveying (:class:`SurveyPolicy`): quarter turns after takeoff, so the depth camera maps
 all around.
@@ -329,9 +329,8 @@ def lane_points(start: FloatArray, end: FloatArray, spacing: float,
     beyond it along the lane (the vehicle, when the lane's start was replaced by a point
     further on). The lane is flown through them so a detour round an obstacle in it comes
     back to the lane at the next one; planned end to end, the shortest path can leave the
-    lane for good (the faults campaign's seed 1: a lane along a robot's track, blocked by
-    a wall at its west end, was flown as a diagonal that passed 1-2 m south of the
-    robot)."""
+    lane for good (a lane blocked at one end is then flown as a diagonal, which can pass
+    metres from a robot driving along the lane)."""
     d = end - start
     n = math.ceil(float(np.linalg.norm(d)) / spacing - 1e-9)
     if n <= 1:
@@ -575,9 +574,9 @@ class _Follower(_Policy):
         room to stop past it: the straight line on from it, along the leg that arrives
         there, is not clear for ``speed * pass_stop_s``. A point passed at speed is
         stopped past, not at, when the next leg turns away (flight control then holds the
-        point and the vehicle carries on along its way in). Random arena 149 passed a lane
-        point 0.49 m before a wall across the lane at 1 m/s; the next leg went round the
-        wall, and the vehicle's arms hit it while it stopped to turn."""
+        point and the vehicle carries on along its way in): a point passed at 1 m/s half a
+        metre before a wall across the lane would leave the vehicle's arms in the wall
+        while it stops to turn round it."""
         arrival = path[i] - path[i - 1]
         length = float(np.linalg.norm(arrival))
         if length < END_TOLERANCE_M:
@@ -625,9 +624,8 @@ class _Follower(_Policy):
         from here to the goal) is switched to when leg ``i`` of the current path is blocked
         or what is left of it differs from ``new`` in length by more than
         ``replan_tolerance``. A blocked leg with no new path is the caller's to stop on:
-        flying on into what the map now shows is how random arena 1 crashed (its
-        exploration goal turned out to be inside a block, the re-plan failed, and the old
-        path was kept)."""
+        keeping the old path would fly on into what the map now shows (an exploration goal
+        can turn out to be inside a block, so that no re-plan succeeds)."""
         blocked = yield from self._leg_blocked(path, i)
         if new is None:
             return None, blocked
@@ -831,10 +829,10 @@ class ExplorePolicy(_Follower):
         the path's previous waypoint), in ``LANE_STEP_M`` steps, that the planner reaches
         from here along the lane: by a path at most ``LANE_DETOUR`` times the straight
         line (plus one step), not round the far side of what blocks it. None when none is.
-        A lane whose end is inside an obstacle is then still flown up to it: random arena
-        6's robot drove between two lanes whose west ends were in blocks; skipping the
-        ends skipped the lanes, and a reachable point behind the block made the path cut
-        across the field instead of along the lane."""
+        A lane whose end is inside an obstacle is then still flown up to it: skipping the
+        end would skip the whole lane (and a robot driving along it), and a reachable point
+        behind the block would make the path cut across the field instead of along the
+        lane."""
         length = float(np.linalg.norm(partner - wp))
         here = self.here
         for d in np.arange(LANE_STEP_M, length, LANE_STEP_M):

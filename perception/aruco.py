@@ -102,9 +102,10 @@ class ScannerSettings:
     min_perimeter_rate: float = 0.02  # of the image's larger side (OpenCV: 0.03)
     stretch_blur_px: float = 0.7  # Gaussian sigma after the stretch
     # STRETCH's adaptive windows [px]: its threshold constant of 3 on a stretched, noisy
-    # frame makes many candidate contours, so it was the costly pass (~50 ms vs ~5 ms on an
-    # empty frame); 13-33 px (3 windows) instead of 3-53 (6) lost none of the 103 markers
-    # NONE + STRETCH read on 390 frames over the arena, light and dark, nor a Table 1 cell
+    # frame makes many candidate contours, so it is the costly pass (~50 ms vs ~5 ms on an
+    # empty frame with windows 3-53 px); 13-33 px (3 windows) instead of 3-53 (6) loses none
+    # of the 103 markers NONE + STRETCH read on 390 frames over the arena, light and dark,
+    # nor a Table 1 cell
     stretch_win_min: int = 13
     stretch_win_max: int = 33
     small_max_px: int = 40  # px, SMALL looks at dark squares up to this side
@@ -420,8 +421,8 @@ def _refined(grey: Image, found: dict[int, FloatArray]) -> dict[int, FloatArray]
     ids = list(found)
     corners = np.concatenate([found[i] for i in ids]).astype(np.float32).reshape(-1, 1, 2)
     # a corner fitted outside the image (a marker cut by the frame's edge) has no pixels
-    # to refine on, and cornerSubPix raises for it: it stays as found (random arena 111
-    # in the dark, a whole mission lost to the exception)
+    # to refine on, and cornerSubPix raises for it (an exception that would end the scan,
+    # and with it the mission): it stays as found
     h, w = grey.shape[:2]
     xy = corners[:, 0, :]
     inside = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)  # OpenCV's test

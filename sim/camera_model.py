@@ -23,12 +23,12 @@ grainy. The noise comes from a generator seeded by the caller: same seed, same f
 Pure: numpy, OpenCV and numba; no MuJoCo.
 
 Cost: a 640x480 RGB frame is about 0.9 M pixels. Drawing 0.9 M Poisson samples takes
-~50 ms and 0.9 M normals ~9 ms, which at 12 Hz made the sensor the costliest part of a
-mission. So z is read from a pool of standard normals drawn once per camera, at an
+~50 ms and 0.9 M normals ~9 ms, which at 12 Hz would make the sensor the costliest part
+of a mission. So z is read from a pool of standard normals drawn once per camera, at an
 offset drawn per frame: every frame's noise is standard normal pixel by pixel, and two
 frames share a pattern only if they draw the same offset (1 in 6 M at 640x480). Steps
 3-5 are one compiled pass over the pixels (:func:`_expose`, numba, without the GIL): the
-frame costs ~0.5 ms, bit for bit what the numpy expression gave.
+frame costs ~0.5 ms, bit for bit what the numpy expression gives.
 """
 
 from __future__ import annotations

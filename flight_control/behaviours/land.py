@@ -10,8 +10,8 @@ is set (SUCCEEDED as soon as the FCU reports the vehicle disarmed). A refused NA
 ends it with FCU_REJECTED, and so does a disarm refused ``DISARM_ATTEMPTS`` times (asked
 again ``DISARM_RETRY_NS`` after a refusal, once the land detector says landed again): the
 commander refuses a disarm while its land detector says "not landed", and the status the
-behaviour saw can be a moment older than that (random arena 20's mission stopped on a
-single refusal right after a touchdown inside pad 3).
+behaviour saw can be a moment older than that, so a single refusal right after a touchdown
+is no reason to stop.
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ Choices, stated once:
   baud (8N1, section 2.1) the 115 bytes alone take 1247.8 us, all but 81 us of the forward
   mean, and a poll of period P adds P/2 to the mean and P/sqrt(12) to the spread (500 Hz:
   +1000 us and 577 us, over three times Table 3's forward standard deviation), whatever
-  the baud rate; the stream's 5 ms period, a whole number of ticks, even made every
+  the baud rate; the stream's 5 ms period, a whole number of ticks, even makes every
   forward latency a whole 2 or 3 ms. :meth:`~sim.fcu.link.AddedDelay.poll` and
   :func:`~sim.fcu.link.calibrate_direction` say so. Seed 000's firmware was modified for
   exactly this: "a complete event-driven MicroXRCE-DDS - ROS 2 bridge, which allows

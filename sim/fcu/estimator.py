@@ -237,9 +237,9 @@ class Estimator:
         Not gravity at once: a multicopter's accelerometer measures the thrust, along the
         body's z, not gravity, so "the specific force is vertical" levels the estimate
         with the body whatever its true tilt. Holding a position on the dead-reckoned
-        estimate needs the tilt the hold put in; the gravity reference took it out of the
-        estimate as fast as the controller put it in, and the true tilt ran away (0.5
-        deg/s, 12 m in 7 s in the mission, with the filter before this one).
+        estimate needs the tilt the hold put in; a gravity reference would take it out of
+        the estimate as fast as the controller puts it in, and the true tilt would run away
+        (about 0.5 deg/s: metres off within seconds).
         """
         last = self._last_vision_us
         if last is None:
@@ -271,9 +271,9 @@ class Estimator:
         ``vision_timeout_us`` without one) resets the position to it, as EKF2 resets to
         external vision when its fusion (re)starts. The filter boots at the origin, metres
         from where the vehicle stands, and pulling the estimate there through the filter
-        made a transient acceleration that the tilt and bias states learnt (0.4 m/s^2 of
-        bias, 2 deg of tilt that no turn corrected, on a pad 18 m from the origin); after
-        an outage, the dead-reckoned drift would do the same."""
+        would make a transient acceleration that the tilt and bias states learn (on a pad
+        18 m from the origin: 0.4 m/s^2 of bias, 2 deg of tilt that no turn corrects);
+        after an outage, the dead-reckoned drift would do the same."""
         prm = self.params
         r_pos = sample.position_variance
         if not math.isfinite(r_pos):

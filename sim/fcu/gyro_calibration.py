@@ -6,8 +6,8 @@ known far better than an attitude filter learns it in flight. The estimator star
 flight from it (:meth:`sim.fcu.estimator.Estimator.set_gyro_bias`).
 
 Why it matters: the attitude filter learns the bias slowly (``gyro_bias_gain``: a time
-constant of about 100 s); 25 s after boot its roll-rate bias was still 6 mrad/s off, which
-dead reckoning turns into a tilt growing 0.34 deg/s once vision stops.
+constant of about 100 s); 25 s after boot its roll-rate bias can still be 6 mrad/s off,
+which dead reckoning turns into a tilt growing 0.34 deg/s once vision stops.
 """
 
 from __future__ import annotations

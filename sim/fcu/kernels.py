@@ -347,7 +347,7 @@ def _propagate_attitude(s: np.ndarray, prm: np.ndarray, ax: float, ay: float, az
     The bias is not fed back: it enters the horizontal filter's model (rotated by the
     heading), and aided nothing else reads the accelerometer's horizontal axes; the
     unaided gravity reference subtracts it. (Fed into a correction of every sample
-    instead, the linear filter gave the same estimates.)
+    instead, the linear filter gives the same estimates.)
     """
     bx, by, bz = s[4], s[5], s[6]
     r0, r1, r2 = gx - bx, gy - by, gz - bz

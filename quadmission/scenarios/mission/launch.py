@@ -80,7 +80,7 @@ def sitl(executor: DeterministicExecutor, *, arena: str | None = None, seed: int
     """The simulator: the SITL on the start pad and the cameras, in ``arena`` (without
     pad ``remove_pad``, which the mission still has on its map), with ``faults`` (specs,
     :mod:`sim.fault_spec`): the simulator's, and in process the app's (the executor
-    runs every node then; over DDS the launcher kills a stopped node's process)."""
+    runs every node then; under ros2 the launcher kills a stopped node's process)."""
     flown = flown_arena(launch_arena(arena), remove_pad)
     sim = build_sitl(flown, seed=seed, executor=executor)
     sensors = SimSensorsNode(context=executor.context)

@@ -33,7 +33,7 @@ __all__ = ["LaunchedSquarePilot", "SitlSimulation", "flight_control", "launch_ar
 
 
 #: How long the pilot waits for the flight-control layer to report ready [s of simulated
-#: time]. Over DDS the bridge's time sync sees real round trips (a few ms), so it
+#: time]. Under ros2 the bridge's time sync sees real round trips (a few ms), so it
 #: converges later than in process (about 15 s against 5 s).
 READY_TIMEOUT_S = 60.0
 
