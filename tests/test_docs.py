@@ -4,9 +4,9 @@ Every ```python block in README.md and docs/*.md runs as a script in a fresh pro
 the line before its fence is ``<!-- not run: <reason> -->`` (a block importing ROS 2 packages
 skips, naming the set-up, in a venv without the ROS 2 build; never under ``make test``).
 Every relative link resolves to a file, and its #anchor to a heading of that file. Every
-repository path written in backticks (``navigation/astar.py``,
-``config/launch/square.yaml``) exists, so a moved module cannot leave the docs pointing at
-nothing.
+repository path written in backticks, inline or in a fenced block (``navigation/astar.py``,
+``config/launch/square.yaml``), exists, and so does every file the architecture page's
+Layout lists under its folder, so a moved module cannot leave the docs pointing at nothing.
 """
 
 from __future__ import annotations
@@ -106,26 +106,96 @@ def test_every_relative_link_lands_on_a_file_and_a_heading() -> None:
     assert not broken, "broken links:\n" + "\n".join(broken)
 
 
-def repository_paths() -> list[tuple[str, str]]:
-    """Words in backticks that start with one of the repository's top-level folders."""
-    tops = {p.name for p in ROOT.iterdir() if p.is_dir() and not p.name.startswith(".")}
-    tops -= {"runs", "mutants", "build"}  # outputs, not sources
+TOPS = {p.name for p in ROOT.iterdir() if p.is_dir() and not p.name.startswith(".")}
+TOPS -= {"runs", "mutants", "build"}  # outputs, not sources
+
+
+def _code_lines(page: Path) -> list[tuple[int, str]]:
+    """(line, code) for every line of a fenced block and every inline code span."""
+    found, fenced = [], False
+    for number, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
+        if line.lstrip().startswith("```"):
+            fenced = not fenced
+        elif fenced:
+            found.append((number, line))
+        else:
+            found += [(number, code) for code in CODE.findall(line)]
+    return found
+
+
+def repository_paths() -> list[tuple[str, int, str]]:
+    """(page, line, path) for every word in code that starts with a top-level folder of
+    the repository; examples (``<name>``, ``*``, ``...``) and outputs (``runs/``) left out."""
     found = []
     for page in PAGES:
-        for code in CODE.findall(page.read_text(encoding="utf-8")):
+        for number, code in _code_lines(page):
             for word in code.split():
-                word = word.split(":")[0].rstrip(",;)")
-                if "/" in word and word.split("/")[0] in tops and not re.search(r"[<*]|\.\.\.",
-                                                                                  word):
-                    found.append((_name(page), word))
+                word = word.split(":")[0].strip("`'\"(),;.")
+                if ("/" in word and word.split("/")[0] in TOPS
+                        and not re.search(r"[<*{$]|\.\.\.", word)):
+                    found.append((_name(page), number, word))
     return found
 
 
 def test_every_repository_path_the_docs_name_exists() -> None:
     paths = repository_paths()
-    missing = sorted({f"{page}: {path}" for page, path in paths if not (ROOT / path).exists()})
+    missing = [f"{page}:{line}: {path}" for page, line, path in paths
+               if not (ROOT / path).exists()]
     assert len(paths) > 50, "the path collector found too few paths"
     assert not missing, "the docs name paths that do not exist:\n" + "\n".join(missing)
+
+
+LAYOUT_TOKEN = re.compile(r"[()]|[\w./+-]+")
+LAYOUT_FILE = re.compile(r"[\w./-]+\.(py|yaml|xml|md|json)")
+
+
+def layout_paths(text: str) -> list[tuple[int, str]]:
+    """(line, path) for every folder (``name/``) and file (``name.py``) the Layout block
+    of the architecture page lists. An entry starts at the line's first column with its
+    folder; ``sub/ (a.py, b.py)`` lists a.py and b.py in sub/; a path with a slash inside
+    is read from the entry's folder, else from the repository's root."""
+    heading = text.index("\n## Layout\n")
+    start = text.index("```\n", heading) + 4
+    first = text.count("\n", 0, start) + 1
+    found: list[tuple[int, str]] = []
+    stack: list[str] = []
+    for number, line in enumerate(text[start:text.index("```", start)].splitlines(), first):
+        if line[:1].strip():  # a new entry: its folder
+            top = line.split()[0]
+            found.append((number, top))
+            stack, words = [top], line.split(None, 1)[1:]
+            line = words[0] if words else ""
+        folder = None  # the folder just named, which a "(" opens
+        for token in LAYOUT_TOKEN.findall(line):
+            if token == "(":
+                stack.append(folder or stack[-1])
+            elif token == ")":
+                stack.pop()
+            elif token.endswith("/") or LAYOUT_FILE.fullmatch(token):
+                path = stack[-1] + token
+                if "/" in token.rstrip("/") and not (ROOT / path).exists():
+                    path = token
+                found.append((number, path))
+            folder = stack[-1] + token if token.endswith("/") else None
+    return found
+
+
+def test_every_file_the_architecture_layout_lists_exists() -> None:
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    listed = layout_paths(text)
+    missing = [f"docs/architecture.md:{line}: {path}" for line, path in listed
+               if not (ROOT / path).exists()]
+    assert len(listed) > 80, f"the Layout parser found only {len(listed)} paths"
+    assert not missing, ("the Layout of docs/architecture.md lists paths that do not "
+                         "exist:\n" + "\n".join(missing))
+
+
+def test_the_layout_parser_reads_nested_folders_and_flags_a_missing_file() -> None:
+    text = ("# Page\n## Layout\n\n```\nsim/            world.py, fcu/ (link.py,\n"
+            "                no_such.py), docs/results.md\n```\n")
+    assert layout_paths(text) == [(5, "sim/"), (5, "sim/world.py"), (5, "sim/fcu/"),
+                                  (5, "sim/fcu/link.py"), (6, "sim/fcu/no_such.py"),
+                                  (6, "docs/results.md")]
 
 
 def test_the_readme_is_a_short_front_door() -> None:
