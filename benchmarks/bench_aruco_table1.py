@@ -16,15 +16,12 @@ Writes ``{"cells": [{"size_cm", "distance_cm", "lighting", "baseline_rate",
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import sys
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
+from _harness import bench_parser, progress, write_result
 
 from perception.aruco import ArucoScanner, ScanMode, ScannerSettings
 from sim.arena import Lighting, default_arena
@@ -82,9 +79,10 @@ def run(attempts: int, seed: int) -> dict[str, object]:
                             "seed_table1_rate": SEED_TABLE1[(size_cm, distance_cm,
                                                              lighting.value)] / 100.0}
                     cells.append(cell)
-                    print(f"{size_cm:4.1f} cm at {distance_cm:3d} cm, {lighting.value:5s}: "
-                          f"baseline {cell['baseline_rate']:.2f}, ours {cell['ours_rate']:.2f}"
-                          f" (seed {cell['seed_table1_rate']:.2f})", file=sys.stderr)
+                    progress(f"{size_cm:4.1f} cm at {distance_cm:3d} cm, {lighting.value:5s}: "
+                             f"baseline {cell['baseline_rate']:.2f}, "
+                             f"ours {cell['ours_rate']:.2f}"
+                             f" (seed {cell['seed_table1_rate']:.2f})")
     frames = attempts * len(cells)
     return {"benchmark": "aruco_table1", "attempts_per_cell": attempts, "seed": seed,
             "marker_id": MARKER_ID, "camera": "640x480, vertical FOV 60 deg (the airframe's)",
@@ -95,15 +93,12 @@ def run(attempts: int, seed: int) -> dict[str, object]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path,
-                        default=Path(__file__).parent / "results" / "aruco_table1.json")
+    parser = bench_parser(__doc__, "aruco_table1")
     parser.add_argument("--attempts", type=int, default=40)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     result = run(args.attempts, args.seed)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    write_result(args.out, result)
 
 
 if __name__ == "__main__":

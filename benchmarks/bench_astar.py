@@ -18,25 +18,27 @@ poses into a 5 cm voxel map (``--map FILE`` uses a map file instead, e.g. the ``
 - the line-of-sight shortcut: path length and waypoint reduction.
 
 Ratios (``speedup_vs_networkx_median`` = networkx / ours; ``time_ratio_vs_tcod_median`` =
-ours / tcod) are what to compare across machines; absolute times depend on the host.
+ours / tcod) are what to compare, not absolute times; the tcod ratio is the steady one. The
+networkx ratio moves with the host's speed, about 3x between a slow host and an idle one
+(networkx is pure Python: it slows more than ours when the host is slow), so the run also
+times a fixed pure-Python loop before and after the queries (``host.reference_loop_s``,
+``_harness.reference_loop_s``): two runs' networkx ratios are comparable when those agree.
 
     python benchmarks/bench_astar.py --out benchmarks/results/astar.json
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import platform
 import statistics
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _harness import REQUIRED, bench_parser, host, progress, reference_loop_s, write_result
 
 from navigation.astar import Heuristic, Workspace, astar, path_length, shortcut
 from navigation.mapping import VoxelMap, camera_to_map, load_map
@@ -225,7 +227,7 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
     per_round: list[dict[str, float]] = []
     rows: list[dict[str, Any]] = []
     for r in range(rounds):
-        print(f"  round {r + 1}/{rounds}", file=sys.stderr)
+        progress(f"  round {r + 1}/{rounds}")
         this = [query_times(g, ws, s, t, T, (G, h) if k < n_networkx else None)
                 for k, (s, t) in enumerate(pairs)]
         per_round.append(round_figures(this))
@@ -303,8 +305,7 @@ def bench_resolution(points: np.ndarray, field_max: tuple[float, float, float], 
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, required=True)
+    ap = bench_parser(__doc__, REQUIRED)
     ap.add_argument("--map", type=Path, default=None, help="PCD/PLY map instead of the survey")
     ap.add_argument("--pairs", type=int, default=200, help="random pairs per resolution")
     ap.add_argument("--resolutions", default="0.2,0.1", help="cube sides [m]")
@@ -321,9 +322,10 @@ def main() -> None:
         ap.error(f"--rounds: {args.rounds} must be >= 1")
     arena = default_arena()
     fx, fy, fz = arena.field.size
-    load_start = os.getloadavg()[0]  # the host's load before and after: other work skews times
+    # the host's load and speed before and after: other work skews times
+    load_start, loop_start = os.getloadavg()[0], reference_loop_s()
     t0 = time.perf_counter()
-    print("cloud ...", file=sys.stderr)
+    progress("cloud ...")
     cloud = str(args.map) if args.map else "default arena depth survey (true poses)"
     if args.map:
         points = load_map(args.map)
@@ -341,7 +343,7 @@ def main() -> None:
     resolutions = [float(v) for v in args.resolutions.split(",")]
     results = []
     for i, res in enumerate(resolutions):
-        print(f"resolution {res} m: {len(points)} cloud points", file=sys.stderr)
+        progress(f"resolution {res} m: {len(points)} cloud points")
         results.append(bench_resolution(points, (fx, fy, fz), res, args.pairs, n_nx[i],
                                         args.rounds, rng))
     out = {
@@ -356,12 +358,10 @@ def main() -> None:
         "build_1m_points_s_median": results[0]["build_1m_points_s_median"],
         "octile_speedup_vs_networkx_median": results[0]["octile"]["speedup_vs_networkx_median"],
         "octile_time_ratio_vs_tcod_median": results[0]["octile"]["time_ratio_vs_tcod_median"],
-        "host": {"python": platform.python_version(), "machine": platform.machine(),
-                 "cpus": os.cpu_count(),
-                 "load_average_1m": [load_start, os.getloadavg()[0]]},
+        "host": host(load_average_1m=[load_start, os.getloadavg()[0]],
+                     reference_loop_s=[round(loop_start, 4), round(reference_loop_s(), 4)]),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n")
+    write_result(args.out, out)
     print(json.dumps({k: out[k] for k in ("speedup_vs_networkx_median",
                                           "speedup_vs_networkx_rounds",
                                           "time_ratio_vs_tcod_median",

@@ -13,8 +13,6 @@ span depends on the host keeping up with real time: measure on an idle machine.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import re
 import signal
@@ -25,6 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from _harness import OPTIONAL, bench_parser, load_1min, write_result
 from rosbags.highlevel import AnyReader
 
 import interfaces
@@ -69,21 +68,15 @@ def bench(kill_after_s: float) -> dict[str, Any]:
             "target_span_s": TARGET_SPAN_S,
             "ok": after.indexed and span >= TARGET_SPAN_S,
             "last_progress_sim_s": max(reached) if reached else None,
-            "load_average_1min": round(os.getloadavg()[0], 2),
+            "load_average_1min": load_1min(),
         }
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = bench_parser(__doc__, OPTIONAL)
     parser.add_argument("--kill-after", type=float, default=32.0)
-    parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
-    result = bench(args.kill_after)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text + "\n")
+    print(write_result(args.out, bench(args.kill_after)), end="")
 
 
 if __name__ == "__main__":

@@ -28,11 +28,9 @@ A short square is a mission of the campaign's smallest kind: the interpreter's s
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import json
 import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -45,6 +43,7 @@ os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
 # measure the checkout this file is in (a worktree), not whatever the venv has installed
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _harness import bench_parser, host, load_1min, write_result
 from distributed import Client, LocalCluster
 
 from quadmission.campaigns.matrix import Campaign, Cell
@@ -85,14 +84,13 @@ def one_side(plan: Campaign, workers: int, folder: Path) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/campaign.json"))
+    parser = bench_parser(__doc__, "campaign")
     parser.add_argument("--seeds", default="2,3,7", help="random arenas, e.g. 2,3,7")
     parser.add_argument("--rounds", type=int, default=2,
                         help="1 worker then 2, this many times")
     args = parser.parse_args()
     plan = campaign([int(s) for s in args.seeds.split(",")])
-    load_before = os.getloadavg()[0]
+    load_before = load_1min()
     rounds = []
     with tempfile.TemporaryDirectory(prefix="bench_campaign_") as tmp:
         for i in range(args.rounds):
@@ -116,12 +114,9 @@ def main() -> None:
         "ratio_2_over_1_rounds": [r["ratio_2_over_1"] for r in rounds],
         "all_passed": all(s["passed"] == s["runs"] for s in sides),
         "rounds": rounds,
-        "host": {"python": platform.python_version(), "cpus": os.cpu_count(),
-                 "load_1min": round(load_before, 2),
-                 "load_1min_after": round(os.getloadavg()[0], 2)},
+        "host": host(load_1min=load_before, load_1min_after=load_1min()),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
+    write_result(args.out, result)
     print(json.dumps({k: v for k, v in result.items() if k != "rounds"}))
 
 

@@ -17,13 +17,13 @@ Writes ``{"runs": [{"spec", "expected", "observed", "reaction_s", "end_state",
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _harness import bench_parser, progress, write_result
 
 from quadmission.evaluation.faults import Handler, expectation
 from quadmission.scenarios import ScenarioOptions
@@ -71,8 +71,7 @@ def _flies(run_spec: str, spec: str) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--out", type=Path, default=Path("benchmarks/results/faults.json"))
+    p = bench_parser(__doc__, "faults")
     p.add_argument("--ride-s", type=float, default=20.0,
                    help="s flown past a ridden-out fault's end (default 20)")
     p.add_argument("--only", action="append", default=[], metavar="KIND")
@@ -85,16 +84,14 @@ def main(argv: list[str] | None = None) -> int:
     for spec in specs:
         run = fly(spec, args.ride_s)
         flown[spec] = run
-        print(f"{spec:42s} {run['observed']!s:48s} {run['end_state']!s:20s} "
-              f"handled={run['handled']} ({run['wall_s']} s)", file=sys.stderr, flush=True)
+        progress(f"{spec:42s} {run['observed']!s:48s} {run['end_state']!s:20s} "
+                 f"handled={run['handled']} ({run['wall_s']} s)")
         runs = [flown.get(s) or next((r for r in kept if _flies(str(r["spec"]), s)), None)
                 for s in SPECS]
         runs = [r for r in runs if r is not None]
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps({
+        write_result(args.out, {
             "arena": "contest (default)", "seed": 0, "runs": runs,
-            "handled": sum(bool(r["handled"]) for r in runs), "total": len(runs)},
-            indent=1) + "\n")
+            "handled": sum(bool(r["handled"]) for r in runs), "total": len(runs)}, indent=1)
     return 0
 
 

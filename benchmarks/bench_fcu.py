@@ -14,13 +14,12 @@ Measured side by side in one run:
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+from _harness import bench_parser, write_result
 
 from quadmission.assembly.offboard_harness import hover_flight
 from runtime import DeterministicExecutor
@@ -58,14 +57,11 @@ def bench(seconds: float) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/fcu.json"))
+    parser = bench_parser(__doc__, "fcu")
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated hover seconds")
     args = parser.parse_args(argv)
     report = bench(args.seconds)
-    print(json.dumps(report, indent=2))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    print(write_result(args.out, report), end="")
     return 0
 
 

@@ -16,18 +16,17 @@ across machines.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import platform
 import statistics
 import time
-from pathlib import Path
 
 import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+from _harness import REQUIRED, bench_parser, host, load_1min, write_result
 
 from navigation.mapping import VoxelMap, camera_to_map
 from navigation.voxel_graph import GraphParams, build_graph, count_points, update_graph
@@ -45,8 +44,7 @@ PARAMS = GraphParams(resolution=0.2, occupied_threshold=2, corridor_threshold=1,
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, required=True)
+    ap = bench_parser(__doc__, REQUIRED)
     ap.add_argument("--spacing", type=float, default=2.5, help="hover grid spacing [m]")
     args = ap.parse_args()
     arena = default_arena()
@@ -92,12 +90,10 @@ def main() -> None:
         "update_s_median": statistics.median(s["update_s"] for s in steps),
         "speedup_median": statistics.median(s["full_s"] / s["update_s"] for s in steps),
         "same_graph_every_step": True,
-        "host": {"python": platform.python_version(), "machine": platform.machine(),
-                 "cpus": os.cpu_count(), "load_1min": os.getloadavg()[0]},
+        "host": host(load_1min=load_1min()),
         "per_step": steps,
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=2) + "\n")
+    write_result(args.out, out)
     print(json.dumps({k: v for k, v in out.items() if k != "per_step"}))
 
 

@@ -15,7 +15,6 @@ the best baseline flight, and the median of the rounds' own ratios.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -23,6 +22,8 @@ import subprocess
 import sys
 from pathlib import Path
 from typing import Any
+
+from _harness import bench_parser, progress, write_result
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,23 +53,21 @@ def flight(python: str) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = bench_parser(__doc__, "interpreter")
     parser.add_argument("--baseline", help="the other interpreter (a venv's python); without "
                         "it the benchmark is skipped (as under `make bench`)")
     parser.add_argument("--candidate", default=sys.executable, help="default: this one")
     parser.add_argument("--rounds", type=int, default=4)
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/interpreter.json"))
     args = parser.parse_args(argv)
     if args.rounds < 1:
         parser.error(f"--rounds: {args.rounds} must be >= 1")
     if args.baseline is None:
-        print("bench_interpreter: skipped (no --baseline: it needs a second interpreter's "
-              f"venv with the project's dependencies); {args.out} left as it is",
-              file=sys.stderr)
+        progress("bench_interpreter: skipped (no --baseline: it needs a second interpreter's "
+                 f"venv with the project's dependencies); {args.out} left as it is")
         return 0
     rounds = []
     for r in range(args.rounds):
-        print(f"round {r + 1}/{args.rounds}", file=sys.stderr)
+        progress(f"round {r + 1}/{args.rounds}")
         rounds.append({"baseline": flight(args.baseline), "candidate": flight(args.candidate)})
     traces = {f["trace_sha256"] for r in rounds for f in r.values()}
     if len(traces) != 1:
@@ -92,9 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         "rounds": [{who: {k: f[k] for k in ("rtf", "rtf_cpu")} for who, f in r.items()}
                    for r in rounds],
     }
-    print(json.dumps(report, indent=2))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    print(write_result(args.out, report), end="")
     return 0
 
 

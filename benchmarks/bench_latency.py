@@ -19,12 +19,11 @@ Runs ``quadmission latency`` (:func:`quadmission.experiments.latency.run_latency
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 import time
-from pathlib import Path
 from typing import Any
+
+from _harness import bench_parser, write_result
 
 from quadmission.experiments.latency import (
     EVENT_DRIVEN_INPUTS,
@@ -75,8 +74,7 @@ def compare(report: LatencyReport) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/latency.json"))
+    parser = bench_parser(__doc__, "latency")
     parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
@@ -89,8 +87,7 @@ def main(argv: list[str] | None = None) -> int:
         "host": {"wall_s": round(wall_s, 2), "rtf": round(args.duration / wall_s, 3)},
         "report": report.to_json(),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    write_result(args.out, result)
     print(format_report(report))
     print(f"\nwrote {args.out} ({wall_s:.1f} s wall, "
           f"real-time factor {args.duration / wall_s:.2f})")

@@ -16,13 +16,12 @@ under 1.0 (mean about -1 % to -3 %).
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
+from _harness import bench_parser, write_result
 
 from interfaces.px4.seed000 import (
     TABLE3_MESSAGE_SIZE_BYTES,
@@ -125,8 +124,7 @@ def format_table(report: dict[str, object]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/link.json"))
+    parser = bench_parser(__doc__, "link")
     parser.add_argument("--config", type=Path, default=config_path(f"{LINK_NODE_NAME}.yaml"))
     parser.add_argument("--samples", type=int, default=20_000)
     parser.add_argument("--size-bytes", type=int, default=TABLE3_MESSAGE_SIZE_BYTES)
@@ -141,8 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.seed is not None:
         params = replace(params, seed=args.seed)
     report = run(params, args.samples, args.size_bytes, args.period_us * 1000)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n")
+    write_result(args.out, report)
     print(format_table(report))
     print(f"\nwrote {args.out}")
     return 0

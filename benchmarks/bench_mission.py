@@ -18,7 +18,6 @@ keeps what it measured (``runs_done`` of ``runs_planned``). Seeds can be flown i
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 from concurrent.futures import ProcessPoolExecutor
@@ -26,19 +25,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _harness import bench_parser, seed_list, write_result
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 TARGET_SUCCESSES = 18  # of 20 (the issue's); the goal is all of them
-
-
-def _seeds(text: str) -> list[int]:
-    """Seeds from "1-20", "3,7" or "2-4,6-20"."""
-    seeds: list[int] = []
-    for item in text.split(","):
-        first, _, last = item.partition("-")
-        seeds += list(range(int(first), int(last or first) + 1))
-    return seeds
 
 
 def run_one(out: Path, seed: int) -> dict[str, Any]:
@@ -63,8 +54,7 @@ def run_one(out: Path, seed: int) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/mission.json"))
+    parser = bench_parser(__doc__, "mission")
     parser.add_argument("--seeds", default="1-20", help="e.g. 1-20, 3,7 or 2-4,6-20")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel (processes)")
     parser.add_argument("--runs", type=Path, default=Path("runs/mission_seeds"),
@@ -72,10 +62,10 @@ def main() -> None:
     parser.add_argument("--merge", nargs="+", type=Path, metavar="PART",
                         help="join these results' runs into --out (no flying)")
     args = parser.parse_args()
-    seeds = _seeds(args.seeds)
+    seeds = seed_list(args.seeds)
     if args.merge:
         merged = merge([json.loads(part.read_text()) for part in args.merge], len(seeds))
-        _write(args.out, merged)
+        write_result(args.out, merged)
         print(json.dumps({k: v for k, v in merged.items() if k != "runs"}))
         return
     runs: list[dict[str, Any]] = []
@@ -84,7 +74,8 @@ def main() -> None:
         for seed, future in zip(seeds, futures, strict=True):
             runs.append(future.result())
             print(f"seed {seed:2d}: {runs[-1]['verdict']}", flush=True)
-            _write(args.out, summary(runs, len(seeds), args.jobs))  # a stopped run keeps these
+            # written after each run: a stopped run keeps these
+            write_result(args.out, summary(runs, len(seeds), args.jobs))
     print(json.dumps({k: v for k, v in summary(runs, len(seeds), args.jobs).items()
                       if k != "runs"}))
 
@@ -115,11 +106,6 @@ def merge(parts: list[dict[str, Any]], planned_runs: int) -> dict[str, Any]:
     by_seed = {r["seed"]: r for part in parts for r in part["runs"]}
     jobs = max(int(part.get("jobs", 1)) for part in parts)
     return summary([by_seed[s] for s in sorted(by_seed)], planned_runs, jobs)
-
-
-def _write(out: Path, result: dict[str, Any]) -> None:
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
 
 
 if __name__ == "__main__":

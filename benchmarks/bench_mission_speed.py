@@ -30,7 +30,6 @@ configured rates and latency) once in this process and reports:
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import resource
@@ -48,6 +47,8 @@ from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).parent))
+
+from _harness import bench_parser, progress, write_result
 
 PARTS = ("scanner", "down_camera", "depth_camera", "mapping", "fcu", "other")
 
@@ -365,9 +366,7 @@ def time_make_sim() -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path,
-                        default=Path(__file__).parent / "results" / "mission_speed.json")
+    parser = bench_parser(__doc__, "mission_speed")
     parser.add_argument("--sample-hz", type=float, default=100.0,
                         help="stack samples per second (default 100)")
     parser.add_argument("--bare-seconds", type=float, default=10.0,
@@ -391,8 +390,8 @@ def main() -> None:
 
     def time_one_make_sim() -> None:
         make_sims.append(time_make_sim())
-        print(f"make sim {len(make_sims)}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
-              f"exit {make_sims[-1]['exit_code']}", file=sys.stderr)
+        progress(f"make sim {len(make_sims)}/{args.make_sim_runs}: {make_sims[-1]['wall_s']} s, "
+                 f"exit {make_sims[-1]['exit_code']}")
 
     for i in range(args.runs):
         if args.runs == 1:
@@ -405,8 +404,8 @@ def main() -> None:
                                check=True, stdout=subprocess.DEVNULL)
                 runs.append(json.loads(part.read_text()))
         run = runs[-1]
-        print(f"run {i + 1}/{args.runs}: RTF {run['rtf_mission']} ({run['wall_s']} s), "
-              f"{run['result']}, score {run['score']}", file=sys.stderr)
+        progress(f"run {i + 1}/{args.runs}: RTF {run['rtf_mission']} ({run['wall_s']} s), "
+                 f"{run['result']}, score {run['score']}")
         if i < args.make_sim_runs:
             time_one_make_sim()
     while len(make_sims) < args.make_sim_runs:  # the runs beyond --runs, after the last
@@ -430,9 +429,7 @@ def main() -> None:
                 m["wall_s"] < MAKE_SIM_TARGET_S and m["exit_code"] == 0
                 and m["bag_messages"] > 0 for m in make_sims),
             **({"failures": failures} if failures else {})}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n")
-    print(json.dumps(result, indent=2))
+    print(write_result(args.out, result), end="")
 
 
 if __name__ == "__main__":

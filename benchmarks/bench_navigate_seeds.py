@@ -15,7 +15,6 @@ timings (the wall time per run is in each report's host block).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 from concurrent.futures import ProcessPoolExecutor
@@ -23,14 +22,9 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
+from _harness import bench_parser, seed_list, write_result
+
 os.environ.setdefault("MUJOCO_GL", "egl")
-
-
-def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        first, last = (int(v) for v in text.split("-", 1))
-        return list(range(first, last + 1))
-    return [int(v) for v in text.split(",")]
 
 
 def run_one(out: Path, seed: int, random_arena: bool, resume: bool = False) -> dict[str, Any]:
@@ -55,8 +49,7 @@ def run_one(out: Path, seed: int, random_arena: bool, resume: bool = False) -> d
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/navigate_seeds.json"))
+    parser = bench_parser(__doc__, "navigate_seeds")
     parser.add_argument("--seeds", default="1-10", help="e.g. 1-10 or 3,7")
     parser.add_argument("--no-default", action="store_true", help="skip the default arena")
     parser.add_argument("--jobs", type=int, default=2, help="runs at a time")
@@ -66,7 +59,7 @@ def main() -> None:
                         help="read a run whose folder has a report.json instead of flying it")
     args = parser.parse_args()
     todo = [] if args.no_default else [(args.runs / "default", 0, False)]
-    todo += [(args.runs / f"seed_{s}", s, True) for s in _seeds(args.seeds)]
+    todo += [(args.runs / f"seed_{s}", s, True) for s in seed_list(args.seeds)]
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
         futures = [pool.submit(run_one, *job, args.resume) for job in todo]
         runs = []
@@ -83,8 +76,7 @@ def main() -> None:
         "min_clearance_m": min((r["min_clearance_m"] for r in runs
                                 if r["min_clearance_m"] is not None), default=None),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
+    write_result(args.out, result)
     print(json.dumps({k: v for k, v in result.items() if k != "runs"}))
 
 

@@ -18,14 +18,13 @@ Slow: ~1 min of host time per landing and strategy on an idle 2-core machine, so
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _harness import bench_parser, progress, write_result
 
 from quadmission.scenarios.precision_landing.scenario import (
     fly_episode,
@@ -85,11 +84,11 @@ def run(landings: int, seed: int, lighting: Lighting, only: range, out: Path) ->
             d = landing_json(episode) | {"landing": i, "arena_seed": arena_seed}
             done.append(d)
             err = d["touchdown_error_m"]
-            print(f"{i + 1:2d}/{landings} arena {arena_seed} pad {pad.id} {strategy:7s}: "
-                  + ("failed: " + d["message"] if err is None else f"{100 * float(err):.1f} cm"),
-                  file=sys.stderr)
+            progress(f"{i + 1:2d}/{landings} arena {arena_seed} pad {pad.id} {strategy:7s}: "
+                     + ("failed: " + d["message"] if err is None
+                        else f"{100 * float(err):.1f} cm"))
         result = result_of(episodes, landings, seed, lighting.value)
-        out.write_text(json.dumps(result, indent=2) + "\n")
+        write_result(out, result)
     return result
 
 
@@ -105,9 +104,7 @@ def merge(parts: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path,
-                        default=Path(__file__).parent / "results" / "precision_landing.json")
+    parser = bench_parser(__doc__, "precision_landing")
     parser.add_argument("--landings", type=int, default=30)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--lighting", choices=[x.value for x in Lighting], default="light")
@@ -116,10 +113,8 @@ def main() -> None:
     parser.add_argument("--merge", nargs="+", type=Path, default=None, metavar="PART",
                         help="join parts written with --only into --out")
     args = parser.parse_args()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
     if args.merge:
-        result = merge([json.loads(p.read_text()) for p in args.merge])
-        args.out.write_text(json.dumps(result, indent=2) + "\n")
+        write_result(args.out, merge([json.loads(p.read_text()) for p in args.merge]))
         return
     only = range(args.landings)
     if args.only is not None:

@@ -47,6 +47,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from _harness import OPTIONAL, bench_parser, load_1min, write_result  # noqa: E402
+
 import interfaces  # noqa: E402
 from interfaces.qos import QoSProfile  # noqa: E402
 
@@ -266,8 +268,7 @@ def _run_pair(kind: str, domain: int, duration_s: float) -> dict[str, Any]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=None)
+    parser = bench_parser(__doc__, OPTIONAL)
     parser.add_argument("--duration", type=float, default=10.0, help="seconds per stream")
     parser.add_argument("--rounds", type=int, default=3, help="alternating rounds")
     parser.add_argument("--domain", type=int, default=150 + os.getpid() % 30)
@@ -311,15 +312,11 @@ def main() -> int:
         "targets": {"p50_ratio": 1.2, "p99_ratio": 1.5},
         "rounds": rounds,
         "conversion": conversion(),
-        "load_avg_1min": round(os.getloadavg()[0], 1),
+        "load_avg_1min": load_1min(1),
     }
     if not args.no_square:
         result |= square_rtf(args.domain) | square_beside_busy_loops(args.domain)
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text + "\n")
+    print(write_result(args.out, result), end="")
     return 0
 
 

@@ -20,15 +20,14 @@ milliseconds per frame and markers read, each.
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import json
 import time
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 import cv2
+from _harness import bench_parser, write_result
 
 from perception.aruco import ArucoScanner, Preprocess, ScanMode, ScannerSettings, to_grey
 from perception.aruco_scanner_node import MARKERS_TOPIC, ArucoScannerNode
@@ -201,14 +200,11 @@ def run(repeats: int) -> dict[str, object]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path,
-                        default=Path(__file__).parent / "results" / "scanner_overhead.json")
+    parser = bench_parser(__doc__, "scanner_overhead")
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     result = run(args.repeats)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    write_result(args.out, result)
     print(json.dumps(result))
 
 

@@ -12,17 +12,14 @@ scenario scales every cost so that the naive peak tick exceeds the 2 ms period.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import gc
-import json
-import os
-import platform
 import statistics
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
+
+from _harness import REQUIRED, bench_parser, host, load_1min, write_result
 
 from sim.fcu import (
     ModuleSpec,
@@ -218,8 +215,7 @@ def _scenario(modules: list[ModuleSpec], ticks: int, repeats: int) -> dict[str, 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
+    parser = bench_parser(__doc__, REQUIRED)
     parser.add_argument("--ticks", type=int, default=5000, help="main-loop ticks per run")
     parser.add_argument("--repeats", type=int, default=3, help="runs per strategy (median)")
     parser.add_argument(
@@ -236,12 +232,7 @@ def main(argv: list[str] | None = None) -> int:
         "benchmark": "scheduler offsets, naive (seed 002) vs balanced",
         "main_freq_hz": MAIN_FREQ_HZ,
         "tick_period_us": 1e6 / MAIN_FREQ_HZ,
-        "host": {
-            "python": platform.python_version(),
-            "machine": platform.machine(),
-            "cpus": os.cpu_count(),
-            "load_avg_1min_at_start": round(os.getloadavg()[0], 2),
-        },
+        "host": host(load_avg_1min_at_start=load_1min()),
         "module_order": list(order),
         "nominal": _scenario(modules, args.ticks, args.repeats),
         "heavy": {
@@ -251,8 +242,7 @@ def main(argv: list[str] | None = None) -> int:
             ),
         },
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    write_result(args.out, result)
 
     for name in ("nominal", "heavy"):
         scenario = result[name]

@@ -13,18 +13,16 @@ Each figure is measured next to its baseline in the same run:
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import statistics
 import time
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco
+from _harness import bench_parser, write_result
 
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from sim.arena import default_arena
@@ -109,8 +107,7 @@ def bench_camera(width: int, height: int, frames: int) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/sim.json"))
+    parser = bench_parser(__doc__, "sim")
     parser.add_argument("--sim-seconds", type=float, default=10.0)
     parser.add_argument("--frames", type=int, default=40)
     args = parser.parse_args(argv)
@@ -118,9 +115,7 @@ def main(argv: list[str] | None = None) -> int:
         "physics": bench_physics(args.sim_seconds),
         "camera": [bench_camera(640, 480, args.frames), bench_camera(320, 240, args.frames)],
     }
-    print(json.dumps(report, indent=2))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    print(write_result(args.out, report), end="")
     return 0
 
 

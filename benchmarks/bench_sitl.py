@@ -41,9 +41,7 @@ is judged against, in the same run (so the ratios hold on a loaded machine):
 
 from __future__ import annotations
 
-import argparse
 import cProfile
-import json
 import math
 import os
 import pstats
@@ -79,6 +77,7 @@ from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world, world_params
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _harness import bench_parser, load_1min, progress, write_result
 from bench_sim import bench_camera
 
 REPO = Path(__file__).resolve().parents[1]
@@ -448,8 +447,7 @@ def physics_rates(reference: Flight, reference_hz: int) -> list[dict[str, Any]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/sitl.json"))
+    parser = bench_parser(__doc__, "sitl")
     parser.add_argument("--frames", type=int, default=40, help="frames per camera size")
     parser.add_argument("--no-profile", action="store_true", help="skip the cProfile flight")
     parser.add_argument("--no-rates", action="store_true",
@@ -469,7 +467,7 @@ def main(argv: list[str] | None = None) -> int:
     meter_shares: list[tuple[float, float, float]] = []
     threaded_cameras: list[Flight] = []
     for r in range(args.rounds):
-        print(f"speed round {r + 1}/{args.rounds}", file=sys.stderr)
+        progress(f"speed round {r + 1}/{args.rounds}")
         no_camera = fly()
         # the scheduler's metering in the same minute as the tick it is compared with
         meter_shares.append(_metering_share(no_camera))
@@ -488,7 +486,7 @@ def main(argv: list[str] | None = None) -> int:
     report: dict[str, Any] = {
         "scenario": "square, default arena, seed 0, through bridge + flight-control node",
         "interpreter": interpreter(),
-        "load_average_1min": round(os.getloadavg()[0], 2),
+        "load_average_1min": load_1min(),
         "physics_hz": physics_hz,
         "sim_seconds": flight.sim_s,
         "rtf_no_camera": round(flight.rtf, 2),
@@ -538,12 +536,10 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_profile:
         areas, _ = profiled_flight()
         report["profile_percent"] = areas
-        print("host time by area (cProfile, no camera):", file=sys.stderr)
+        progress("host time by area (cProfile, no camera):")
         for area, pct in areas.items():
-            print(f"  {pct:5.1f} %  {area}", file=sys.stderr)
-    print(json.dumps(report, indent=2))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+            progress(f"  {pct:5.1f} %  {area}")
+    print(write_result(args.out, report), end="")
     return 0
 
 

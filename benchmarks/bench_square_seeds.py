@@ -13,7 +13,6 @@ Quality figures, not timings (the wall time per run is in each report's host blo
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 from pathlib import Path
@@ -21,18 +20,13 @@ from typing import Any
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from _harness import bench_parser, seed_list, write_result
+
 from quadmission.errors import ScenarioRefused
 from quadmission.scenarios import ScenarioOptions
 from quadmission.scenarios.square.flight import square
 
 TARGET_XY_RMSE = 0.1  # m
-
-
-def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        first, last = (int(v) for v in text.split("-", 1))
-        return list(range(first, last + 1))
-    return [int(v) for v in text.split(",")]
 
 
 def run_one(out: Path, seed: int, random_arena: bool) -> dict[str, Any]:
@@ -51,15 +45,14 @@ def run_one(out: Path, seed: int, random_arena: bool) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/square_seeds.json"))
+    parser = bench_parser(__doc__, "square_seeds")
     parser.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 3,7")
     parser.add_argument("--runs", type=Path, default=Path("runs/square_seeds"),
                         help="folder for each run's report.json and path.png")
     args = parser.parse_args()
     runs = [run_one(args.runs / "default", 0, random_arena=False)]
     print(f"default arena: {runs[0]['verdict']}", flush=True)
-    for seed in _seeds(args.seeds):
+    for seed in seed_list(args.seeds):
         runs.append(run_one(args.runs / f"seed_{seed}", seed, random_arena=True))
         print(f"seed {seed:2d}: {runs[-1]['verdict']}", flush=True)
     landed = [r for r in runs if r["outcome"] == "landed"]
@@ -72,8 +65,7 @@ def main() -> None:
         "worst_xy_rmse_m": max((r["xy_rmse_m"] for r in landed), default=None),
         "all_within_target": all(r["xy_rmse_m"] < TARGET_XY_RMSE for r in landed),
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
+    write_result(args.out, result)
     print(json.dumps({k: v for k, v in result.items() if k != "runs"}))
 
 

@@ -15,15 +15,13 @@ estimators replay the identical trace. Reported per scenario (median over seeds)
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import statistics
 import time
 from dataclasses import asdict
-from pathlib import Path
 
 import numpy as np
+from _harness import bench_parser, write_result
 
 from flight_control.timesync import ESTIMATORS, make_estimator
 from flight_control.timesync_traces import (
@@ -147,8 +145,7 @@ def format_table(report: dict[str, object]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/timesync.json"))
+    parser = bench_parser(__doc__, "timesync")
     parser.add_argument("--seeds", type=int, default=5, help="seeds 0..N-1 (default 5)")
     parser.add_argument("--baseline", default="px4", choices=sorted(ESTIMATORS))
     parser.add_argument("--candidate", default="kalman", choices=sorted(ESTIMATORS))
@@ -156,8 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.seeds < 1:
         parser.error("--seeds must be >= 1")
     report = run(list(range(args.seeds)), args.baseline, args.candidate)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(report, indent=2) + "\n")
+    write_result(args.out, report)
     print(format_table(report))
     print(f"\nwrote {args.out}")
     return 0
