@@ -26,6 +26,7 @@ from typing import Any, Protocol
 
 import interfaces
 from flight_control.behaviours import (
+    BEHAVIOUR_OUTCOMES,
     OFFBOARD,
     Behaviour,
     CommandReply,
@@ -152,7 +153,7 @@ class MotionAction:
     timeout_s: float = 0.0  # when the behaviour has no expected duration
 
     def __post_init__(self) -> None:
-        missing = [o.name for o in Outcome if o not in self.codes]
+        missing = [o.name for o in Outcome if o in BEHAVIOUR_OUTCOMES and o not in self.codes]
         if missing:
             raise ValueError(f"{self.name}: no result code for {', '.join(missing)}")
 

@@ -6,10 +6,12 @@ of the machine (the preflight check, take off, explore, send the pictures, navig
 precision-land, land) opens a *job*: a command for the node to carry out and answer, the
 answer tagged with the job:
 
-- :class:`SendGoal` (an action goal) -> :class:`GoalDone` (the result as an :class:`Outcome`);
+- :class:`SendGoal` (an action goal) -> :class:`GoalDone` (the result read as an
+  :class:`~flight_control.policy.Outcome`);
 - :class:`CallArm` (the arm service, ``attempts`` times) -> :class:`ArmDone`;
 - :class:`Probe` (which action servers are not ready) -> :class:`Probed`;
-- :class:`Sleep` -> :class:`Woke`.
+- :class:`Sleep` (the shared :class:`flight_control.policy.Sleep`, tagged with its job)
+  -> :class:`Woke`.
 
 The answer becomes the machine's input (``took_off``, ``robot_found``, ``unreachable``,
 ``marker_not_found``, ``action_failed``...) or the job's next command. A new request, or a
@@ -33,18 +35,21 @@ the robot's ID and the vehicle's position, with a warning). Other outputs:
 taken when it happened) and :class:`CancelGoal`. ``timeline`` and ``events`` keep what
 happened, with the companion time, for reports.
 
-Pure module: the standard library and the mission machine.
+Pure module: the standard library, the mission machine and the policy vocabulary
+(:mod:`flight_control.policy`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from functools import partial
 from typing import Any, TypeVar
 
+import flight_control.policy as policy
+from flight_control.policy import Outcome
 from fsm.mission_machine import (
     EventKind,
     Mission,
@@ -93,16 +98,6 @@ class Action(Enum):
     EXPLORE = "explore"
     NAVIGATE = "navigate"
     PRECISION_LAND = "precision_land"
-
-
-class Outcome(Enum):
-    """An action's result as the mission reads it."""
-
-    SUCCEEDED = "succeeded"  # explore: stopped on the target robot
-    ENDED = "ended"  # explore: area covered or time budget used up, robot not seen
-    NO_PATH = "no_path"  # navigate: no path to the goal
-    NOT_FOUND = "not_found"  # precision land: the marker not seen, or lost
-    FAILED = "failed"  # anything else, a rejected goal included
 
 
 class Order(Enum):
@@ -222,6 +217,11 @@ class ArmDone:
 
 @dataclass(frozen=True)
 class GoalDone:
+    """A goal's end, as the mission reads it (:func:`goal_outcome`): SUCCEEDED (explore:
+    stopped on the target robot, its one stop marker), explore's COVERED or TIME_BUDGET
+    (the robot not seen), NO_PATH (navigate), MARKER_NOT_FOUND or MARKER_LOST (precision
+    land), else FAILED, a rejected goal included."""
+
     job: int
     outcome: Outcome
     message: str
@@ -253,9 +253,10 @@ class Probe:
 
 
 @dataclass(frozen=True)
-class Sleep:
-    job: int
-    seconds: float
+class Sleep(policy.Sleep):
+    """Wait ``seconds``; answer :class:`Woke`, tagged with the job."""
+
+    job: int = field(kw_only=True)
 
 
 Job = SendGoal | CallArm | Probe | Sleep
@@ -498,7 +499,7 @@ class Driver:
     def send_pictures(self) -> None:
         self._collecting = True
         self._waited = 0.0
-        self._ask(Sleep(self._new_job(), self.params.report_hover_s), self._hovered)
+        self._ask(Sleep(self.params.report_hover_s, job=self._new_job()), self._hovered)
 
     def navigate(self, target: Vec2) -> None:
         goal = NavigateGoal((target[0], target[1], self.params.cruise_altitude))
@@ -554,7 +555,7 @@ class Driver:
             missing.append("no valid position estimate")
         timeout = self.params.preflight_timeout_s
         if missing and self._waited < timeout:
-            self._ask(Sleep(self.job, PROBE_PERIOD_S), self._probe_again)
+            self._ask(Sleep(PROBE_PERIOD_S, job=self.job), self._probe_again)
         else:
             self.mission.preflight_result(not missing,
                                           f"after {timeout:g} s: " + "; ".join(missing))
@@ -586,7 +587,7 @@ class Driver:
     def _explored(self, target_robot: int, reply: GoalDone) -> None:
         if reply.outcome is Outcome.SUCCEEDED:
             self.mission.robot_found(target_robot)
-        elif reply.outcome is Outcome.ENDED:
+        elif reply.outcome in (Outcome.COVERED, Outcome.TIME_BUDGET):
             self.mission.explore_ended(f"robot {target_robot} not seen: {reply.message}")
         else:
             self._action_failed(f"explore: {reply.message}")
@@ -600,7 +601,7 @@ class Driver:
 
     def _look_for_pictures(self) -> None:
         if not self.pictures and self._waited < self.params.picture_timeout_s:
-            self._ask(Sleep(self.job, PICTURE_POLL_S), self._polled)
+            self._ask(Sleep(PICTURE_POLL_S, job=self.job), self._polled)
             return
         self._collecting = False
         if not self.pictures:  # the operator still needs to know which robot it is
@@ -625,7 +626,7 @@ class Driver:
     def _precision_landed(self, pad: int, reply: GoalDone) -> None:
         if reply.outcome is Outcome.SUCCEEDED:
             self.mission.landed(reply.lateral_error)
-        elif reply.outcome is Outcome.NOT_FOUND:
+        elif reply.outcome in (Outcome.MARKER_NOT_FOUND, Outcome.MARKER_LOST):
             self.mission.marker_not_found(reply.message)
         else:
             self._action_failed(f"precision land on pad {pad}: {reply.message}")
@@ -674,8 +675,8 @@ def goal_outcome(action: Action, *, accepted: bool, success: bool, code: int,
 __all__ = [
     "ANSWER", "JOBS", "Action", "ArmDone", "CallArm", "CancelGoal", "Command", "Driver",
     "DriverParams", "ExploreGoal", "Goal", "GoalDone", "Health", "Input", "Job", "LandGoal",
-    "NavigateGoal", "NoPicture", "OperatorCommand", "Order", "Outcome", "Position",
-    "PrecisionLandGoal", "Probe", "Probed", "PublishEvent", "PublishState", "ReachGoal",
-    "Reply", "RobotSeen", "SendGoal", "SendPictures", "Sleep", "Snapshot", "StateChanged",
-    "TakeoffGoal", "Tick", "UnknownCommand", "VehicleStatus", "Woke", "goal_outcome",
+    "NavigateGoal", "NoPicture", "OperatorCommand", "Order", "Position", "PrecisionLandGoal",
+    "Probe", "Probed", "PublishEvent", "PublishState", "ReachGoal", "Reply", "RobotSeen",
+    "SendGoal", "SendPictures", "Sleep", "Snapshot", "StateChanged", "TakeoffGoal", "Tick",
+    "UnknownCommand", "VehicleStatus", "Woke", "goal_outcome",
 ]

@@ -31,6 +31,7 @@ from typing import Any
 
 import interfaces
 from flight_control.clients import arm, arm_client
+from flight_control.policy import Outcome
 from fsm import mission_driver as d
 from fsm.mission_machine import Mission, MissionConfig, MissionEvent
 from fsm.mission_table import phase_of, scans
@@ -87,13 +88,13 @@ ACTIONS: dict[d.Action, tuple[Any, str]] = {
     d.Action.PRECISION_LAND: (PRECISION_LAND, "/navigation/precision_land"),
 }
 #: Result codes that are not a plain success or failure, per action.
-OUTCOMES: dict[d.Action, dict[int, d.Outcome]] = {
-    d.Action.EXPLORE: {EXPLORE_RESULT.RESULT_MARKER_FOUND: d.Outcome.SUCCEEDED,
-                       EXPLORE_RESULT.RESULT_COVERED: d.Outcome.ENDED,
-                       EXPLORE_RESULT.RESULT_TIME_BUDGET: d.Outcome.ENDED},
-    d.Action.NAVIGATE: {NAVIGATE_RESULT.RESULT_NO_PATH: d.Outcome.NO_PATH},
-    d.Action.PRECISION_LAND: {LAND_RESULT.RESULT_MARKER_NOT_FOUND: d.Outcome.NOT_FOUND,
-                              LAND_RESULT.RESULT_MARKER_LOST: d.Outcome.NOT_FOUND},
+OUTCOMES: dict[d.Action, dict[int, Outcome]] = {
+    d.Action.EXPLORE: {EXPLORE_RESULT.RESULT_MARKER_FOUND: Outcome.SUCCEEDED,
+                       EXPLORE_RESULT.RESULT_COVERED: Outcome.COVERED,
+                       EXPLORE_RESULT.RESULT_TIME_BUDGET: Outcome.TIME_BUDGET},
+    d.Action.NAVIGATE: {NAVIGATE_RESULT.RESULT_NO_PATH: Outcome.NO_PATH},
+    d.Action.PRECISION_LAND: {LAND_RESULT.RESULT_MARKER_NOT_FOUND: Outcome.MARKER_NOT_FOUND,
+                              LAND_RESULT.RESULT_MARKER_LOST: Outcome.MARKER_LOST},
 }
 ORDERS = {getattr(COMMAND, f"COMMAND_{order.name}"): order for order in d.Order}
 

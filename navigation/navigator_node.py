@@ -26,27 +26,25 @@ import interfaces
 from flight_control.frames import quat_to_yaw_f
 from flight_control.health import MODULE_HEALTH, health_report
 from flight_control.params import FIELD_SOURCE, FieldParams
+from flight_control.policy import Finish, Log, Outcome, Sleep
 from navigation.coverage import load_explore_paths
 from navigation.navigator_policy import (
     ActionState,
     CancelAction,
+    ExploreFinish,
     ExplorePolicy,
     ExploreProgress,
     ExploreTuning,
-    Finish,
     FollowTuning,
     Inputs,
-    Log,
     NavigatePolicy,
     NavigateProgress,
-    Outcome,
     Plan,
     Planned,
     PollAction,
     SendReach,
     SendTurn,
     Sent,
-    Sleep,
     SurveyPolicy,
     explore_waypoints,
 )
@@ -73,7 +71,7 @@ TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
 _PLAN: Any = PLAN_PATH.Response
 _LEG_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH)  # plan failures that block a leg
 _NAV: Any = NAVIGATE.Result
-_NAVIGATE_CODES = {Outcome.REACHED: _NAV.RESULT_OK, Outcome.NO_PATH: _NAV.RESULT_NO_PATH,
+_NAVIGATE_CODES = {Outcome.SUCCEEDED: _NAV.RESULT_OK, Outcome.NO_PATH: _NAV.RESULT_NO_PATH,
                    Outcome.FLIGHT_ERROR: _NAV.RESULT_FLIGHT_ERROR,
                    Outcome.CANCELED: _NAV.RESULT_CANCELED, Outcome.STOPPED: _NAV.RESULT_CANCELED}
 _EXP: Any = EXPLORE.Result
@@ -237,7 +235,7 @@ class NavigatorNode(Node):
                                 speed=goal.speed or self.params.cruise_speed, yaw=goal.yaw)
         end = await self._drive(policy, handle, feedback)
         return self._finish(handle, NAVIGATE, _NAVIGATE_CODES[end.outcome],
-                            end.outcome is Outcome.REACHED, end.message,
+                            end.outcome is Outcome.SUCCEEDED, end.message,
                             position=_point(*self._here()))
 
     # -- takeoff ---------------------------------------------------------------------------
@@ -254,11 +252,11 @@ class NavigatorNode(Node):
             return self._finish(handle, TAKEOFF, int(r.result), False, f"takeoff: {r.message}",
                                 position=r.position)
         end = await self._drive(SurveyPolicy(self.params.survey_turns), handle)
-        code = {Outcome.REACHED: R.RESULT_OK, Outcome.CANCELED: R.RESULT_CANCELED,
+        code = {Outcome.SUCCEEDED: R.RESULT_OK, Outcome.CANCELED: R.RESULT_CANCELED,
                 Outcome.FLIGHT_ERROR: R.RESULT_TIMEOUT}[end.outcome]
-        message = (f"at {altitude:.2f} m, {end.message}" if end.outcome is Outcome.REACHED
+        message = (f"at {altitude:.2f} m, {end.message}" if end.outcome is Outcome.SUCCEEDED
                    else end.message)
-        return self._finish(handle, TAKEOFF, code, end.outcome is Outcome.REACHED, message,
+        return self._finish(handle, TAKEOFF, code, end.outcome is Outcome.SUCCEEDED, message,
                             position=_point(*self._here()))
 
     # -- explore ---------------------------------------------------------------------------
@@ -290,6 +288,7 @@ class NavigatorNode(Node):
             wanted=frozenset(int(i) for i in goal.stop_marker_ids),
             budget_ns=goal.time_budget.sec * 1_000_000_000 + goal.time_budget.nanosec)
         end = await self._drive(policy, handle, feedback)
+        assert isinstance(end, ExploreFinish)
         code, success = _EXPLORE_CODES[end.outcome]
         return self._finish(handle, EXPLORE, code, success, end.message,
                             coverage=end.coverage, markers_found=list(end.markers_found),

@@ -3,8 +3,11 @@
 A policy is built for one goal. The node calls ``step(inputs)`` with where the vehicle is,
 the time, whether the goal's cancel was asked, the markers seen and the answer to the
 policy's last command; the policy answers with its next command (plan, sleep, send a reach
-or a turn, poll or cancel it, publish progress) and, at the end, :class:`Finish`. The node
-only carries commands out and converts messages (:mod:`navigation.navigator_node`).
+or a turn, poll or cancel it, publish progress) and, at the end, :class:`Finish`. The
+outcomes, :class:`Sleep`, :class:`Log` and :class:`Finish` are the words every policy
+shares (:mod:`flight_control.policy`); the plan and flight-goal commands and their answers
+are the navigator's own. The node only carries commands out and converts messages
+(:mod:`navigation.navigator_node`).
 
 Following a path (:class:`NavigatePolicy`; every explore leg too): plan from where the
 vehicle is to the goal (``plan_attempts`` tries, ``replan_period_s`` apart), then follow
@@ -58,13 +61,13 @@ import dataclasses
 import math
 from collections.abc import Generator, Mapping
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
 from flight_control.frames import wrap_pi
+from flight_control.policy import Finish, Log, Outcome, Sleep, expect
 from navigation.astar import path_length
 from navigation.coverage import CoverageGrid, coverage_lanes, footprint_half_size, lane_spacing
 from navigation.following import corner_radius, turn_angle
@@ -130,19 +133,6 @@ class ExploreTuning:
         return _pick(cls, params)
 
 
-class Outcome(Enum):
-    """How a policy ended."""
-
-    REACHED = "reached"  # navigate: at the goal (and facing its yaw); survey: turns done
-    NO_PATH = "no_path"
-    FLIGHT_ERROR = "flight_error"  # a flight-control goal failed or was rejected
-    CANCELED = "canceled"  # the goal's cancel was asked
-    STOPPED = "stopped"  # explore's stop condition (a marker, the time budget) mid-leg
-    MARKER_FOUND = "marker_found"
-    TIME_BUDGET = "time_budget"
-    COVERED = "covered"
-
-
 # -- commands (policy -> node) -------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Plan:
@@ -150,13 +140,6 @@ class Plan:
 
     start: FloatArray
     goal: FloatArray
-
-
-@dataclass(frozen=True)
-class Sleep:
-    """Wait ``seconds``; no answer."""
-
-    seconds: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,18 +190,10 @@ class ExploreProgress:
 
 
 @dataclass(frozen=True)
-class Log:
-    """Log a line; no answer."""
+class ExploreFinish(Finish):
+    """Explore's end: the :class:`Finish`, the share of the area seen (0..1) and the
+    markers seen, by id."""
 
-    text: str
-
-
-@dataclass(frozen=True)
-class Finish:
-    """The goal's end. ``coverage`` and ``markers_found`` are explore's."""
-
-    outcome: Outcome
-    message: str
     coverage: float = 0.0
     markers_found: tuple[int, ...] = ()
 
@@ -274,19 +249,8 @@ class Inputs:
     answer: Answer | None = None
 
 
-class PolicyError(RuntimeError):
-    """The node answered a command with the wrong kind of answer."""
-
-
-A = TypeVar("A", Planned, Sent, ActionState)
 T = TypeVar("T")
 Script = Generator[Command, "Answer | None", T]
-
-
-def _expect(answer: Answer | None, kind: type[A]) -> A:
-    if not isinstance(answer, kind):
-        raise PolicyError(f"expected a {kind.__name__} answer, got {answer!r}")
-    return answer
 
 
 def explore_waypoints(tuning: ExploreTuning, explore_paths: Mapping[str, Mapping[int, Any]],
@@ -397,18 +361,18 @@ class _Policy:
 
     # -- sub-scripts ------------------------------------------------------------------------
     def _plan(self, start: FloatArray, goal: FloatArray) -> Script[Planned]:
-        return _expect((yield Plan(start, goal)), Planned)
+        return expect((yield Plan(start, goal)), Planned)
 
     def _run(self, command: SendReach | SendTurn, stoppable: bool) -> Script[bool | None]:
         """Run a flight-control goal to its end: whether it succeeded (``self.why`` says
         why not); None when the goal's cancel was asked or, if ``stoppable``, the stop
         condition held (the flight goal is canceled)."""
-        sent = _expect((yield command), Sent)
+        sent = expect((yield command), Sent)
         if not sent.accepted:
             self.why = f"rejected: {sent.message}"
             return False
         while True:
-            state = _expect((yield PollAction()), ActionState)
+            state = expect((yield PollAction()), ActionState)
             if state.done:
                 self.why = state.message
                 return state.success
@@ -516,14 +480,14 @@ class _Follower(_Policy):
                 stop = yield from self._no_room_past(path, i, speed)
             radius_i = radius if last else corner_radius(path, i, f.waypoint_radius,
                                                          f.corner_cut)
-            sent = _expect((yield SendReach(wp, heading, radius_i, speed, stop)), Sent)
+            sent = expect((yield SendReach(wp, heading, radius_i, speed, stop)), Sent)
             if not sent.accepted:
                 return _Flown(Outcome.FLIGHT_ERROR, f"reach rejected: {sent.message}")
             period_ns = int(f.replan_period_s * 1e9)
             next_plan_ns = self._now.now_ns + period_ns
             switched = False
             while True:
-                state = _expect((yield PollAction()), ActionState)
+                state = expect((yield PollAction()), ActionState)
                 if state.done:
                     break
                 if self._now.cancel_requested or self._stop():
@@ -538,7 +502,7 @@ class _Follower(_Policy):
                         # the map now shows something just past the goal: brake to it (a
                         # newer reach takes over at the vehicle's speed)
                         stop = True
-                        sent = _expect((yield SendReach(wp, heading, radius_i, speed, True)),
+                        sent = expect((yield SendReach(wp, heading, radius_i, speed, True)),
                                        Sent)
                         if not sent.accepted:
                             return _Flown(Outcome.FLIGHT_ERROR,
@@ -567,7 +531,7 @@ class _Follower(_Policy):
             if (why := too_long(planned.path)) is not None:
                 return _Flown(Outcome.NO_PATH, why)
             path, i = planned.path, 1
-        return _Flown(Outcome.REACHED, "reached")
+        return _Flown(Outcome.SUCCEEDED, "reached")
 
     def _no_room_past(self, path: FloatArray, i: int, speed: float) -> Script[bool]:
         """Whether the vehicle, passing waypoint ``i`` of ``path`` at ``speed``, has no
@@ -669,7 +633,8 @@ class _Follower(_Policy):
 
 
 class NavigatePolicy(_Follower):
-    """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading)."""
+    """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading). Ends SUCCEEDED,
+    NO_PATH, FLIGHT_ERROR or CANCELED."""
 
     def __init__(self, follow: FollowTuning, goal: FloatArray, *, radius: float,
                  speed: float, yaw: float = math.nan) -> None:
@@ -681,7 +646,7 @@ class NavigatePolicy(_Follower):
         if not np.all(np.isfinite(self.goal)):
             return Finish(Outcome.NO_PATH, "goal is not finite")
         fly = yield from self._fly(self.goal, radius=self.radius, speed=self.speed)
-        if fly.outcome is Outcome.REACHED and math.isfinite(self.yaw):
+        if fly.outcome is Outcome.SUCCEEDED and math.isfinite(self.yaw):
             ok = yield from self._run(SendTurn(self.yaw), False)
             if not ok:
                 return Finish(Outcome.CANCELED if ok is None else Outcome.FLIGHT_ERROR,
@@ -690,7 +655,8 @@ class NavigatePolicy(_Follower):
 
 
 class SurveyPolicy(_Policy):
-    """``turns`` quarter turns to the left, where the vehicle is."""
+    """``turns`` quarter turns to the left, where the vehicle is. Ends SUCCEEDED,
+    FLIGHT_ERROR or CANCELED."""
 
     def __init__(self, turns: int) -> None:
         self.turns = turns
@@ -702,13 +668,14 @@ class SurveyPolicy(_Policy):
             if not ok:
                 return Finish(Outcome.CANCELED if ok is None else Outcome.FLIGHT_ERROR,
                               f"survey turn {q + 1}: {self.why}")
-        return Finish(Outcome.REACHED, f"{self.turns} survey turns")
+        return Finish(Outcome.SUCCEEDED, f"{self.turns} survey turns")
 
 
 class ExplorePolicy(_Follower):
     """Explore ``area`` ((M, 2) polygon [m]; empty: the field) at ``altitude`` [m] until a
     marker of ``wanted`` is seen (none: one sweep), or ``budget_ns`` (0: none) has passed
-    since ``start_ns``; ``explore_paths``: arena -> start pad -> (N, 2) waypoints."""
+    since ``start_ns``; ``explore_paths``: arena -> start pad -> (N, 2) waypoints. Ends
+    (:class:`ExploreFinish`) MARKER_FOUND, COVERED, TIME_BUDGET, FLIGHT_ERROR or CANCELED."""
 
     def __init__(self, follow: FollowTuning, explore: ExploreTuning, *, area: FloatArray,
                  altitude: float, field_min: FloatArray, field_max: FloatArray,
@@ -752,7 +719,7 @@ class ExplorePolicy(_Follower):
         return explore_waypoints(self.explore, self.explore_paths, self.field_min,
                                  self.field_max, self.area, self.altitude, self.here, sweep)
 
-    def _main(self) -> Script[Finish]:
+    def _main(self) -> Script[ExploreFinish]:
         f, e = self.follow, self.explore
         waypoints, source = self._waypoints(0)
         skipped = flown = 0
@@ -770,17 +737,17 @@ class ExplorePolicy(_Follower):
                 if self._stop():
                     stopped = True
                     break
-                fly, at = _Flown(Outcome.REACHED, ""), f"waypoint {k + 1}"
+                fly, at = _Flown(Outcome.SUCCEEDED, ""), f"waypoint {k + 1}"
                 if lanes and k % 2 == 1:  # a lane: along it, through the points on it
                     start = waypoints[k - 1]
                     for point in lane_points(start, wp, e.lane_point_spacing, past=self.here):
                         fly = yield from self._fly(point, radius=f.waypoint_radius,
                                                    speed=f.cruise_speed, then=wp - start,
                                                    attempts=1, max_detour=LANE_POINT_DETOUR_M)
-                        if fly.outcome not in (Outcome.REACHED, Outcome.NO_PATH):
+                        if fly.outcome not in (Outcome.SUCCEEDED, Outcome.NO_PATH):
                             at = f"the point {_xy(point)} m of the lane to waypoint {k + 1}"
                             break  # (a point in an obstacle, or far round one: the next)
-                if fly.outcome in (Outcome.REACHED, Outcome.NO_PATH):
+                if fly.outcome in (Outcome.SUCCEEDED, Outcome.NO_PATH):
                     fly = yield from self._fly(wp, radius=f.waypoint_radius,
                                                speed=f.cruise_speed)
                 if fly.outcome is Outcome.NO_PATH and e.replace_blocked_lane_ends:
@@ -821,7 +788,7 @@ class ExplorePolicy(_Follower):
                                  f"{flown}/{flown + skipped} waypoints flown in {sweeps} "
                                  f"sweep{'s' * (sweeps > 1)} (last: {source}), {skipped} "
                                  "skipped without a path")
-        return dataclasses.replace(outcome, coverage=self.grid.fraction, markers_found=found)
+        return ExploreFinish(outcome.outcome, outcome.message, self.grid.fraction, found)
 
     def _reachable_toward(self, wp: FloatArray, partner: FloatArray
                           ) -> Script[FloatArray | None]:
@@ -854,24 +821,20 @@ __all__ = [
     "Answer",
     "CancelAction",
     "Command",
+    "ExploreFinish",
     "ExplorePolicy",
     "ExploreProgress",
     "ExploreTuning",
-    "Finish",
     "FollowTuning",
     "Inputs",
-    "Log",
     "NavigatePolicy",
     "NavigateProgress",
-    "Outcome",
     "Plan",
     "Planned",
-    "PolicyError",
     "PollAction",
     "SendReach",
     "SendTurn",
     "Sent",
-    "Sleep",
     "SurveyPolicy",
     "explore_waypoints",
     "lane_points",

@@ -24,11 +24,11 @@ from typing import Any
 
 import interfaces
 from flight_control.health import health_report
+from flight_control.policy import Finish, Outcome
 from navigation.params import PrecisionLandParams
 from navigation.precision_land_policy import (
-    Finish,
+    PRECISION_LAND_OUTCOMES,
     Move,
-    Outcome,
     PrecisionLandPolicy,
     Touchdown,
     goal_problem,
@@ -62,7 +62,8 @@ SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 RESULT: Any = PRECISION_LAND.Result
 REACH_RESULT: Any = REACH.Result
-_RESULT_CODE = {o: getattr(RESULT, f"RESULT_{o.name}") for o in Outcome}  # name for name
+_RESULT_CODE = {o: getattr(RESULT, f"RESULT_{o.name}") for o in PRECISION_LAND_OUTCOMES
+                if o is not Outcome.SUCCEEDED} | {Outcome.SUCCEEDED: RESULT.RESULT_LANDED}
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ decides more, gathered here so a test can walk it without flying:
 - the landing's timeout while no frames come at all (is the scanner running?);
 - how a correction move ends: a reach that times out is no flight error (the next frame
   measures again from where the vehicle is), a failed or rejected one is;
-- the outcome and its message (:class:`Outcome`, :class:`Finish`).
+- the outcome and its message (:data:`PRECISION_LAND_OUTCOMES`, :class:`Finish`: the
+  words every policy shares, :mod:`flight_control.policy`).
 
 The node feeds :class:`PrecisionLandPolicy`: :meth:`~PrecisionLandPolicy.poll` at each
 poll (are frames waiting?), :meth:`~PrecisionLandPolicy.frame` per frame,
@@ -30,10 +31,10 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from enum import Enum
 
 import numpy as np
 
+from flight_control.policy import Finish, Outcome
 from navigation.precision_landing import (
     Fail,
     Failure,
@@ -51,15 +52,11 @@ from navigation.precision_landing import (
 TAKEOFF_MARGIN = 0.2  # m: a goal is refused below min_altitude minus this above the pad
 
 
-class Outcome(Enum):
-    """How a goal ended; the node maps each to a PrecisionLand ``RESULT_*`` code."""
-
-    LANDED = "landed"
-    MARKER_NOT_FOUND = "marker_not_found"
-    MARKER_LOST = "marker_lost"
-    FLIGHT_ERROR = "flight_error"  # a reach or the land failed, or was rejected
-    TIMEOUT = "timeout"
-    CANCELED = "canceled"
+#: How a goal can end; the node maps each to a PrecisionLand ``RESULT_*`` code (SUCCEEDED:
+#: landed; FLIGHT_ERROR: a reach or the land failed, or was rejected).
+PRECISION_LAND_OUTCOMES = frozenset({
+    Outcome.SUCCEEDED, Outcome.MARKER_NOT_FOUND, Outcome.MARKER_LOST, Outcome.FLIGHT_ERROR,
+    Outcome.TIMEOUT, Outcome.CANCELED})
 
 
 _FAILURE_OUTCOME = {Failure.NOT_FOUND: Outcome.MARKER_NOT_FOUND,
@@ -77,18 +74,6 @@ class Move:
 @dataclass(frozen=True)
 class Touchdown:
     """Hand the final landing to the flight controller."""
-
-
-@dataclass(frozen=True)
-class Finish:
-    """The goal is over: its outcome and a sentence for the result."""
-
-    outcome: Outcome
-    message: str
-
-    @property
-    def success(self) -> bool:
-        return self.outcome is Outcome.LANDED
 
 
 FrameCommand = Move | Touchdown | Finish | Wait
@@ -217,18 +202,17 @@ class PrecisionLandPolicy:
         """The final landing ended (``success`` False also when it was rejected)."""
         if not success:
             return Finish(Outcome.FLIGHT_ERROR, f"land failed: {message}")
-        return Finish(Outcome.LANDED, f"landed on pad {self.pad_id}")
+        return Finish(Outcome.SUCCEEDED, f"landed on pad {self.pad_id}")
 
     def cancel(self) -> Finish:
         return Finish(Outcome.CANCELED, "canceled")
 
 
 __all__ = [
+    "PRECISION_LAND_OUTCOMES",
     "TAKEOFF_MARGIN",
-    "Finish",
     "FrameCommand",
     "Move",
-    "Outcome",
     "PrecisionLandPolicy",
     "Touchdown",
     "goal_problem",

@@ -107,7 +107,8 @@ def test_an_allowed_import_passes(package: str, line: str) -> None:
 #: Pure modules: algorithms, policies and message builders (STYLE.md 1 and 16). Each is
 #: tested without the runtime, so importing it must not load one, nor MuJoCo.
 PURE_MODULES = (
-    "flight_control.frames", "flight_control.pose_history", "flight_control.px4_messages",
+    "flight_control.frames", "flight_control.policy", "flight_control.pose_history",
+    "flight_control.px4_messages",
     "flight_control.fcu_messages", "interfaces.px4.timesync", "perception.aruco",
     "perception.scan_policy", "navigation.astar", "navigation.voxel_graph",
     "navigation.precision_landing", "navigation.precision_land_policy",

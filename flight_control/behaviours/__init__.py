@@ -1,6 +1,7 @@
 """Flight behaviours (takeoff, reach, turn, land) as pure step functions."""
 
 from flight_control.behaviours.base import (
+    BEHAVIOUR_OUTCOMES,
     DISARM,
     NAV_LAND,
     OFFBOARD,
@@ -19,6 +20,7 @@ from flight_control.behaviours.takeoff import Takeoff, TakeoffFeedback
 from flight_control.behaviours.turn import Turn, TurnFeedback
 
 __all__ = [
+    "BEHAVIOUR_OUTCOMES",
     "DISARM",
     "NAV_LAND",
     "OFFBOARD",

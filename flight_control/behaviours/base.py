@@ -1,5 +1,6 @@
 """What every flight behaviour shares: the observation it reads, the step it returns, the
-outcomes it can end with, and the FCU commands it may ask for. Pure (numpy only).
+outcomes it can end with (:data:`BEHAVIOUR_OUTCOMES`, in the words of
+:mod:`flight_control.policy`), and the FCU commands it may ask for. Pure (numpy only).
 
 A behaviour is an object built for one goal whose ``step(observation, now_ns)`` is called
 at the setpoint rate by :class:`flight_control.behaviour_server.BehaviourServer`. It
@@ -13,12 +14,12 @@ behaviour's (as in Aerostack2's ``as2_behavior``).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
 from typing import Generic, Protocol, TypeVar
 
 import numpy as np
 
 from flight_control.goal_checks import VehicleState
+from flight_control.policy import Outcome
 from flight_control.setpoints import FloatArray
 from interfaces.px4 import (
     FORCE_ARM_DISARM_MAGIC,
@@ -27,17 +28,10 @@ from interfaces.px4 import (
     VehicleCmd,
 )
 
-
-class Outcome(Enum):
-    """How a goal ended. Behaviours end with SUCCEEDED, LOST_CONTROL or FCU_REJECTED; the
-    server adds TIMEOUT, CANCELED and PREEMPTED."""
-
-    SUCCEEDED = "succeeded"  # reached, turned, landed
-    LOST_CONTROL = "lost_control"  # the FCU left offboard, disarmed or went silent
-    FCU_REJECTED = "fcu_rejected"  # the FCU refused a command the behaviour needed
-    TIMEOUT = "timeout"
-    CANCELED = "canceled"
-    PREEMPTED = "preempted"  # a newer motion goal took over
+#: How a flight-control goal can end. Behaviours end with SUCCEEDED, LOST_CONTROL or
+#: FCU_REJECTED; the server adds TIMEOUT, CANCELED and PREEMPTED (a newer motion goal).
+BEHAVIOUR_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.LOST_CONTROL, Outcome.FCU_REJECTED,
+                                Outcome.TIMEOUT, Outcome.CANCELED, Outcome.PREEMPTED})
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,6 +148,7 @@ def elapsed_s(last_ns: int | None, now_ns: int) -> float:
 
 
 __all__ = [
+    "BEHAVIOUR_OUTCOMES",
     "DISARM",
     "NAV_LAND",
     "OFFBOARD",

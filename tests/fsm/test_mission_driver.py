@@ -14,6 +14,7 @@ from typing import Any
 
 import pytest
 
+from flight_control.policy import Outcome
 from fsm import mission_driver
 from fsm.mission_driver import (
     JOBS,
@@ -35,7 +36,6 @@ from fsm.mission_driver import (
     NoPicture,
     OperatorCommand,
     Order,
-    Outcome,
     Position,
     PrecisionLandGoal,
     Probe,
@@ -191,7 +191,7 @@ def test_the_contest_tick_by_tick_from_start_to_the_last_pad() -> None:
     out = rig.done(after_s=60.0)
     assert rig.state == "mission.report_robot"
     assert rig.events(EventKind.ROBOT_FOUND)[0].marker_id == 19
-    assert of(out, Sleep) == [Sleep(rig.job.job, 1.0)]  # hover, collecting
+    assert of(out, Sleep) == [Sleep(1.0, job=rig.job.job)]  # hover, collecting
     rig.feed(RobotSeen(19, "second"))
     out = rig.woke()
     assert of(out, SendPictures)[0].pictures == ("first", "second")
@@ -291,7 +291,7 @@ def test_preflight_asks_again_until_every_module_is_ready() -> None:
     rig.feed(OperatorCommand(Order.START))
     probe = rig.job
     out = rig.feed(Probed(probe.job, ("navigate",)))
-    assert of(out, Sleep) == [Sleep(probe.job, PROBE_PERIOD_S)]
+    assert of(out, Sleep) == [Sleep(PROBE_PERIOD_S, job=probe.job)]
     out = rig.woke()
     assert of(out, Probe) == [Probe(probe.job)]  # the same job, asked again
     rig.report_health()
@@ -387,7 +387,7 @@ def test_a_failed_takeoff_holds_with_the_reason() -> None:
 # -- exploration and the robot's pictures --------------------------------------------------
 def test_the_explore_budget_running_out_returns_home_and_lands() -> None:
     rig = exploring()
-    out = rig.done(Outcome.ENDED, "time budget used up", after_s=600.0)
+    out = rig.done(Outcome.TIME_BUDGET, "time budget used up", after_s=600.0)
     assert rig.state == "returning.navigate"
     stop = rig.driver.mission.stop
     assert stop is not None and stop.cause is ErrorCause.ROBOT_NOT_FOUND
@@ -479,11 +479,11 @@ def test_without_a_picture_the_report_waits_then_sends_the_robot_id_and_position
     rig = exploring()
     rig.feed(Position((6.0, 4.0, 1.5)))
     rig.done()
-    assert rig.job == Sleep(rig.job.job, PARAMS.report_hover_s)
+    assert rig.job == Sleep(PARAMS.report_hover_s, job=rig.job.job)
     polls = 0
     out = rig.woke()
     while not of(out, SendPictures):
-        assert rig.job == Sleep(rig.job.job, PICTURE_POLL_S)
+        assert rig.job == Sleep(PICTURE_POLL_S, job=rig.job.job)
         polls += 1
         out = rig.woke()
     assert polls == round(PARAMS.picture_timeout_s / PICTURE_POLL_S)
@@ -544,10 +544,10 @@ def test_a_pad_without_a_path_is_skipped_with_the_reason() -> None:
 def test_a_pad_not_seen_is_searched_for_then_skipped_and_after_the_last_home() -> None:
     rig = flying_pads(pads=(3,), points=(20,))
     rig.done()
-    out = rig.done(Outcome.NOT_FOUND, "marker never seen")
+    out = rig.done(Outcome.MARKER_NOT_FOUND, "marker never seen")
     assert rig.state == "mission.pad.search"
     assert of(out, SendGoal)[0].goal == PrecisionLandGoal(3, (7.0, 10.5), 2.0)
-    out = rig.done(Outcome.NOT_FOUND, "still not")
+    out = rig.done(Outcome.MARKER_NOT_FOUND, "still not")
     (skipped,) = rig.driver.mission.skipped
     assert skipped.pad == 3 and skipped.reason.endswith("of its known position: still not")
     snapshot = rig.driver.snapshot(rig.t_ns)
@@ -555,7 +555,7 @@ def test_a_pad_not_seen_is_searched_for_then_skipped_and_after_the_last_home() -
     assert rig.state == "returning.navigate"
     assert of(out, SendGoal)[0].goal == NavigateGoal((1.5, 1.5, 1.5))
     rig.done()
-    out = rig.done(Outcome.NOT_FOUND, "start pad not seen")
+    out = rig.done(Outcome.MARKER_NOT_FOUND, "start pad not seen")
     assert rig.state == "landing_now"
     assert of(out, SendGoal) == [SendGoal(rig.job.job, Action.LAND, LandGoal(0.4, True))]
     rig.done()
@@ -792,14 +792,15 @@ def test_hold_opens_no_job() -> None:
     assert rig.driver.job == job
 
 
-def test_the_driver_is_pure_the_machine_and_the_standard_library_only() -> None:
+def test_the_driver_is_pure_the_machine_the_policy_words_and_the_standard_library_only(
+        ) -> None:
     tree = ast.parse(Path(mission_driver.__file__).read_text(encoding="utf-8"))
     imported = {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     project = {"interfaces", "runtime", "sim", "flight_control", "perception", "navigation",
                "fsm", "ground_station", "quadmission"}
-    assert {m for m in imported if m.split(".")[0] in project} == {"fsm.mission_machine",
-                                                                   "fsm.mission_table"}
+    assert {m for m in imported if m.split(".")[0] in project} == {
+        "flight_control.policy", "fsm.mission_machine", "fsm.mission_table"}
     assert not {m for m in imported if m.split(".")[0] in ("mujoco", "rclpy", "rosbags")}
 
 
@@ -807,13 +808,13 @@ def test_the_driver_is_pure_the_machine_and_the_standard_library_only() -> None:
 def test_a_rejected_goal_failed_whatever_its_default_code_says(action: Action) -> None:
     """A rejected goal's result is the default one (code 0): for explore that code reads
     "area covered", which would send the mission home as "robot not found"."""
-    every_code_ends = dict.fromkeys(range(4), Outcome.ENDED)
+    every_code_ends = dict.fromkeys(range(4), Outcome.COVERED)
     assert mission_driver.goal_outcome(action, accepted=False, success=False, code=0,
                                        codes=every_code_ends) is Outcome.FAILED
 
 
 def test_a_finished_goal_reads_as_its_code_and_explore_only_by_its_code() -> None:
-    codes = {0: Outcome.ENDED, 2: Outcome.NO_PATH}
+    codes = {0: Outcome.COVERED, 2: Outcome.NO_PATH}
     outcome = mission_driver.goal_outcome
     assert outcome(Action.NAVIGATE, accepted=True, success=True, code=0,
                    codes=codes) is Outcome.SUCCEEDED
@@ -823,4 +824,4 @@ def test_a_finished_goal_reads_as_its_code_and_explore_only_by_its_code() -> Non
                    codes=codes) is Outcome.FAILED  # a code with no meaning of its own
     # explore: success says the action ran; its code says whether the robot was found
     assert outcome(Action.EXPLORE, accepted=True, success=True, code=0,
-                   codes=codes) is Outcome.ENDED
+                   codes=codes) is Outcome.COVERED

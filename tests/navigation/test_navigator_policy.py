@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from flight_control.policy import Finish, Log, Outcome, PolicyError, Sleep
 from navigation.astar import path_length
 from navigation.coverage import lane_spacing
 from navigation.navigator_policy import (
@@ -19,24 +20,20 @@ from navigation.navigator_policy import (
     ActionState,
     CancelAction,
     Command,
+    ExploreFinish,
     ExplorePolicy,
     ExploreProgress,
     ExploreTuning,
-    Finish,
     FollowTuning,
     Inputs,
-    Log,
     NavigatePolicy,
     NavigateProgress,
-    Outcome,
     Plan,
     Planned,
-    PolicyError,
     PollAction,
     SendReach,
     SendTurn,
     Sent,
-    Sleep,
     SurveyPolicy,
     explore_waypoints,
     lane_points,
@@ -199,7 +196,7 @@ def test_arrival_flies_each_waypoint_then_finishes_reached() -> None:
     path = p((0, 0), (2, 0), (2, 2))
     world = World(navigate(p((2, 2))[0]), first_then_straight(path))
     end = world.run()
-    assert end == Finish(Outcome.REACHED, "reached")
+    assert end == Finish(Outcome.SUCCEEDED, "reached")
     reaches = world.of(SendReach)
     assert [r.target.tolist() for r in reaches] == [[2, 0, Z], [2, 2, Z]]
     # the right-angle corner: the vehicle stops there and the sphere shrinks to the cut
@@ -214,7 +211,7 @@ def test_arrival_flies_each_waypoint_then_finishes_reached() -> None:
 def test_a_gentle_corner_is_passed_through_inside_the_waypoint_sphere() -> None:
     path = p((0, 0), (2, 0), (4, 0.2))
     world = World(navigate(p((4, 0.2))[0]), first_then_straight(path))
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     first = world.of(SendReach)[0]
     assert not first.stop_at_target and first.radius == FOLLOW.waypoint_radius
     assert world.of(SendTurn) == []
@@ -223,27 +220,27 @@ def test_a_gentle_corner_is_passed_through_inside_the_waypoint_sphere() -> None:
 def test_a_turn_first_angle_of_pi_never_turns_first() -> None:
     follow = FollowTuning(**{**FOLLOW.__dict__, "turn_first_angle": 3.15})
     world = World(navigate(p((-3, 0))[0], follow), straight, yaw=0.0)
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     assert world.of(SendTurn) == [] and world.of(SendReach)[0].yaw == pytest.approx(math.pi)
 
 
 def test_a_waypoint_right_above_keeps_the_heading() -> None:
     world = World(navigate(np.array([2.1, 2.0, 3.0])), straight, here=np.array([2.0, 2.0, Z]),
                   yaw=2.0)
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     assert world.of(SendTurn) == [] and world.of(SendReach)[0].yaw == 2.0
 
 
 def test_a_waypoint_0_3_m_away_is_faced() -> None:
     world = World(navigate(np.array([0.3, 0.0, Z])), straight, yaw=2.0)
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     assert world.of(SendTurn) == [SendTurn(0.0)]
 
 
 def test_a_leg_faced_exactly_is_not_turned_to_and_a_straight_waypoint_is_no_corner() -> None:
     follow = FollowTuning(**{**FOLLOW.__dict__, "turn_first_angle": 0.0})
     world = World(navigate(GOAL, follow), first_then_straight(p((0, 0), (2, 0), (4, 0))))
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     assert world.of(SendTurn) == []
     assert not world.of(SendReach)[0].stop_at_target
 
@@ -263,7 +260,7 @@ def test_plan_failures_are_retried_then_the_goal_ends_with_no_path() -> None:
 def test_the_last_plan_attempt_that_succeeds_is_flown() -> None:
     world = World(navigate(), lambda s, g, w: ok(np.array([s, g]))
                   if len(w.of(Plan)) == FOLLOW.plan_attempts else failed())
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     assert len(world.of(Sleep)) >= FOLLOW.plan_attempts - 1
 
 
@@ -313,7 +310,7 @@ def test_a_failed_reach_that_cannot_be_replanned_has_no_path() -> None:
 def test_a_reach_failed_once_and_replanned_reaches_the_goal() -> None:
     world = World(navigate(), straight)
     world.fail = lambda command: "bumped" if len(world.of(SendReach)) == 1 else None
-    assert world.run() == Finish(Outcome.REACHED, "reached")
+    assert world.run() == Finish(Outcome.SUCCEEDED, "reached")
     assert len(world.of(SendReach)) == 2
 
 
@@ -471,7 +468,7 @@ def test_each_leg_after_the_first_is_checked_on_the_map_as_it_is_before_it_is_fl
 def test_a_leg_after_the_first_still_clear_is_flown_without_a_hold() -> None:
     old = p((0, 0), (2, 0), (4, 0))
     world = World(navigate(), first_then_straight(old))
-    assert world.run().outcome is Outcome.REACHED
+    assert world.run().outcome is Outcome.SUCCEEDED
     assert [r.target.tolist() for r in world.of(SendReach)] == [[2, 0, Z], [4, 0, Z]]
     plans = world.of(Plan)  # the plan, then the goal and the leg checked at (2, 0)
     assert len(plans) == 3 and np.array_equal(plans[1].start, old[1])
@@ -654,7 +651,7 @@ def test_cancel_while_waiting_for_the_map_flies_no_leg() -> None:
 # -- navigate's final heading --------------------------------------------------------------
 def test_navigate_faces_the_goal_yaw_at_the_end() -> None:
     world = World(navigate(yaw=1.0), straight)
-    assert world.run() == Finish(Outcome.REACHED, "reached")
+    assert world.run() == Finish(Outcome.SUCCEEDED, "reached")
     assert world.of(SendTurn) == [SendTurn(1.0)] and world.yaw == 1.0
     assert world.log.index(SendTurn(1.0)) > world.log.index(world.of(SendReach)[-1])
 
@@ -680,7 +677,7 @@ def test_a_goal_not_reached_is_not_turned_at() -> None:
 # -- survey turns --------------------------------------------------------------------------
 def test_survey_turns_a_quarter_each_then_reports_the_count() -> None:
     world = World(SurveyPolicy(4), straight)
-    assert world.run() == Finish(Outcome.REACHED, "4 survey turns")
+    assert world.run() == Finish(Outcome.SUCCEEDED, "4 survey turns")
     assert world.of(SendTurn) == [SendTurn(math.pi / 2, relative=True)] * 4
     assert world.yaw == pytest.approx(2 * math.pi)
 
@@ -708,7 +705,7 @@ def test_a_turn_still_running_is_polled_every_poll_period() -> None:
     assert isinstance(step(Sent(True)), PollAction)
     assert step(ActionState(False)) == Sleep(POLL_S)
     assert step() == PollAction()
-    assert step(ActionState(True, True, "faced")) == Finish(Outcome.REACHED, "1 survey turns")
+    assert step(ActionState(True, True, "faced")) == Finish(Outcome.SUCCEEDED, "1 survey turns")
 
 
 # -- exploring -----------------------------------------------------------------------------
@@ -1018,7 +1015,7 @@ def test_the_time_budget_stops_exploring_and_holds() -> None:
     world = World(explore(wanted=frozenset({19}), budget_ns=2_000_000_000), straight,
                   polls=10, here=np.array([1.0, 1.0, Z]))
     end = world.run()
-    assert end == Finish(Outcome.TIME_BUDGET, "time budget used up", end.coverage, ())
+    assert end == ExploreFinish(Outcome.TIME_BUDGET, "time budget used up", end.coverage, ())
     hold = world.of(SendReach)[-1]
     assert hold.stop_at_target and world.times[world.log.index(hold)] == 2_000_000_000
 

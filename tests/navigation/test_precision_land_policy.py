@@ -10,11 +10,10 @@ from dataclasses import dataclass
 
 import pytest
 
+from flight_control.policy import Finish, Outcome
 from navigation.precision_land_policy import (
     TAKEOFF_MARGIN,
-    Finish,
     Move,
-    Outcome,
     PrecisionLandPolicy,
     Touchdown,
     goal_problem,
@@ -230,7 +229,7 @@ def test_aligned_it_steps_down_to_the_touchdown_then_lands():
     assert altitudes == pytest.approx([1.5, 1.2, 0.9])
     assert policy.phase is Phase.FINAL_LAND
     finish = policy.land_ended(True, "")
-    assert finish == Finish(Outcome.LANDED, f"landed on pad {PAD_ID}") and finish.success
+    assert finish == Finish(Outcome.SUCCEEDED, f"landed on pad {PAD_ID}") and finish.success
 
 
 def test_a_failed_final_landing_is_a_flight_error():

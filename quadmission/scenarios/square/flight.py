@@ -53,7 +53,10 @@ PROGRESS_EVERY_S = 5.0  # s of simulated time between progress lines
 PATH_IMAGE = "path.png"
 
 
-class Outcome(Enum):
+class Verdict(Enum):
+    """How a square flight is judged (the report's ``outcome``): not a policy's goal
+    outcome but the scenario's verdict on the whole flight, ground truth included."""
+
     LANDED = "landed"
     CRASH = "crash"
     FAILED = "failed"
@@ -99,7 +102,7 @@ def refused_report(options: ScenarioOptions, arena: ArenaSpec,
                    reason: str) -> dict[str, Any]:
     """The report of a square that was not flown."""
     return _base_report(options, arena) | {
-        "outcome": Outcome.REFUSED.value, "verdict": f"REFUSED: {reason}", "landed": False,
+        "outcome": Verdict.REFUSED.value, "verdict": f"REFUSED: {reason}", "landed": False,
         "ok": False, "refused": reason, "square": None, "tracking": None, "crash": None,
         "path_image": None,
     }
@@ -158,14 +161,14 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
 
     outcome = pilot.outcome
     if crash is not None:
-        verdict_kind = Outcome.CRASH
+        verdict_kind = Verdict.CRASH
         verdict = f"CRASH: {crash.reason} at {crash.t_s:.1f} s"
     elif outcome is not None and outcome.success:
-        verdict_kind = Outcome.LANDED
+        verdict_kind = Verdict.LANDED
         xy = rmse["xy"]
         verdict = "landed, RMSE " + ("n/a" if xy is None else f"{xy:.3f} m")
     else:
-        verdict_kind = Outcome.FAILED
+        verdict_kind = Verdict.FAILED
         why = outcome.message if outcome is not None else (
             f"not finished after {limit_s:g} s of simulated time (step {pilot.phase.value})")
         verdict = f"FAILED: {why}"
@@ -174,11 +177,11 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
 
     title = f"square, arena {arena.name}, seed {options.seed}: {verdict}\n{_rmse_line(rmse)}"
     save_path_figure(options.out / PATH_IMAGE, FlightPicture(
-        title=title, went_wrong=verdict_kind is not Outcome.LANDED, arena=arena,
+        title=title, went_wrong=verdict_kind is not Verdict.LANDED, arena=arena,
         altitude=plan.altitude, plan=plan.outline(),
         setpoint_t=stamps, setpoint=setpoints, truth=truth, tracking=track, crash=crash))
 
-    landed = verdict_kind is Outcome.LANDED
+    landed = verdict_kind is Verdict.LANDED
     report = _base_report(options, arena) | {
         "outcome": verdict_kind.value,
         "verdict": verdict,
@@ -232,5 +235,5 @@ def square(options: ScenarioOptions) -> dict[str, Any]:
     return fly_square(options, arena, plan)
 
 
-__all__ = ["FLIGHT_LIMIT_S", "SQUARE_SPEED", "Outcome", "fly_square", "refused_report",
+__all__ = ["FLIGHT_LIMIT_S", "SQUARE_SPEED", "Verdict", "fly_square", "refused_report",
            "square"]
