@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 import interfaces
+from flight_control.frames import quat_to_yaw_f
 from fsm.mission_node import COMMAND_TOPIC, PROPOSAL_TOPIC
 from ground_station.commands import OperatorCommand
 from ground_station.layout import FieldLayout
@@ -36,8 +37,9 @@ _POINT_FIELD_FLOAT32 = 7  # sensor_msgs/PointField.FLOAT32
 
 
 def yaw_of(q: Any) -> float:
-    """Heading [rad, ENU] of a geometry_msgs/Quaternion."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    """Heading [rad, ENU] of a geometry_msgs/Quaternion (its fields in
+    :func:`flight_control.frames.quat_to_yaw_f`'s order)."""
+    return quat_to_yaw_f((q.w, q.x, q.y, q.z))
 
 
 def image_rgb(msg: Any) -> np.ndarray | None:

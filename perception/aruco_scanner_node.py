@@ -34,6 +34,7 @@ import cv2
 import numpy as np
 
 import interfaces
+from flight_control.frames import quat_to_yaw_f
 from flight_control.health import health_report
 from perception.aruco import (
     DICTIONARY_NAME,
@@ -45,7 +46,7 @@ from perception.aruco import (
 )
 from perception.names import SCANNER_ENABLE_SERVICE, SCANNER_NODE_NAME
 from perception.params import ScannerParams
-from perception.scan_policy import Problem, ScanPolicy, marker_in_map, yaw_of
+from perception.scan_policy import Problem, ScanPolicy, marker_in_map
 from perception.tracking import RegionTracker
 from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sensor_data
 from runtime.parameters import SetParametersResult
@@ -271,7 +272,7 @@ class ArucoScannerNode(Node):
         assert track.mean is not None  # one sighting at least
         header = interfaces.new("std_msgs/msg/Header", stamp=Time(stamp_ns).to_msg(),
                                 frame_id=MAP_FRAME)
-        yaw = yaw_of(q)
+        yaw = quat_to_yaw_f(q)
         quality = self.params.jpeg_quality
         self.robot_pub.publish(interfaces.new(
             "quadmission_interfaces/msg/RobotFound", header=header, marker_id=marker.id,

@@ -48,11 +48,6 @@ def rotate(q: Quaternion, v: npt.ArrayLike) -> FloatArray:
     return np.asarray(v + 2.0 * np.cross(u, np.cross(u, v) + w * v), dtype=np.float64)
 
 
-def yaw_of(q: Quaternion) -> float:
-    """The heading [rad] of the unit quaternion ``q`` (w, x, y, z), ENU."""
-    return math.atan2(2.0 * (q[0] * q[3] + q[1] * q[2]), 1.0 - 2.0 * (q[2] ** 2 + q[3] ** 2))
-
-
 def marker_in_map(vehicle_position: npt.ArrayLike, vehicle_orientation: Quaternion,
                   marker_position_cam: npt.ArrayLike, camera_position: npt.ArrayLike,
                   ) -> FloatArray:
@@ -224,5 +219,4 @@ __all__ = [
     "ScanPolicy",
     "marker_in_map",
     "rotate",
-    "yaw_of",
 ]

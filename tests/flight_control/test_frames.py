@@ -404,6 +404,14 @@ def test_yaw_round_trip_and_range(yaw: float) -> None:
     assert float(angle_diff(fr.quat_to_yaw(fr.quat_from_yaw(yaw)), yaw)) < 1e-12
 
 
+@given(st.floats(-1.4, 1.4), st.floats(-1.4, 1.4), angle)
+def test_a_tilt_does_not_change_the_heading(roll: float, pitch: float, yaw: float) -> None:
+    """The heading the scanner and the ground station read (:func:`quat_to_yaw_f`) is the
+    yaw alone, whatever the roll and pitch under it."""
+    q = fr.quat_from_euler(roll, pitch, yaw).tolist()
+    assert float(angle_diff(fr.quat_to_yaw_f(q), yaw)) < 1e-9
+
+
 @given(st.floats(-1e6, 1e6, allow_nan=False))
 def test_wrap_pi_range_and_equivalence(a: float) -> None:
     w = fr.wrap_pi(a)

@@ -18,7 +18,6 @@ from perception.scan_policy import (
     ScanPolicy,
     marker_in_map,
     rotate,
-    yaw_of,
 )
 from runtime.parameters import load_parameters
 
@@ -157,26 +156,6 @@ def test_a_single_precision_vector_is_rotated_in_double_precision():
     exact = rotate(q, v32.astype(np.float64))
     assert rotate(q, v32).dtype == np.float64
     assert np.array_equal(rotate(q, v32), exact)
-
-
-def _q_multiply(p, q):
-    pw, px, py, pz = p
-    qw, qx, qy, qz = q
-    return (pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw)
-
-
-def test_yaw_of_a_quaternion():
-    for yaw in (0.0, 0.7, -2.5, math.pi / 2):
-        assert yaw_of(_q_yaw(yaw)) == pytest.approx(yaw)
-
-
-def test_a_tilt_does_not_change_the_heading():
-    for roll, pitch, yaw in ((0.1, 0.0, 0.0), (0.2, -0.3, 1.1), (-0.4, 0.25, -2.0)):
-        q_roll = (math.cos(roll / 2.0), math.sin(roll / 2.0), 0.0, 0.0)
-        q_pitch = (math.cos(pitch / 2.0), 0.0, math.sin(pitch / 2.0), 0.0)
-        q = _q_multiply(_q_yaw(yaw), _q_multiply(q_pitch, q_roll))  # ZYX: yaw, pitch, roll
-        assert yaw_of(q) == pytest.approx(yaw)
 
 
 def test_a_marker_straight_below_is_at_the_vehicles_xy():
