@@ -1,6 +1,7 @@
 """Companion-side clock offset estimators: our RTT-weighted Kalman filter and the registry.
 
-The estimator protocol, the shared sample/estimate types and PX4's own filter are the PX4
+The estimator protocol, the shared sample/estimate types, the gates and counts every filter
+shares (:class:`~interfaces.px4.timesync.GatedTimesync`) and PX4's own filter are the PX4
 contract (:mod:`interfaces.px4.timesync`), imported by the firmware too. Two estimators sit
 behind :data:`ESTIMATORS`, chosen by name with :func:`make_estimator`:
 
@@ -23,6 +24,7 @@ from interfaces.px4.timesync import (
     MAX_RTT_SAMPLE_US,
     PPM,
     US_PER_S,
+    GatedTimesync,
     Px4Timesync,
     RejectReason,
     TimesyncEstimate,
@@ -72,7 +74,7 @@ class KalmanParams:
             raise TimesyncParameterError(exc.problem, key=f"kalman.{exc.key}") from None
 
 
-class KalmanTimesync:
+class KalmanTimesync(GatedTimesync):
     """Offset and skew as a two-state Kalman filter whose trust in a sample follows its RTT.
 
     State: offset ``x0`` [us] at local time ``t_ref`` and skew ``x1`` [us/us]; the model is
@@ -111,18 +113,14 @@ class KalmanTimesync:
     def __init__(self, params: KalmanParams | None = None) -> None:
         self.params = params if params is not None else KalmanParams()
         p = self.params
+        super().__init__(p.max_rtt_us)
         self._r_floor = p.floor_noise_us**2
         self._q_offset = p.offset_walk_us_per_sqrt_s**2 / US_PER_S  # [us^2 per us]
         self._q_skew = (p.skew_walk_ppm_per_sqrt_s / PPM) ** 2 / US_PER_S  # [1 per us]
         self._p_skew0 = (p.skew_prior_ppm / PPM) ** 2
-        self._resets = 0
-        self._high_rtt_total = 0
-        self._high_deviation_total = 0
         self._rtt_fifo: deque[int] = deque()
         self._rtt_sorted: list[int] = []
         self._clear_filter()
-        self._high_rtt_count = 0
-        self._estimate = TimesyncEstimate()
 
     def _clear_filter(self) -> None:
         self._n = 0
@@ -138,27 +136,16 @@ class KalmanTimesync:
 
     # --- protocol --------------------------------------------------------------------
     @property
-    def estimate(self) -> TimesyncEstimate:
-        return self._estimate
-
-    @property
     def offset_std_us(self) -> float:
         """The filter's own 1-sigma of the offset at its reference time [us]."""
         return math.sqrt(self._p00)
 
-    def update(self, ts1_us: int, tc1_us: int, now_us: int) -> TimesyncEstimate:
-        sample = TimesyncSample.from_stamps(ts1_us, tc1_us, now_us)
-        if tc1_us <= 0:
-            self._estimate = replace(self._estimate, rejected=RejectReason.NO_REMOTE_STAMP)
-            return self._estimate
-        if not 0 <= sample.rtt_us < self.params.max_rtt_us:
-            self._high_rtt_total += 1
-            self._high_rtt_count += 1
-            rejected = RejectReason.HIGH_RTT
-        else:
-            rejected = self._filter(sample, self._rtt_excess(sample.rtt_us))
-        self._estimate = self._make_estimate(sample, rejected)
-        return self._estimate
+    def _accept(self, sample: TimesyncSample) -> RejectReason:
+        return self._filter(sample, self._rtt_excess(sample.rtt_us))
+
+    def _state(self, sample: TimesyncSample) -> tuple[int, float, bool, int]:
+        offset_us = round(self._offset_at(sample.now_us)) if self._n else 0
+        return offset_us, self._x1 * PPM, self._converged(), self._n
 
     def remote_to_local(self, t_us: int) -> int:
         # local = remote + x0 + x1 (local - t_ref), solved for local.
@@ -167,16 +154,10 @@ class KalmanTimesync:
     def local_to_remote(self, t_us: int) -> int:
         return t_us - round(self._offset_at(t_us))
 
-    def reset(self) -> None:
+    def _restart(self) -> None:
         self._rtt_fifo.clear()
         self._rtt_sorted.clear()
         self._clear_filter()
-        self._high_rtt_count = 0
-        self._resets += 1
-        self._estimate = replace(
-            self._estimate, offset_us=0, skew_ppm=0.0, converged=False, resets=self._resets,
-            samples=0, high_rtt_count=0, high_deviation_count=0,
-        )
 
     # --- filter ----------------------------------------------------------------------
     def _rtt_excess(self, rtt_us: int) -> int:
@@ -220,8 +201,7 @@ class KalmanTimesync:
         self._t_ref = t
         self._n += 1
         self._pending.clear()
-        self._high_deviation_count = 0
-        self._high_rtt_count = 0
+        self._accepted()
         return RejectReason.NONE
 
     def _start(self, z: float, t: int, r: float) -> None:
@@ -229,14 +209,11 @@ class KalmanTimesync:
         self._p00, self._p01, self._p11 = r, 0.0, self._p_skew0
         self._t_ref = t
         self._n = 1
-        self._high_deviation_count = 0
-        self._high_rtt_count = 0
+        self._accepted()
 
     def _reject_deviation(self, sample: TimesyncSample) -> RejectReason:
-        self._high_deviation_total += 1
-        self._high_deviation_count += 1
         self._pending.append(sample)
-        if self._high_deviation_count > self.params.max_consecutive_high_deviation:
+        if self._deviated() > self.params.max_consecutive_high_deviation:
             # Clock jump: restart from the rejected run, which agrees with the new clock.
             pending = self._pending
             self._clear_filter()
@@ -258,22 +235,6 @@ class KalmanTimesync:
 
     def _offset_at(self, t_us: int) -> float:
         return self._x0 + self._x1 * (t_us - self._t_ref)
-
-    def _make_estimate(self, sample: TimesyncSample, rejected: RejectReason) -> TimesyncEstimate:
-        return TimesyncEstimate(
-            observed_offset_us=sample.observed_offset_us,
-            offset_us=round(self._offset_at(sample.now_us)) if self._n else 0,
-            skew_ppm=self._x1 * PPM,
-            rtt_us=sample.rtt_us,
-            converged=self._converged(),
-            resets=self._resets,
-            rejected=rejected,
-            samples=self._n,
-            high_rtt_count=self._high_rtt_count,
-            high_deviation_count=self._high_deviation_count,
-            high_rtt_total=self._high_rtt_total,
-            high_deviation_total=self._high_deviation_total,
-        )
 
 
 # --- registry ---------------------------------------------------------------------------

@@ -21,7 +21,9 @@ All times are int microseconds. The offset is ``local - remote`` (PX4's sign), s
 nanoseconds: convert with :func:`ns_to_us` (PX4's truncating ``ns / 1000``) at the boundary.
 
 Two estimators sit behind the :class:`TimesyncEstimator` protocol and the
-:data:`ESTIMATORS` registry (chosen by name with :func:`make_estimator`):
+:data:`ESTIMATORS` registry (chosen by name with :func:`make_estimator`), both on
+:class:`GatedTimesync`, which keeps what they share (the remote-stamp and RTT gates, the
+rejection counts, resets and the estimate) and leaves them the filter:
 
 ``"px4"``    :class:`Px4Timesync`, seed 000 Algorithm 3 as PX4 ``src/lib/timesync`` codes it.
 ``"kalman"`` :class:`KalmanTimesync`, an RTT-weighted offset/skew Kalman filter (ours).
@@ -30,6 +32,7 @@ Two estimators sit behind the :class:`TimesyncEstimator` protocol and the
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any, Protocol, runtime_checkable
@@ -50,6 +53,7 @@ __all__ = [
     "MAX_RTT_SAMPLE_US",
     "PPM",
     "US_PER_S",
+    "GatedTimesync",
     "Px4Timesync",
     "RejectReason",
     "TimesyncEstimate",
@@ -165,6 +169,98 @@ class TimesyncEstimator(Protocol):
         ...
 
 
+class GatedTimesync(ABC):
+    """What every filtering estimator does around its filter (STYLE 6: the lifecycle here,
+    the filter in hooks): a reply without a remote stamp (``tc1 <= 0``) changes nothing
+    but the estimate's ``rejected``; a round trip outside ``[0, max_rtt_us)`` is rejected
+    as HIGH_RTT and counted; any other exchange goes to :meth:`_accept`, which filters it
+    or rejects it as HIGH_DEVIATION (:meth:`_deviated` counts that). The estimate is
+    rebuilt after each exchange from the counts and :meth:`_state`. :meth:`reset` clears
+    the filter (:meth:`_restart`) and the consecutive counts and counts a reset."""
+
+    def __init__(self, max_rtt_us: int) -> None:
+        self._max_rtt_us = max_rtt_us
+        self._resets = 0
+        self._high_rtt_total = 0
+        self._high_deviation_total = 0
+        self._high_rtt_count = 0  # consecutive HIGH_RTT rejections
+        self._high_deviation_count = 0  # consecutive HIGH_DEVIATION rejections
+        self._estimate = TimesyncEstimate()
+
+    @property
+    def estimate(self) -> TimesyncEstimate:
+        return self._estimate
+
+    def update(self, ts1_us: int, tc1_us: int, now_us: int) -> TimesyncEstimate:
+        sample = TimesyncSample.from_stamps(ts1_us, tc1_us, now_us)
+        if tc1_us <= 0:  # not a reply to our request (PX4 ignores it, publishing nothing)
+            self._estimate = replace(self._estimate, rejected=RejectReason.NO_REMOTE_STAMP)
+            return self._estimate
+        if 0 <= sample.rtt_us < self._max_rtt_us:
+            rejected = self._accept(sample)
+        else:
+            rejected = RejectReason.HIGH_RTT
+            self._high_rtt_total += 1
+            self._high_rtt_count += 1
+        offset_us, skew_ppm, converged, samples = self._state(sample)
+        self._estimate = TimesyncEstimate(
+            observed_offset_us=sample.observed_offset_us,
+            offset_us=offset_us,
+            skew_ppm=skew_ppm,
+            rtt_us=sample.rtt_us,
+            converged=converged,
+            resets=self._resets,
+            rejected=rejected,
+            samples=samples,
+            high_rtt_count=self._high_rtt_count,
+            high_deviation_count=self._high_deviation_count,
+            high_rtt_total=self._high_rtt_total,
+            high_deviation_total=self._high_deviation_total,
+        )
+        return self._estimate
+
+    def reset(self) -> None:
+        self._restart()
+        self._high_rtt_count = 0
+        self._high_deviation_count = 0
+        self._resets += 1
+        self._estimate = replace(
+            self._estimate, offset_us=0, skew_ppm=0.0, converged=False, resets=self._resets,
+            samples=0, high_rtt_count=0, high_deviation_count=0,
+        )
+
+    def _deviated(self) -> int:
+        """Count a HIGH_DEVIATION rejection; how many in a row now."""
+        self._high_deviation_total += 1
+        self._high_deviation_count += 1
+        return self._high_deviation_count
+
+    def _accepted(self) -> None:
+        """A sample went into the filter: the consecutive rejections are over."""
+        self._high_deviation_count = 0
+        self._high_rtt_count = 0
+
+    @abstractmethod
+    def _accept(self, sample: TimesyncSample) -> RejectReason:
+        """Filter ``sample`` (its RTT passed the gate): NONE, or HIGH_DEVIATION."""
+
+    @abstractmethod
+    def _state(self, sample: TimesyncSample) -> tuple[int, float, bool, int]:
+        """After ``sample``: (offset [us], skew [ppm], converged, samples in the filter)."""
+
+    @abstractmethod
+    def _restart(self) -> None:
+        """Forget the filter's samples (the RTT history too, where it keeps one)."""
+
+    @abstractmethod
+    def remote_to_local(self, t_us: int) -> int:
+        """A remote (FCU) timestamp on the local clock."""
+
+    @abstractmethod
+    def local_to_remote(self, t_us: int) -> int:
+        """A local timestamp on the remote (FCU) clock."""
+
+
 def px4_gains(samples: int) -> tuple[float, float]:
     """Gain schedule ``(alpha, beta)`` after ``samples`` accepted samples (Equations (7)-(9)).
 
@@ -180,7 +276,7 @@ def px4_gains(samples: int) -> tuple[float, float]:
     return alpha, beta
 
 
-class Px4Timesync:
+class Px4Timesync(GatedTimesync):
     """Seed 000 Algorithm 3, as PX4 ``src/lib/timesync/Timesync.cpp`` implements it.
 
     A double exponential smoothing (Holt) filter of the observed offset with a gain
@@ -227,29 +323,20 @@ class Px4Timesync:
     """
 
     def __init__(self) -> None:
-        self._resets = 0
-        self._high_rtt_total = 0
-        self._high_deviation_total = 0
-        self._clear()
-        self._estimate = TimesyncEstimate()
+        super().__init__(MAX_RTT_SAMPLE_US)
+        self._restart()
 
-    def _clear(self) -> None:
-        # PX4 reset_filter(): all statistics and parameters.
+    def _restart(self) -> None:
+        # PX4 reset_filter(): all statistics and parameters (the counts: the base's).
         self._sequence = 0
         self._time_offset = 0.0  # [us]
         self._time_skew = 0.0  # [us per accepted sample]
         self._filter_alpha = ALPHA_GAIN_INITIAL
         self._filter_beta = BETA_GAIN_INITIAL
-        self._high_deviation_count = 0
-        self._high_rtt_count = 0
         self._first_accepted_us: int | None = None
         self._last_accepted_us = 0
 
     # --- protocol --------------------------------------------------------------------
-    @property
-    def estimate(self) -> TimesyncEstimate:
-        return self._estimate
-
     @property
     def skew_us_per_sample(self) -> float:
         """The code's skew state: offset change per accepted sample [us]."""
@@ -263,33 +350,20 @@ class Px4Timesync:
     def sync_converged(self) -> bool:
         return self._sequence >= CONVERGENCE_WINDOW_SAMPLES
 
-    def update(self, ts1_us: int, tc1_us: int, now_us: int) -> TimesyncEstimate:
-        sample = TimesyncSample.from_stamps(ts1_us, tc1_us, now_us)
-        if tc1_us <= 0:
-            # PX4 ignores the message (and publishes nothing).
-            self._estimate = replace(self._estimate, rejected=RejectReason.NO_REMOTE_STAMP)
-            return self._estimate
-        rejected = RejectReason.NONE
+    def _accept(self, sample: TimesyncSample) -> RejectReason:
         deviation = abs(int(self._time_offset) - sample.observed_offset_us)
-        if 0 <= sample.rtt_us < MAX_RTT_SAMPLE_US:
-            if self.sync_converged() and deviation > MAX_DEVIATION_SAMPLE_US:
-                rejected = RejectReason.HIGH_DEVIATION
-                self._high_deviation_total += 1
-                self._high_deviation_count += 1
-                if self._high_deviation_count > MAX_CONSECUTIVE_HIGH_DEVIATION:
-                    self.reset()
-            else:
-                self._filter_alpha, self._filter_beta = px4_gains(self._sequence)
-                self._add_sample(sample.observed_offset_us, now_us)
-                self._sequence += 1
-                self._high_deviation_count = 0
-                self._high_rtt_count = 0
-        else:
-            rejected = RejectReason.HIGH_RTT
-            self._high_rtt_total += 1
-            self._high_rtt_count += 1
-        self._estimate = self._make_estimate(sample, rejected)
-        return self._estimate
+        if self.sync_converged() and deviation > MAX_DEVIATION_SAMPLE_US:
+            if self._deviated() > MAX_CONSECUTIVE_HIGH_DEVIATION:
+                self.reset()
+            return RejectReason.HIGH_DEVIATION
+        self._filter_alpha, self._filter_beta = px4_gains(self._sequence)
+        self._add_sample(sample.observed_offset_us, sample.now_us)
+        self._sequence += 1
+        self._accepted()
+        return RejectReason.NONE
+
+    def _state(self, sample: TimesyncSample) -> tuple[int, float, bool, int]:
+        return int(self._time_offset), self._skew_ppm(), self.sync_converged(), self._sequence
 
     def remote_to_local(self, t_us: int) -> int:
         return t_us + int(self._time_offset)
@@ -300,14 +374,6 @@ class Px4Timesync:
     def sync_stamp(self, t_us: int, now_us: int) -> int:
         """PX4 ``sync_stamp``: remote ``t_us`` on the local clock, or ``now_us`` if unconverged."""
         return self.remote_to_local(t_us) if self.sync_converged() else now_us
-
-    def reset(self) -> None:
-        self._clear()
-        self._resets += 1
-        self._estimate = replace(
-            self._estimate, offset_us=0, skew_ppm=0.0, converged=False, resets=self._resets,
-            samples=0, high_rtt_count=0, high_deviation_count=0,
-        )
 
     # --- filter ----------------------------------------------------------------------
     def _add_sample(self, offset_us: int, now_us: int) -> None:
@@ -328,23 +394,6 @@ class Px4Timesync:
             return 0.0
         interval_us = (self._last_accepted_us - self._first_accepted_us) / (self._sequence - 1)
         return self._time_skew / interval_us * PPM if interval_us > 0 else 0.0
-
-    def _make_estimate(self, sample: TimesyncSample, rejected: RejectReason) -> TimesyncEstimate:
-        return TimesyncEstimate(
-            observed_offset_us=sample.observed_offset_us,
-            offset_us=int(self._time_offset),
-            skew_ppm=self._skew_ppm(),
-            rtt_us=sample.rtt_us,
-            converged=self.sync_converged(),
-            resets=self._resets,
-            rejected=rejected,
-            samples=self._sequence,
-            high_rtt_count=self._high_rtt_count,
-            high_deviation_count=self._high_deviation_count,
-            high_rtt_total=self._high_rtt_total,
-            high_deviation_total=self._high_deviation_total,
-        )
-
 
 
 # --- the exchange (requester side) -----------------------------------------------------
