@@ -1,4 +1,5 @@
-"""Node runtime in rclpy's shape over a deterministic in-process executor."""
+"""Node runtime in rclpy's shape: a deterministic in-process executor, and the ROS 2
+transport (:mod:`runtime.ros2`) for nodes in processes of their own."""
 
 from interfaces.qos import (
     DurabilityPolicy,

@@ -78,8 +78,8 @@ class Client:
         return self._writer.matched_count() > 0
 
     def wait_for_service(self, timeout_sec: float | None = None) -> bool:
-        """Whether a server is there. In simulated time nothing appears while we wait,
-        so this answers at once; over DDS the transport's discovery decides."""
+        """Whether a server is there, answered at once: in simulated time nothing appears
+        while we wait; over ROS 2 it is what discovery has matched so far."""
         return self.service_is_ready()
 
     def remove_pending_request(self, future: Future[Any]) -> None:
