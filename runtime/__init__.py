@@ -1,5 +1,4 @@
-"""Node runtime in rclpy's shape: a deterministic in-process executor, and the ROS 2
-transport (:mod:`runtime.ros2`) for nodes in processes of their own."""
+"""Node runtime in rclpy's shape: a deterministic in-process executor, or ROS 2 (runtime.ros2)."""
 
 from interfaces.qos import (
     DurabilityPolicy,
