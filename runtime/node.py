@@ -72,6 +72,7 @@ class Node:
         self._parameters: dict[str, Parameter] = {}
         self._descriptors: dict[str, ParameterDescriptor] = {}
         self._on_set_callbacks: list[Callable[[list[Parameter]], SetParametersResult]] = []
+        self._post_set_callbacks: list[Callable[[list[Parameter]], None]] = []
         self._config_path = (
             context.config_dir / f"{self._name}.yaml" if context.config_dir is not None else None
         )
@@ -341,8 +342,16 @@ class Node:
     ) -> None:
         self._on_set_callbacks.append(callback)
 
+    def add_post_set_parameters_callback(
+        self, callback: Callable[[list[Parameter]], None]
+    ) -> None:
+        """Call ``callback([parameter])`` after each parameter is set, with its new value
+        (rclpy's): whoever set it, the node itself or a tool through the transport."""
+        self._post_set_callbacks.append(callback)
+
     def set_parameters(self, parameters: Sequence[Parameter]) -> list[SetParametersResult]:
-        """Change declared parameters at run time, each validated like a declaration."""
+        """Change declared parameters at run time, each validated like a declaration; the
+        on-set callbacks may refuse a change, the post-set callbacks hear each one made."""
         results = []
         for p in parameters:
             try:
@@ -365,6 +374,8 @@ class Node:
                     break
             if verdict.successful:
                 self._parameters[p.name] = new
+                for post in self._post_set_callbacks:
+                    post([new])
             results.append(verdict)
         return results
 
