@@ -19,7 +19,7 @@ import interfaces
 from ground_station.errors import GroundStationError
 from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from runtime import Endpoint, Node
-from runtime.node import sample_bytes
+from runtime.entity import sample_bytes
 from runtime.transport import Reader
 
 

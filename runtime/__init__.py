@@ -1,4 +1,4 @@
-"""Node runtime in rclpy's shape over a deterministic in-process executor."""
+"""Node runtime in rclpy's shape: a deterministic in-process executor, or ROS 2 (runtime.ros2)."""
 
 from interfaces.qos import (
     DurabilityPolicy,
@@ -24,7 +24,9 @@ from runtime.action import (
     Rejection,
     ServerGoalHandle,
 )
+from runtime.client import Client
 from runtime.clock import Clock, ClockType, Duration, SimClock, Time, WallClock
+from runtime.context import Context
 from runtime.errors import (
     ClockError,
     FutureError,
@@ -34,11 +36,15 @@ from runtime.errors import (
     RuntimeApiError,
     TopicTypeError,
 )
-from runtime.executor import Context, DeterministicExecutor, TraceEntry
+from runtime.executor import DeterministicExecutor, TraceEntry
 from runtime.future import Future, Task
 from runtime.launch import LaunchDescription, NodeSpec, launch
-from runtime.node import Client, Node, Publisher, Service, Subscription, Timer
+from runtime.node import Node
 from runtime.parameters import Parameter, ParameterDescriptor, ParameterType, param
+from runtime.publisher import Publisher
+from runtime.service import Service
+from runtime.subscription import Subscription
+from runtime.timer import Timer
 from runtime.transport import Endpoint, EndpointKind, InProcessTransport, RequestId, Transport
 
 __all__ = [

@@ -106,7 +106,7 @@ class SimClock:
 
 
 class WallClock:
-    """The host's real-time clock (for the DDS transport and ground tools)."""
+    """The host's real-time clock (``SYSTEM_TIME``), for what runs on the host's time."""
 
     clock_type = ClockType.SYSTEM_TIME
 

@@ -1,4 +1,4 @@
-"""The in-process deterministic executor and the context nodes are created in.
+"""The in-process deterministic executor.
 
 One thread, simulated time. Every callback (timer, message, service, future, task step)
 is an event at a time; events run in (time, order of scheduling) order, and the clock
@@ -13,20 +13,19 @@ import heapq
 import itertools
 import os
 from collections.abc import Callable, Coroutine
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, TypeVar
 
 from runtime.clock import Clock, SimClock, Time, seconds_to_ns
+from runtime.context import Context
 from runtime.errors import ClockError
 from runtime.future import Future, Task
-from runtime.loop import EventLoop, Handle, Label
+from runtime.loop import Handle, Label
+from runtime.node import Node
 from runtime.parameters import config_dir as default_config_dir
 from runtime.transport import InProcessTransport, Transport
-
-if TYPE_CHECKING:
-    from runtime.node import Node
 
 T = TypeVar("T")
 
@@ -37,19 +36,6 @@ class _Default(Enum):
 
 DEFAULT_CONFIG_DIR = _Default.CONFIG_DIR
 """``config_dir`` default: :func:`runtime.parameters.config_dir`, read when the executor is made."""
-
-
-@dataclass
-class Context:
-    """What nodes are created in: an event loop, a transport and where configs live."""
-
-    loop: EventLoop
-    transport: Transport
-    config_dir: Path | None = None
-    nodes: list[Node] = field(default_factory=list)
-
-    def create_task(self, coro: Coroutine[Any, Any, T], label: Label) -> Task[T]:
-        return Task(coro, self.loop, label)
 
 
 @dataclass(frozen=True)
@@ -100,7 +86,7 @@ class DeterministicExecutor:
         self._stopped: frozenset[str] = frozenset()  # nodes no longer executed
         self.trace: list[TraceEntry] | None = [] if record_trace else None
         self.callbacks_run = 0
-        self.context = Context(
+        self.context: Context[Node] = Context(
             loop=self,
             transport=transport or InProcessTransport(),
             config_dir=default_config_dir() if isinstance(config_dir, _Default) else config_dir,

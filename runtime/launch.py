@@ -2,7 +2,7 @@
 
 A launch file lists ``nodes:``; it may add a ``simulator:`` (a factory that builds the
 simulated world around an executor, see :class:`Simulation`) and put nodes in named
-``process:`` groups (used when each group runs in its own process over DDS; in process,
+``process:`` groups (used when each group runs in its own process over ROS 2; in process,
 groups are ignored). A node that has an ``exit_code`` attribute (:class:`Finishing`)
 ends the launch when it sets it: the mission script says when the mission is over.
 """
@@ -46,8 +46,9 @@ class Simulation(Protocol):
     """The simulated world a launch runs in: it steps the executor in lockstep.
 
     ``run`` steps until ``stop()`` holds or ``limit_s`` of simulated time passed, and
-    calls ``tick(t_ns)`` at ``tick_hz`` of simulated time when given (the DDS simulator
-    process publishes /clock, takes incoming samples and paces to real time there)."""
+    calls ``tick(t_ns)`` at ``tick_hz`` of simulated time when given (the simulator process
+    of a launch over processes publishes /clock, takes incoming samples and paces to real
+    time there)."""
 
     def run(self, limit_s: float, stop: Callable[[], bool],
             tick: Callable[[int], None] | None = None,
@@ -92,10 +93,10 @@ class NodeSpec:
     namespace: str = ""
     parameters: Mapping[str, Any] = field(default_factory=dict)
     remappings: Mapping[str, str] = field(default_factory=dict)
-    process: str | None = None  # the process group over DDS (default: its own)
+    process: str | None = None  # the process group over ROS 2 (default: its own)
 
     def process_name(self) -> str:
-        """The group this node runs in over DDS: ``process``, else its own name."""
+        """The group this node runs in over ROS 2: ``process``, else its own name."""
         if self.process:
             return self.process
         if self.name:

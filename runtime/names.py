@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import re
 from collections.abc import Mapping
 
@@ -64,3 +65,10 @@ def resolve_name(
             "'_', separated by single '/', not starting with a digit"
         )
     return resolved
+
+
+def stable_guid(*parts: str) -> int:
+    """A 64-bit identifier derived from names, the same in every run (for determinism)."""
+    digest = hashlib.blake2b("/".join(parts).encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little")
+

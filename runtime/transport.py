@@ -177,8 +177,8 @@ class InProcessTransport:
     Writers are :class:`MessageWriter`\\ s: publishers hand over message objects, shared by
     every reader and never serialized (a test round-trips every type through CDR apart).
 
-    QoS is honoured as DDS does it: incompatible pairs do not match (and are recorded in
-    ``incompatibilities``), a TRANSIENT_LOCAL writer keeps its last ``depth`` samples and
+    QoS is honoured as ROS 2 honours it: incompatible pairs do not match (and are recorded
+    in ``incompatibilities``), a TRANSIENT_LOCAL writer keeps its last ``depth`` samples and
     hands them to a TRANSIENT_LOCAL reader that joins late, a VOLATILE reader gets only
     what is written after it joined. Readers' KEEP_LAST queues live in the subscription.
     """

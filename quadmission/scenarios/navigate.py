@@ -43,7 +43,7 @@ from sim.sensors import SimSensorsNode, sensor_parts
 from sim.world import StopWhen, Trajectory
 
 if TYPE_CHECKING:
-    from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.options import ScenarioOptions
 
 ARM = interfaces.get_service("quadmission_interfaces/srv/Arm")
 LAND = interfaces.get_action("quadmission_interfaces/action/Land")

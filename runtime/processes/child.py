@@ -18,17 +18,16 @@ by at most that bound however starved of CPU it is: a starved process slows the
 simulated world down (the run's real-time factor drops) instead of seeing simulated time
 jump past it. The bound is what a round trip through a node process can gain in
 simulated time. It has to stay well under the FCU time sync's 10 ms RTT gate and near
-its 1 ms deviation floor: with 0.25 s, a bridge descheduled for a few milliseconds at
-``--rtf 3`` saw its exchanges skewed by as much, its clock estimate lost convergence, it
-held the visual odometry back (a sample time on a wrong clock is worse than none) and
-the FCU's position estimate timed out ("no valid position estimate"). While it waits, the
-simulator sends the current ``/clock`` again every 0.1 s of host time: ``/clock`` is best
-effort (as rclcpp subscribes it), and a process that lost the last samples could not
-catch up otherwise (a full mission once stalled at 281 s with every process idle,
-most likely so). A node process answers such a repeat with its report at once: its
-reports are timed on simulated time, which advances at most one /clock step while the
-simulator waits, and the first ones can be lost while discovery matches the report's
-reader (a square launch on a loaded host stalled at 5 ms of simulated time for 15 minutes).
+its 1 ms deviation floor: a descheduled bridge sees its exchanges skewed by up to the
+bound, and with a bound far above the gate its clock estimate loses convergence, it holds
+the visual odometry back (a sample time on a wrong clock is worse than none) and the
+FCU's position estimate times out. While it waits, the simulator sends the current
+``/clock`` again every 0.1 s of host time: ``/clock`` is best effort (as rclcpp
+subscribes it), and a process that lost the last samples could not catch up otherwise. A
+node process answers such a repeat with its report at once: its reports are timed on
+simulated time, which advances at most one /clock step while the simulator waits, and
+the first ones can be lost while discovery matches the report's reader; without that
+answer the launch would wait for a report that never comes.
 """
 
 from __future__ import annotations
@@ -165,8 +164,7 @@ def run_nodes(spec: ProcessSpec) -> int:
         reporter.create_timer(spec.ack_period_s, report)
         # a /clock sent again is the simulator waiting for us: report at once. The timer
         # alone, on a simulated time that no longer moves, would never report again, and a
-        # report written before the simulator's reader matched is lost (volatile): a
-        # launch on a loaded host stalled at 5 ms of simulated time for 15 minutes so
+        # report written before the simulator's reader matched is lost (volatile)
         ex.on_clock_repeat = report
     if not ex.wait_for_clock(spec.startup_timeout_s):
         if ex.stopping:

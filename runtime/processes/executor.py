@@ -1,8 +1,8 @@
 """The executor of a node process: the same event loop, in real time.
 
 :class:`ClockedExecutor` is the deterministic executor's loop driven from outside: samples
-come from a process transport (ROS 2 or DDS; taken in this thread, handed to the nodes'
-queues), and time comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a
+come from a process transport (ROS 2: rclpy on Fast DDS; taken in this thread, handed to
+the nodes' queues), and time comes from ``/clock`` (``use_sim_time``, as a ROS 2 node in a
 simulation: timers fire when the simulator's clock passes them) or from the host's
 clock. Node code is the same as in process; only who moves the clock differs.
 

@@ -14,9 +14,9 @@ with the declared QoS:
   topics with ROS 2's names and types (:mod:`runtime.action`), so they are ROS 2 actions
   on the wire and in the graph.
 
-Delivery is single-threaded, as on the DDS transport: the executor calls :meth:`wait`
-(an rcl wait set over every entity and a guard condition) and then :meth:`dispatch`,
-which takes what is ready and hands it to the readers' callbacks in its thread. rclpy's
+Delivery is single-threaded: the executor calls :meth:`wait` (an rcl wait set over every
+entity and a guard condition) and then :meth:`dispatch`, which takes what is ready and
+hands it to the readers' callbacks in its thread. rclpy's
 own executor is not used; the rcl nodes' parameter services are answered here too.
 rclpy's signal handlers are not installed: the process decides what SIGINT and SIGTERM do.
 """

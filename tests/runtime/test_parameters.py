@@ -137,6 +137,28 @@ def test_declare_parameter_rclpy_style(ex: DeterministicExecutor) -> None:
         node.get_parameter("missing")
 
 
+
+def test_post_set_callbacks_hear_each_change_made_and_none_refused(
+        ex: DeterministicExecutor) -> None:
+    """rclpy's add_post_set_parameters_callback: after the value is the node's, once per
+    parameter; a change refused (by its range or an on-set callback) is not heard."""
+    from runtime.parameters import SetParametersResult
+
+    node = Node("n", context=ex.context)
+    gain = node.declare_parameter("gain", 0.5, ParameterDescriptor(range=(0.0, 1.0)))
+    node.declare_parameter("locked", 1)
+    node.add_on_set_parameters_callback(
+        lambda ps: SetParametersResult(ps[0].name != "locked", "locked"))
+    heard: list[tuple[str, object, object]] = []
+    node.add_post_set_parameters_callback(lambda ps: heard.extend(
+        (p.name, p.value, node.get_parameter(p.name).value) for p in ps))
+    results = node.set_parameters([Parameter("gain", gain.type, 0.25),
+                                   Parameter("gain", gain.type, 2.0),
+                                   Parameter("locked", gain.type, 2),
+                                   Parameter("gain", gain.type, 1)])
+    assert [r.successful for r in results] == [True, False, False, True]
+    assert heard == [("gain", 0.25, 0.25), ("gain", 1.0, 1.0)]
+
 # -- the generic loader: a ROS 2 parameter file into a frozen dataclass ----------------------
 
 

@@ -74,7 +74,7 @@ from sim.sensors import SimSensorsNode, sensor_parts
 from sim.world import Scene, StopWhen, Trajectory
 
 if TYPE_CHECKING:
-    from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.options import ScenarioOptions
 
 MISSION_LIMIT_S = 1800.0  # s of simulated time before the run is declared stuck
 SETTLE_S = 3.0  # s flown on after the end, so the last touchdown is judged at rest

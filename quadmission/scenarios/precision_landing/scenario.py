@@ -53,7 +53,7 @@ from sim.sensors import SimSensorsNode, sensor_parts
 from sim.world import StopWhen
 
 if TYPE_CHECKING:
-    from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.options import ScenarioOptions
 
 SEARCH_ALTITUDE = 1.5  # m, take-off altitude of each episode (above the take-off point)
 START_OFFSET = (0.3, 1.0)  # m, start distance from the pad centre

@@ -44,7 +44,7 @@ from sim.fcu.sitl import Sitl, build_sitl
 from sim.world import Scene, StopWhen, Trajectory
 
 if TYPE_CHECKING:
-    from quadmission.scenarios import ScenarioOptions
+    from quadmission.scenarios.options import ScenarioOptions
 
 SQUARE_SPEED = 0.8  # m/s, cruise speed of each leg
 LAND_SPEED = 0.5  # m/s, offboard descent to the touchdown
