@@ -136,7 +136,8 @@ KINDS: dict[FaultKind, KindSpec] = {
                                         "from then on (no landing sequence)"),
     FaultKind.NODE_STOP: KindSpec(Duration.NONE, (
         Key("name", math.nan, "", 0.0, 0.0, "the node's name", required=True, text=True),),
-        "a companion node stops (in process: no longer executed; over DDS: killed)"),
+        "a companion node stops (in process: no longer executed; under --transport ros2: "
+        "its process killed)"),
     FaultKind.ROBOT_ACROSS: KindSpec(Duration.NONE, (
         Key("robot", math.nan, "", 1.0, 1000.0, "the robot's marker (default: the robot "
             "nearest the crossing point)"),

@@ -4,7 +4,7 @@ transport.
 In one process publishers hand message objects over without CDR (runtime/transport.py),
 so nothing in a normal run proves the types still serialize: this does, for every type,
 filled with non-default values, and through a transport whose writers only take bytes
-(as the DDS transport's do).
+(as the ROS 2 transport's do).
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def test_every_type_round_trips_through_cdr(typename: str) -> None:
 
 
 class _BytesOnlyTransport:
-    """The in-process channels behind writers that only take CDR bytes (like DDS's)."""
+    """The in-process channels behind writers that only take CDR bytes (like the ROS 2 transport's)."""
 
     def __init__(self) -> None:
         self._inner = InProcessTransport()
