@@ -287,12 +287,8 @@ class FcuBridgeNode(Node):
         t_ns = Time.from_msg(request.stamp).nanoseconds
         sample = self.history.at(t_ns)
         if sample is None:
-            span = self.history.span
             response.success = False
-            response.message = (
-                "no odometry kept yet" if span is None else
-                f"{t_ns / 1e9:.3f} s is outside the kept history "
-                f"[{span[0] / 1e9:.3f}, {span[1] / 1e9:.3f}] s")
+            response.message = self.history.missing(t_ns)
             return response
         response.success = True
         response.odometry = fcu_messages.pose_odometry(sample, request.stamp)

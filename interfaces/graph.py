@@ -36,6 +36,9 @@ from interfaces.qos import (
 
 __all__ = [
     "ACTIONS",
+    "ACTION_SERVICES",
+    "ACTION_TOPICS",
+    "CLOCK_QOS",
     "ARM",
     "CAMERA_DEPTH_POINTS",
     "CAMERA_DOWN_INFO",
@@ -82,9 +85,15 @@ __all__ = [
     "TURN",
     "Action",
     "Entry",
+    "Row",
     "Service",
     "Topic",
+    "describe_qos",
     "health",
+    "markdown",
+    "nodes",
+    "rows",
+    "text",
 ]
 
 QM = "quadmission_interfaces"
@@ -202,7 +211,8 @@ _GCS = ("ground_station",)
 
 # -- the simulator's sensors (a real vehicle's drivers and VIO stand here) -------------------
 CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_QOS, ("sim_sensors",),
-               note="read by every process's time source under use_sim_time")
+               note="read by every process's time source under use_sim_time "
+                    "(runtime.processes.executor.CLOCK_QOS, the same profile)")
 CAMERA_DOWN_RAW = _topic("/camera/down/image_raw", "sensor_msgs/msg/Image", _SENSOR,
                          ("sim_sensors",), ("aruco_scanner", "frame_grabber"), _GCS,
                          note="rendered only while it has subscribers")
@@ -363,3 +373,68 @@ def describe_qos(qos: QoSProfile) -> str:
     durability = ("transient local" if qos.durability is DurabilityPolicy.TRANSIENT_LOCAL
                   else "volatile")
     return f"{reliability}, {durability}, {history}"
+
+
+# -- the listing ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Row:
+    """One entry of the listing, in words."""
+
+    name: str
+    kind: str
+    type: str
+    qos: str  # topics: the publishers' (then the subscribers' when they differ)
+    writers: str  # publishers or servers
+    readers: str  # subscribers (and monitors) or clients
+    note: str
+
+
+def rows() -> tuple[Row, ...]:
+    """Every entry, by name, in words: what ``quadmission interfaces --graph`` prints."""
+    out = []
+    for entry in sorted(ENTRIES.values(), key=lambda e: e.name):
+        if isinstance(entry, Topic):
+            qos = describe_qos(entry.qos)
+            if entry.subscriber_qos != entry.qos:
+                qos += f"; subscribers: {describe_qos(entry.subscriber_qos)}"
+            readers = [*entry.subscribers, *(f"{m} (monitor)" for m in entry.monitors)]
+            out.append(Row(entry.name, entry.kind, entry.type, qos,
+                           ", ".join(entry.publishers), ", ".join(readers), entry.note))
+        else:
+            qos = "services default" if isinstance(entry, Service) else "actions default"
+            out.append(Row(entry.name, entry.kind, entry.type, qos, ", ".join(entry.servers),
+                           ", ".join(entry.clients), entry.note))
+    return tuple(out)
+
+
+def text() -> str:
+    """The listing as a plain-text table (one entry per block)."""
+    lines = []
+    for r in rows():
+        ends = ("publishers", "subscribers") if r.kind == "topic" else ("servers", "clients")
+        lines += [f"{r.name}  [{r.kind}]  {r.type}", f"  qos: {r.qos}",
+                  f"  {ends[0]}: {r.writers or '-'}", f"  {ends[1]}: {r.readers or '-'}"]
+        lines += [f"  note: {r.note}"] if r.note else []
+    return "\n".join(lines) + "\n"
+
+
+def markdown() -> str:
+    """``docs/graph.md``: the listing as a page (generated; see tests/interfaces)."""
+    head = [
+        "# The companion graph",
+        "",
+        "Generated from the graph contract, `interfaces/graph.py` (`interfaces.graph.markdown()`;",
+        "`quadmission interfaces --graph` prints the same): do not edit by hand. Every topic,",
+        "service and action of the companion, with the simulator's sensor topics, its type,",
+        "its QoS and the nodes at each end. The /fmu side of the link is",
+        "`interfaces/px4/topics.py`. A monitor (the ground station) reads with",
+        f"{describe_qos(MONITOR_QOS)}, which matches every writer. An action `A` is also its",
+        "topics `A/_action/feedback`, `A/_action/status` and services `A/_action/send_goal`,",
+        "`.../cancel_goal`, `.../get_result`.",
+        "",
+        "| name | kind | type | QoS | publishers / servers | subscribers / clients | note |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    body = [f"| `{r.name}` | {r.kind} | `{r.type}` | {r.qos} | {r.writers} | {r.readers} "
+            f"| {r.note} |" for r in rows()]
+    return "\n".join(head + body) + "\n"
