@@ -38,6 +38,7 @@ from flight_control.behaviours import (
 from flight_control.command_protocol import CommandProtocol
 from flight_control.goal_checks import GoalProblem, VehicleState, check_vehicle, nav_state_text
 from flight_control.params import FlightControlParams
+from interfaces import graph
 from interfaces.px4 import CommandResult
 from runtime import (
     ActionServer,
@@ -45,7 +46,6 @@ from runtime import (
     Node,
     Rejection,
     ServerGoalHandle,
-    qos_profile_default,
 )
 
 NS_PER_S = 1_000_000_000
@@ -64,10 +64,9 @@ class FcuCommands:
         self._node = node
         self._params = params
         self._running: list[CommandProtocol] = []
-        self._pub = node.create_publisher("quadmission_interfaces/msg/FcuCommand",
-                                          "/fcu/command", qos_profile_default)
-        node.create_subscription("quadmission_interfaces/msg/FcuCommandAck", "/fcu/command_ack",
-                                 self._on_ack, qos_profile_default)
+        command, ack = graph.FCU_COMMAND, graph.FCU_COMMAND_ACK
+        self._pub = node.create_publisher(command.type, command.name, command.qos)
+        node.create_subscription(ack.type, ack.name, self._on_ack, ack.subscriber_qos)
 
     def _on_ack(self, msg: Any) -> None:
         now_ns = self._node.now().nanoseconds
@@ -101,7 +100,7 @@ class FcuCommands:
                         log.warning(f"{request.command.name}: {why}, sending again "
                                     f"(attempt {protocol.sent}/{protocol.attempts})")
                     self._pub.publish(interfaces.new(
-                        "quadmission_interfaces/msg/FcuCommand",
+                        graph.FCU_COMMAND.type,
                         header=interfaces.new("std_msgs/msg/Header",
                                               stamp=self._node.now().to_msg()),
                         command=int(request.command), param1=request.param1,
@@ -143,7 +142,7 @@ class MotionAction:
     """What differs between the motion actions; the server does the rest."""
 
     action: interfaces.ActionType
-    name: str  # ~/<name>
+    name: str  # its key in interfaces.graph.FLIGHT_CONTROL_ACTIONS
     needs: Needs
     check: Callable[[Any], GoalProblem | None]  # the goal's own checks
     start: Callable[[Any, Observation, Setpoint], Behaviour[Any]]  # goal, now, streamed
@@ -176,7 +175,8 @@ class BehaviourServer:
         return self._token
 
     def serve(self, spec: MotionAction) -> ActionServer:
-        server = ActionServer(self.node, spec.action, f"~/{spec.name}",
+        name = graph.FLIGHT_CONTROL_ACTIONS[spec.name].name
+        server = ActionServer(self.node, spec.action, name,
                               lambda handle: self._execute(spec, handle),
                               goal_callback=lambda goal: self._check(spec, goal))
         self.servers[spec.name] = server

@@ -42,6 +42,7 @@ from flight_control.px4_messages import (
     vision_odometry,
 )
 from flight_control.timesync import ReportedOffset, make_estimator
+from interfaces import graph
 from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
 from interfaces.px4.topics import XRCE_SESSION
@@ -52,8 +53,6 @@ from runtime import (
     ReliabilityPolicy,
     Subscription,
     Time,
-    qos_profile_default,
-    qos_profile_sensor_data,
 )
 
 #: Seed 000's QoS for the bridge topics, both directions: best effort, keep last 1,
@@ -88,26 +87,17 @@ class FcuBridgeNode(Node):
                                       battery_remaining=math.nan)
         px4_out = BRIDGE_QOS
         # companion side
-        self.odometry_pub = self.create_publisher("nav_msgs/msg/Odometry", "/fcu/odometry",
-                                                  qos_profile_sensor_data)
-        self.imu_pub = self.create_publisher("sensor_msgs/msg/Imu", "/fcu/imu",
-                                             qos_profile_sensor_data)
-        self.battery_pub = self.create_publisher("sensor_msgs/msg/BatteryState", "/fcu/battery",
-                                                 qos_profile_default)
-        self.status_pub = self.create_publisher("quadmission_interfaces/msg/FcuStatus",
-                                                "/fcu/status", qos_profile_default)
-        self.ack_pub = self.create_publisher("quadmission_interfaces/msg/FcuCommandAck",
-                                             "/fcu/command_ack", qos_profile_default)
-        self.timesync_pub = self.create_publisher(
-            "quadmission_interfaces/msg/TimesyncDiagnostics", "/fcu/timesync_status",
-            qos_profile_default)
-        self.create_subscription("quadmission_interfaces/msg/FcuSetpoint", "/fcu/setpoint",
-                                 self._on_setpoint, qos_profile_sensor_data)
-        self.create_subscription("quadmission_interfaces/msg/FcuCommand", "/fcu/command",
-                                 self._on_command, qos_profile_default)
-        self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped", "/fcu/vision",
-                                 self._on_vision, qos_profile_sensor_data)
-        self.create_service("quadmission_interfaces/srv/PoseAt", "/fcu/pose_at", self._pose_at)
+        self.odometry_pub = self._publisher(graph.FCU_ODOMETRY)
+        self.imu_pub = self._publisher(graph.FCU_IMU)
+        self.battery_pub = self._publisher(graph.FCU_BATTERY)
+        self.status_pub = self._publisher(graph.FCU_STATUS)
+        self.ack_pub = self._publisher(graph.FCU_COMMAND_ACK)
+        self.timesync_pub = self._publisher(graph.FCU_TIMESYNC_STATUS)
+        for to_fcu, callback in ((graph.FCU_SETPOINT, self._on_setpoint),
+                                 (graph.FCU_COMMAND, self._on_command),
+                                 (graph.FCU_VISION, self._on_vision)):
+            self.create_subscription(to_fcu.type, to_fcu.name, callback, to_fcu.subscriber_qos)
+        self.create_service(graph.POSE_AT.type, graph.POSE_AT.name, self._pose_at)
         # FCU side
         self.mode_out = self._fmu_publisher("offboard_control_mode")
         self.setpoint_out = self._fmu_publisher("trajectory_setpoint")
@@ -137,6 +127,9 @@ class FcuBridgeNode(Node):
         self._imu_in: Subscription[Any] | None = None
         self._follow_imu_readers()
         self.create_timer(1.0 / self.params.status_rate_hz, self._publish_status)
+
+    def _publisher(self, topic: graph.Topic) -> Any:
+        return self.create_publisher(topic.type, topic.name, topic.qos)
 
     def _fmu_publisher(self, short: str) -> Any:
         topic = FMU_IN[short]
@@ -294,12 +287,8 @@ class FcuBridgeNode(Node):
         t_ns = Time.from_msg(request.stamp).nanoseconds
         sample = self.history.at(t_ns)
         if sample is None:
-            span = self.history.span
             response.success = False
-            response.message = (
-                "no odometry kept yet" if span is None else
-                f"{t_ns / 1e9:.3f} s is outside the kept history "
-                f"[{span[0] / 1e9:.3f}, {span[1] / 1e9:.3f}] s")
+            response.message = self.history.missing(t_ns)
             return response
         response.success = True
         response.odometry = fcu_messages.pose_odometry(sample, request.stamp)

@@ -14,15 +14,15 @@ from typing import Any
 
 import interfaces
 from flight_control.flight_control_node import ARM
+from interfaces import graph
 from runtime import Node
 
-ARM_SERVICE = "/flight_control/arm"
 ARM_RETRY_S = 1.0  # s between arming attempts
 
 
 def arm_client(node: Node) -> Any:
     """A client of the flight-control layer's arm service."""
-    return node.create_client(ARM, ARM_SERVICE)
+    return node.create_client(ARM, graph.ARM.name)
 
 
 async def arm(node: Node, client: Any, attempts: int) -> str | None:
@@ -39,4 +39,4 @@ async def arm(node: Node, client: Any, attempts: int) -> str | None:
     return message
 
 
-__all__ = ["ARM_RETRY_S", "ARM_SERVICE", "arm", "arm_client"]
+__all__ = ["ARM_RETRY_S", "arm", "arm_client"]

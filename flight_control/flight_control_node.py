@@ -44,10 +44,12 @@ from flight_control.goal_checks import (
 )
 from flight_control.health import health_report
 from flight_control.params import FIELD_SOURCE, FieldParams, FlightControlParams
-from runtime import Node, ParameterError, qos_profile_default, qos_profile_sensor_data
+from interfaces import graph
+from runtime import Node, ParameterError
 
-ARM = interfaces.get_service("quadmission_interfaces/srv/Arm")
-DISARM = interfaces.get_service("quadmission_interfaces/srv/Disarm")
+NODE_NAME = "flight_control"
+ARM = interfaces.get_service(graph.ARM.type)
+DISARM = interfaces.get_service(graph.DISARM.type)
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 MAP_FRAME = "map"
 
@@ -56,7 +58,7 @@ class FlightControlNode(Node):
     """See the module docstring."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("flight_control", **kwargs)
+        super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(FlightControlParams)
         try:
             self.bounds = self.declare_params(FieldParams).bounds(
@@ -75,18 +77,17 @@ class FlightControlNode(Node):
         self._sent_in_window = 0
         self.measured_rate_hz = 0.0
 
-        self.create_subscription("quadmission_interfaces/msg/FcuStatus", "/fcu/status",
-                                 self._on_status, qos_profile_default)
-        self.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odometry,
-                                 qos_profile_sensor_data)
-        self.setpoint_pub = self.create_publisher("quadmission_interfaces/msg/FcuSetpoint",
-                                                  "/fcu/setpoint", qos_profile_sensor_data)
-        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
-                                                "~/health", qos_profile_default)
+        for topic, callback in ((graph.FCU_STATUS, self._on_status),
+                                (graph.FCU_ODOMETRY, self._on_odometry)):
+            self.create_subscription(topic.type, topic.name, callback, topic.subscriber_qos)
+        self.setpoint_pub = self.create_publisher(
+            graph.FCU_SETPOINT.type, graph.FCU_SETPOINT.name, graph.FCU_SETPOINT.qos)
+        health = graph.HEALTH[NODE_NAME]
+        self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.stream_timer = self.create_timer(self.params.period_s, self._stream)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
-        self.create_service(ARM, "~/arm", self._on_arm)
-        self.create_service(DISARM, "~/disarm", self._on_disarm)
+        self.create_service(ARM, graph.ARM.name, self._on_arm)
+        self.create_service(DISARM, graph.DISARM.name, self._on_disarm)
         self.commands = FcuCommands(self, self.params)
         self.behaviours = BehaviourServer(self, self, self.commands, self.params)
         for action in motion_actions(self):

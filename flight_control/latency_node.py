@@ -32,16 +32,15 @@ from typing import Any
 
 from flight_control.px4_messages import vision_odometry
 from flight_control.timesync import make_estimator
+from interfaces import graph
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
-from interfaces.px4.topics import XRCE_SESSION
+from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
 from interfaces.qos import QoSProfile, ReliabilityPolicy
-from runtime import Node, qos_profile_px4_subscriber, qos_profile_sensor_data
+from runtime import Node, qos_profile_px4_subscriber
 
 TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 __all__ = ["LatencyTestNode"]
-
-_VISION_POSE_TOPIC = "/sim/vision/pose"  # PoseWithCovarianceStamped, map (ENU), DESIGN.md
 
 _PX4_IN = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)  # keep last 1
 
@@ -101,12 +100,11 @@ class LatencyTestNode(Node):
         self.exchange = TimesyncExchange(*self.estimators.values())
         self.create_subscription(TIMESYNC_MSG, XRCE_SESSION["reply"].name,
                                  self._on_timesync, qos_profile_px4_subscriber)
-        self.create_subscription("px4_msgs/msg/SensorCombined", "/fmu/out/sensor_combined",
-                                 self._on_imu, qos_profile_px4_subscriber)
-        self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped",
-                                 _VISION_POSE_TOPIC, self._on_pose, qos_profile_sensor_data)
-        self.vision_pub = self.create_publisher("px4_msgs/msg/VehicleOdometry",
-                                                "/fmu/in/vehicle_visual_odometry", _PX4_IN)
+        imu, pose, vision = (FMU_OUT["sensor_combined"], graph.SIM_VISION_POSE,
+                             FMU_IN["vehicle_visual_odometry"])
+        self.create_subscription(imu.type, imu.name, self._on_imu, qos_profile_px4_subscriber)
+        self.create_subscription(pose.type, pose.name, self._on_pose, pose.subscriber_qos)
+        self.vision_pub = self.create_publisher(vision.type, vision.name, _PX4_IN)
         self.timesync_pub = self.create_publisher(TIMESYNC_MSG, XRCE_SESSION["request"].name,
                                                   _PX4_IN)
         self.create_timer(1.0 / rate_hz, self._send_vision)

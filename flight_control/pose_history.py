@@ -70,6 +70,14 @@ class PoseHistory:
         """Oldest and newest kept times [ns], None when empty."""
         return (self._times[0], self._times[-1]) if self._times else None
 
+    def missing(self, t_ns: int) -> str:
+        """Why :meth:`at` has no pose for ``t_ns``, in words."""
+        span = self.span
+        if span is None:
+            return "no odometry kept yet"
+        return (f"{t_ns / 1e9:.3f} s is outside the kept history "
+                f"[{span[0] / 1e9:.3f}, {span[1] / 1e9:.3f}] s")
+
     def at(self, t_ns: int) -> PoseSample | None:
         """The pose at ``t_ns``, interpolated; None outside the kept span."""
         if not self._times or not self._times[0] <= t_ns <= self._times[-1]:

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from runtime import Node, Parameter, qos_profile_sensor_data
+from interfaces import graph
+from runtime import Node, Parameter
 from runtime.parameters import SetParametersResult
 
-VISION_IN = "/sim/vision/pose"
-VISION_OUT = "/fcu/vision"
+VISION_IN = graph.SIM_VISION_POSE
+VISION_OUT = graph.FCU_VISION
 
 
 class VioNode(Node):
@@ -22,10 +23,9 @@ class VioNode(Node):
         super().__init__("vio", **kwargs)
         self.enabled = bool(self.declare_parameter("enabled", True).value)
         self.forwarded = 0
-        self.pub = self.create_publisher("geometry_msgs/msg/PoseWithCovarianceStamped",
-                                         VISION_OUT, qos_profile_sensor_data)
-        self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped", VISION_IN,
-                                 self._forward, qos_profile_sensor_data)
+        self.pub = self.create_publisher(VISION_OUT.type, VISION_OUT.name, VISION_OUT.qos)
+        self.create_subscription(VISION_IN.type, VISION_IN.name, self._forward,
+                                 VISION_IN.subscriber_qos)
         self.add_on_set_parameters_callback(self._on_set)
 
     def _on_set(self, params: list[Parameter]) -> SetParametersResult:

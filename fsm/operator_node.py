@@ -22,15 +22,14 @@ from typing import Any
 import numpy as np
 
 import interfaces
-from fsm.mission_node import COMMAND_TOPIC, PROPOSAL_TOPIC, ROBOT_TOPIC, STATE_TOPIC
 from fsm.operator import Problem, Tour, budget_s, leg_costs, solve_exact, solve_greedy
 from fsm.params import FIELD_SOURCE, OperatorParams, PadsParams, RobotsParams
-from runtime import Node, ParameterError, qos_profile_default, qos_profile_latched
+from interfaces import graph
+from runtime import Node, ParameterError
 
-QM = "quadmission_interfaces"
-PLAN_PATH = interfaces.get_service(f"{QM}/srv/PlanPath")
+PLAN_PATH = interfaces.get_service(graph.PLAN_PATH.type)
 _PLANNED: Any = PLAN_PATH.Response
-COMMAND: Any = interfaces.get_message(f"{QM}/msg/MissionCommand")
+COMMAND: Any = interfaces.get_message(graph.MISSION_COMMAND.type)
 PHASE_IDLE = 0  # MissionState.PHASE_IDLE
 
 
@@ -76,16 +75,14 @@ class OperatorNode(Node):
         self._idle_since_ns: int | None = None
         self._started = False
         self._deciding = False
-        self.plan_client = self.create_client(PLAN_PATH, "/navigation/plan_path")
-        self.command_pub = self.create_publisher(COMMAND, COMMAND_TOPIC, qos_profile_default)
-        self.proposal_pub = self.create_publisher(f"{QM}/msg/LandingSequence", PROPOSAL_TOPIC,
-                                                  qos_profile_latched)
-        self.create_subscription(f"{QM}/msg/RobotFound", ROBOT_TOPIC, self._on_robot,
-                                 qos_profile_latched)
-        self.create_subscription(f"{QM}/msg/MissionState", STATE_TOPIC, self._on_state,
-                                 qos_profile_latched)
-        self.create_subscription(f"{QM}/msg/FcuStatus", "/fcu/status", self._on_status,
-                                 qos_profile_default)
+        self.plan_client = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
+        self.command_pub, self.proposal_pub = (
+            self.create_publisher(t.type, t.name, t.qos)
+            for t in (graph.MISSION_COMMAND, graph.SEQUENCE_PROPOSAL))
+        for topic, callback in ((graph.MISSION_ROBOT, self._on_robot),
+                                (graph.MISSION_STATE, self._on_state),
+                                (graph.FCU_STATUS, self._on_status)):
+            self.create_subscription(topic.type, topic.name, callback, topic.subscriber_qos)
         if self.params.start_after_s > 0.0:
             self.create_timer(0.1, self._maybe_start)
 
@@ -146,7 +143,7 @@ class OperatorNode(Node):
             f"operator: robot {marker}, budget {budget:.0f} s: sequence {list(exact.pads)} "
             f"({exact.points} points, {exact.cost:.0f} s); greedy {list(greedy.pads)} "
             f"({greedy.points} points)")
-        sequence = interfaces.new(f"{QM}/msg/LandingSequence", pad_ids=list(exact.pads),
+        sequence = interfaces.new(graph.SEQUENCE_PROPOSAL.type, pad_ids=list(exact.pads),
                                   pad_points=[table[i] for i in exact.pads],
                                   robot_marker_id=marker)
         sequence.header.stamp = self.now().to_msg()

@@ -61,8 +61,6 @@ class MissionParams:
                                       description="first landing attempt looks this far")
     search_radius_wide: float = param(unit="m", range=(0.0, 10.0),
                                       description="the pad-search branch looks this far")
-    health_topics: tuple[str, ...] = param(description="HealthReport topics that must be "
-                                                       "OK before the start and stay alive")
     action_servers: tuple[str, ...] = param(description="actions that must be ready before "
                                                         "the start")
     preflight_timeout_s: float = param(unit="s", range=(0.1, 600.0),

@@ -20,19 +20,14 @@ import numpy as np
 
 import interfaces
 from flight_control.frames import quat_to_yaw_f
-from fsm.mission_node import COMMAND_TOPIC, PROPOSAL_TOPIC
 from ground_station.commands import OperatorCommand
 from ground_station.layout import FieldLayout
 from ground_station.params import GroundStationParams
 from ground_station.view import OperatorView, Pose2, RobotPicture
-from interfaces.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from runtime import Node, qos_profile_default
+from interfaces import graph
+from runtime import Node
 
 NODE_NAME = "ground_station"
-NAVIGATE_FEEDBACK_TOPIC = "/navigation/navigate/_action/feedback"
-#: Every subscription: best effort matches reliable and best-effort writers alike.
-LISTEN_QOS = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
-                        reliability=ReliabilityPolicy.BEST_EFFORT)
 _POINT_FIELD_FLOAT32 = 7  # sensor_msgs/PointField.FLOAT32
 
 
@@ -121,28 +116,26 @@ class GroundStationNode(Node):
         self._queue: queue.Queue[OperatorCommand] = queue.Queue()
         self._next_camera_ns = 0
         self.sent: list[OperatorCommand] = []
-        self.command_pub = self.create_publisher("quadmission_interfaces/msg/MissionCommand",
-                                                 COMMAND_TOPIC, qos_profile_default)
+        command = graph.MISSION_COMMAND
+        self.command_pub = self.create_publisher(command.type, command.name, command.qos)
+        navigate = graph.NAVIGATE
         subs = (
-            ("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odometry),
-            ("quadmission_interfaces/msg/FcuStatus", "/fcu/status", self._on_status),
-            ("quadmission_interfaces/msg/TimesyncDiagnostics", "/fcu/timesync_status",
-             self._on_timesync),
-            ("quadmission_interfaces/msg/HealthReport", "/flight_control/health",
-             self._on_health),
-            ("quadmission_interfaces/msg/MissionState", "/mission/state", self._on_state),
-            ("quadmission_interfaces/msg/MissionEvent", "/mission/events", self._on_event),
-            ("quadmission_interfaces/msg/LandingSequence", PROPOSAL_TOPIC, self._on_proposal),
-            ("nav_msgs/msg/Path", "/navigation/path", self._on_path),
-            ("quadmission_interfaces/action/Navigate_FeedbackMessage",
-             NAVIGATE_FEEDBACK_TOPIC, self._on_navigate_feedback),
-            ("sensor_msgs/msg/PointCloud2", "/map/points", self._on_map),
-            ("sensor_msgs/msg/Image", "/camera/down/image_raw", self._on_camera),
-            ("quadmission_interfaces/msg/RobotFound", "/perception/robot_found",
-             self._on_robot),
+            (graph.FCU_ODOMETRY, self._on_odometry),
+            (graph.FCU_STATUS, self._on_status),
+            (graph.FCU_TIMESYNC_STATUS, self._on_timesync),
+            (graph.HEALTH["flight_control"], self._on_health),
+            (graph.MISSION_STATE, self._on_state),
+            (graph.MISSION_EVENTS, self._on_event),
+            (graph.SEQUENCE_PROPOSAL, self._on_proposal),
+            (graph.NAVIGATION_PATH, self._on_path),
+            ((navigate.feedback_type, navigate.feedback_topic), self._on_navigate_feedback),
+            (graph.MAP_POINTS, self._on_map),
+            (graph.CAMERA_DOWN_RAW, self._on_camera),
+            (graph.PERCEPTION_ROBOT_FOUND, self._on_robot),
         )
-        for msgtype, topic, callback in subs:
-            self.create_subscription(msgtype, topic, callback, LISTEN_QOS)
+        for topic, callback in subs:  # a monitor: its QoS matches every writer
+            msgtype, name = topic if isinstance(topic, tuple) else (topic.type, topic.name)
+            self.create_subscription(msgtype, name, callback, graph.MONITOR_QOS)
         self.create_timer(p.command_period_s, self._send_queued)
 
     def _t(self) -> float:
@@ -202,7 +195,7 @@ class GroundStationNode(Node):
 
     def _on_path(self, msg: Any) -> None:
         self.view.on_planned_path(self._t(), [(p.pose.position.x, p.pose.position.y)
-                                              for p in msg.poses], "/navigation/path")
+                                              for p in msg.poses], graph.NAVIGATION_PATH.name)
 
     def _on_navigate_feedback(self, msg: Any) -> None:
         poses = msg.feedback.path.poses
@@ -256,5 +249,5 @@ class GroundStationNode(Node):
             self.sent.append(command)
 
 
-__all__ = ["COMMAND_TOPIC", "NODE_NAME", "PHASES", "PROPOSAL_TOPIC", "GroundStationNode",
+__all__ = ["NODE_NAME", "PHASES", "GroundStationNode",
            "cloud_xyz", "image_rgb", "jpeg", "yaw_of"]

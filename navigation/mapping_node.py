@@ -19,14 +19,16 @@ import numpy as np
 
 import interfaces
 from flight_control.health import MODULE_HEALTH, health_report
+from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
 from navigation.mapping import VoxelMap, camera_to_map, load_map, save_map
 from navigation.params import MappingParams
-from runtime import Node, Time, qos_profile_default, qos_profile_sensor_data
+from runtime import Node, Time
 
-DEPTH_TOPIC = "/camera/depth/points"
-MAP_TOPIC = "/map/points"
-POSE_AT = interfaces.get_service("quadmission_interfaces/srv/PoseAt")
+NODE_NAME = "mapping"
+DEPTH_TOPIC = graph.CAMERA_DEPTH_POINTS.name
+MAP_TOPIC = graph.MAP_POINTS.name
+POSE_AT = interfaces.get_service(graph.POSE_AT.type)
 MAP_FRAME = "map"
 POSE_ATTEMPTS = 5  # /fcu/pose_at requests per cloud
 POSE_RETRY_S = 0.05  # s between them (the odometry of the capture time is in flight)
@@ -36,7 +38,7 @@ class MappingNode(Node):
     """See the module docstring."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("mapping", **kwargs)
+        super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(MappingParams)
         self.map = VoxelMap(self.params.voxel_size)
         if self.params.map_file:
@@ -50,16 +52,13 @@ class MappingNode(Node):
         self._published_fused = -1  # clouds_fused at the last publish
         self.map_stamp = Time(0).to_msg()  # capture time of the newest fused cloud
         self._pending = False
-        self.pose_at = self.create_client(POSE_AT, "/fcu/pose_at")
+        self.pose_at = self.create_client(POSE_AT, graph.POSE_AT.name)
         self._valid_since_ns: int | None = None  # the FCU's position valid since then
-        self.create_subscription("quadmission_interfaces/msg/FcuStatus", "/fcu/status",
-                                 self._on_status, qos_profile_default)
-        self.create_subscription("sensor_msgs/msg/PointCloud2", DEPTH_TOPIC, self._on_cloud,
-                                 qos_profile_sensor_data)
-        self.map_pub = self.create_publisher("sensor_msgs/msg/PointCloud2", MAP_TOPIC,
-                                             qos_profile_default)
-        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
-                                                "~/health", qos_profile_default)
+        for topic, callback in ((graph.FCU_STATUS, self._on_status),
+                                (graph.CAMERA_DEPTH_POINTS, self._on_cloud)):
+            self.create_subscription(topic.type, topic.name, callback, topic.subscriber_qos)
+        self.map_pub, self.health_pub = (self.create_publisher(t.type, t.name, t.qos) for t in
+                                         (graph.MAP_POINTS, graph.HEALTH[NODE_NAME]))
         self.create_timer(1.0 / self.params.publish_rate_hz, self._publish)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 

@@ -16,7 +16,6 @@ Parameters: ``config/navigator.yaml`` (+ ``arena``, ``start_pad`` and the field 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -27,7 +26,22 @@ from flight_control.frames import quat_to_yaw_f
 from flight_control.health import MODULE_HEALTH, health_report
 from flight_control.params import FIELD_SOURCE, FieldParams
 from flight_control.policy import Finish, Log, Outcome, Sleep
+from interfaces import graph
 from navigation.coverage import load_explore_paths
+from navigation.navigator_messages import (
+    EXPLORE,
+    EXPLORE_CODES,
+    LEG_BLOCKED,
+    NAVIGATE,
+    NAVIGATE_CODES,
+    REACH,
+    TAKEOFF,
+    TAKEOFF_CODES,
+    TURN,
+    flight_goal,
+    plan_request,
+    point,
+)
 from navigation.navigator_policy import (
     ActionState,
     CancelAction,
@@ -49,7 +63,7 @@ from navigation.navigator_policy import (
     explore_waypoints,
 )
 from navigation.params import NavigatorParams
-from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, path_msg, path_points
+from navigation.path_finder_node import PLAN_PATH, path_msg, path_points
 from runtime import (
     ActionClient,
     ActionServer,
@@ -58,39 +72,17 @@ from runtime import (
     ParameterError,
     ServerGoalHandle,
     Time,
-    qos_profile_default,
-    qos_profile_sensor_data,
 )
 from runtime.parameters import config_path
 
-NAVIGATE = interfaces.get_action("quadmission_interfaces/action/Navigate")
-EXPLORE = interfaces.get_action("quadmission_interfaces/action/Explore")
-TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
-REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
-TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
-_PLAN: Any = PLAN_PATH.Response
-_LEG_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH)  # plan failures that block a leg
-_NAV: Any = NAVIGATE.Result
-_NAVIGATE_CODES = {Outcome.SUCCEEDED: _NAV.RESULT_OK, Outcome.NO_PATH: _NAV.RESULT_NO_PATH,
-                   Outcome.FLIGHT_ERROR: _NAV.RESULT_FLIGHT_ERROR,
-                   Outcome.CANCELED: _NAV.RESULT_CANCELED, Outcome.STOPPED: _NAV.RESULT_CANCELED}
-_EXP: Any = EXPLORE.Result
-_EXPLORE_CODES = {Outcome.MARKER_FOUND: (_EXP.RESULT_MARKER_FOUND, True),
-                  Outcome.COVERED: (_EXP.RESULT_COVERED, True),
-                  Outcome.TIME_BUDGET: (_EXP.RESULT_TIME_BUDGET, False),
-                  Outcome.CANCELED: (_EXP.RESULT_CANCELED, False),
-                  Outcome.FLIGHT_ERROR: (_EXP.RESULT_FLIGHT_ERROR, False)}
-
-
-def _point(x: float, y: float, z: float) -> Any:
-    return interfaces.new("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
+NODE_NAME = "navigator"
 
 
 class NavigatorNode(Node):
     """See the module docstring."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("navigator", **kwargs)
+        super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(NavigatorParams)
         try:
             field = self.declare_params(FieldParams)
@@ -108,20 +100,19 @@ class NavigatorNode(Node):
         self.markers_seen: dict[int, int] = {}  # marker id -> last capture stamp [ns]
         self.active = ""  # the running action, for health
         self.last_message = ""
-        self.planner = self.create_client(PLAN_PATH, PLAN_PATH_SERVICE)
-        self.reach = ActionClient(self, REACH, "/flight_control/reach")
-        self.fc_takeoff = ActionClient(self, TAKEOFF, "/flight_control/takeoff")
-        self.turn = ActionClient(self, TURN, "/flight_control/turn")
-        self.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odometry,
-                                 qos_profile_sensor_data)
-        self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
-                                 "/perception/markers", self._on_markers, qos_profile_default)
-        self.navigate_server = ActionServer(self, NAVIGATE, "/navigation/navigate",
-                                            self._navigate)
-        self.explore_server = ActionServer(self, EXPLORE, "/navigation/explore", self._explore)
-        self.takeoff_server = ActionServer(self, TAKEOFF, "/navigation/takeoff", self._takeoff)
-        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
-                                                "~/health", qos_profile_default)
+        self.planner = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
+        self.reach = ActionClient(self, REACH, graph.REACH.name)
+        self.fc_takeoff = ActionClient(self, TAKEOFF, graph.TAKEOFF.name)
+        self.turn = ActionClient(self, TURN, graph.TURN.name)
+        for topic, callback in ((graph.FCU_ODOMETRY, self._on_odometry),
+                                (graph.PERCEPTION_MARKERS, self._on_markers)):
+            self.create_subscription(topic.type, topic.name, callback, topic.subscriber_qos)
+        self.navigate_server = ActionServer(self, NAVIGATE, graph.NAVIGATE.name, self._navigate)
+        self.explore_server = ActionServer(self, EXPLORE, graph.EXPLORE.name, self._explore)
+        self.takeoff_server = ActionServer(self, TAKEOFF, graph.NAVIGATION_TAKEOFF.name,
+                                           self._takeoff)
+        health = graph.HEALTH[NODE_NAME]
+        self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
     # -- inputs ------------------------------------------------------------------------
@@ -165,8 +156,8 @@ class NavigatorNode(Node):
                 case Sleep(seconds=seconds):
                     await self.sleep(seconds)
                 case SendReach() | SendTurn():
-                    client, goal = self._flight_goal(command)
-                    fc = await client.send_goal_async(goal)
+                    client = self.turn if isinstance(command, SendTurn) else self.reach
+                    fc = await client.send_goal_async(flight_goal(command))
                     if fc.accepted:
                         result = fc.get_result_async()
                         answer = Sent(True)
@@ -187,24 +178,10 @@ class NavigatorNode(Node):
 
     async def _plan(self, start: np.ndarray, goal: np.ndarray) -> Planned:
         """The ``/navigation/plan_path`` answer from ``start`` to ``goal``."""
-        request = interfaces.new(PLAN_PATH.Request, start=_point(*start), goal=_point(*goal))
-        response = await self.planner.call_async(request)
+        response = await self.planner.call_async(plan_request(start, goal))
         return Planned(path_points(response.path) if response.success else None,
                        str(response.message), Time.from_msg(response.path.header.stamp).nanoseconds,
-                       int(response.result) in _LEG_BLOCKED)
-
-    def _flight_goal(self, command: SendReach | SendTurn) -> tuple[ActionClient, Any]:
-        """The flight-control action and its goal for ``command``."""
-        if isinstance(command, SendTurn):
-            return self.turn, interfaces.new(TURN.Goal, yaw=command.yaw,
-                                             relative=command.relative)
-        goal = interfaces.new(REACH.Goal, radius=command.radius, speed=command.speed,
-                              stop_at_target=command.stop_at_target)
-        goal.target.position = _point(*command.target)
-        goal.target.orientation = interfaces.new("geometry_msgs/msg/Quaternion", x=0.0, y=0.0,
-                                                 z=math.sin(command.yaw / 2.0),
-                                                 w=math.cos(command.yaw / 2.0))
-        return self.reach, goal
+                       int(response.result) in LEG_BLOCKED)
 
     def _finish(self, handle: ServerGoalHandle, action: Any, code: int, success: bool,
                 message: str, **fields: Any) -> Any:
@@ -234,14 +211,13 @@ class NavigatorNode(Node):
                                 radius=goal.reach_radius or self.params.goal_radius,
                                 speed=goal.speed or self.params.cruise_speed, yaw=goal.yaw)
         end = await self._drive(policy, handle, feedback)
-        return self._finish(handle, NAVIGATE, _NAVIGATE_CODES[end.outcome],
+        return self._finish(handle, NAVIGATE, NAVIGATE_CODES[end.outcome],
                             end.outcome is Outcome.SUCCEEDED, end.message,
-                            position=_point(*self._here()))
+                            position=point(*self._here()))
 
     # -- takeoff ---------------------------------------------------------------------------
     async def _takeoff(self, handle: ServerGoalHandle) -> Any:
         goal = handle.request
-        R: Any = TAKEOFF.Result
         self.active = "takeoff"
         altitude = goal.altitude or self.params.cruise_altitude
         fc = await self.fc_takeoff.send_goal_async(
@@ -252,12 +228,11 @@ class NavigatorNode(Node):
             return self._finish(handle, TAKEOFF, int(r.result), False, f"takeoff: {r.message}",
                                 position=r.position)
         end = await self._drive(SurveyPolicy(self.params.survey_turns), handle)
-        code = {Outcome.SUCCEEDED: R.RESULT_OK, Outcome.CANCELED: R.RESULT_CANCELED,
-                Outcome.FLIGHT_ERROR: R.RESULT_TIMEOUT}[end.outcome]
+        code = TAKEOFF_CODES[end.outcome]
         message = (f"at {altitude:.2f} m, {end.message}" if end.outcome is Outcome.SUCCEEDED
                    else end.message)
         return self._finish(handle, TAKEOFF, code, end.outcome is Outcome.SUCCEEDED, message,
-                            position=_point(*self._here()))
+                            position=point(*self._here()))
 
     # -- explore ---------------------------------------------------------------------------
     def explore_waypoints(self, area: np.ndarray, altitude: float,
@@ -278,7 +253,7 @@ class NavigatorNode(Node):
             handle.publish_feedback(interfaces.new(
                 EXPLORE.Feedback, coverage=progress.coverage, elapsed=elapsed(),
                 markers_found=list(progress.markers_found),
-                next_waypoint=_point(*progress.waypoint)))
+                next_waypoint=point(*progress.waypoint)))
 
         policy = ExplorePolicy(
             self.follow, self.explore_tuning,
@@ -289,7 +264,7 @@ class NavigatorNode(Node):
             budget_ns=goal.time_budget.sec * 1_000_000_000 + goal.time_budget.nanosec)
         end = await self._drive(policy, handle, feedback)
         assert isinstance(end, ExploreFinish)
-        code, success = _EXPLORE_CODES[end.outcome]
+        code, success = EXPLORE_CODES[end.outcome]
         return self._finish(handle, EXPLORE, code, success, end.message,
                             coverage=end.coverage, markers_found=list(end.markers_found),
                             elapsed=elapsed())
@@ -298,8 +273,8 @@ class NavigatorNode(Node):
     def _publish_health(self) -> None:
         ok = self.position is not None
         self.health_pub.publish(health_report(
-            "navigator", MODULE_HEALTH.LEVEL_OK if ok else MODULE_HEALTH.LEVEL_WARN,
-            "" if ok else "no /fcu/odometry yet",
+            NODE_NAME, MODULE_HEALTH.LEVEL_OK if ok else MODULE_HEALTH.LEVEL_WARN,
+            "" if ok else f"no {graph.FCU_ODOMETRY.name} yet",
             {"active": self.active or "idle", "last_message": self.last_message,
              "planner_ready": self.planner.service_is_ready()}, self.now().to_msg()))
 

@@ -25,6 +25,7 @@ import numpy as np
 import interfaces
 from flight_control.health import MODULE_HEALTH, health_report
 from flight_control.params import FIELD_SOURCE, FieldParams
+from interfaces import graph
 from navigation.astar import Heuristic, Workspace, plan
 from navigation.cloud_msgs import cloud_points
 from navigation.errors import (
@@ -37,7 +38,6 @@ from navigation.errors import (
     StartOccupied,
 )
 from navigation.mapping import load_map
-from navigation.mapping_node import MAP_TOPIC
 from navigation.params import PathFinderParams
 from navigation.voxel_graph import (
     VoxelGraph,
@@ -46,10 +46,11 @@ from navigation.voxel_graph import (
     count_points,
     update_graph,
 )
-from runtime import Node, ParameterError, Time, qos_profile_default
+from runtime import Node, ParameterError, Time
 
-PLAN_PATH = interfaces.get_service("quadmission_interfaces/srv/PlanPath")
-PLAN_PATH_SERVICE = "/navigation/plan_path"
+NODE_NAME = "path_finder"
+PLAN_PATH = interfaces.get_service(graph.PLAN_PATH.type)
+PLAN_PATH_SERVICE = graph.PLAN_PATH.name
 MAP_FRAME = "map"
 _R: Any = PLAN_PATH.Response
 #: The one place where planning errors become result codes.
@@ -85,7 +86,7 @@ class PathFinderNode(Node):
     """See the module docstring."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__("path_finder", **kwargs)
+        super().__init__(NODE_NAME, **kwargs)
         self.params = self.declare_params(PathFinderParams)
         try:
             field = self.declare_params(FieldParams)
@@ -115,11 +116,11 @@ class PathFinderNode(Node):
         self.requests = 0
         self.last_error = ""
         if self.params.use_live_map:
-            self.create_subscription("sensor_msgs/msg/PointCloud2", MAP_TOPIC, self._on_map,
-                                     qos_profile_default)
+            live = graph.MAP_POINTS
+            self.create_subscription(live.type, live.name, self._on_map, live.subscriber_qos)
         self.create_service(PLAN_PATH, PLAN_PATH_SERVICE, self._plan_path)
-        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
-                                                "~/health", qos_profile_default)
+        health = graph.HEALTH[NODE_NAME]
+        self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
     def _on_map(self, msg: Any) -> None:

@@ -25,6 +25,7 @@ from typing import Any
 import interfaces
 from flight_control.health import health_report
 from flight_control.policy import Finish, Outcome
+from interfaces import graph
 from navigation.params import PrecisionLandParams
 from navigation.precision_land_policy import (
     PRECISION_LAND_OUTCOMES,
@@ -35,7 +36,6 @@ from navigation.precision_land_policy import (
     pad_marker,
 )
 from navigation.precision_landing import Measurement, Pose
-from perception.names import SCANNER_ENABLE_SERVICE
 from runtime import (
     ActionClient,
     ActionServer,
@@ -44,21 +44,16 @@ from runtime import (
     Rejection,
     ServerGoalHandle,
     Time,
-    qos_profile_default,
-    qos_profile_sensor_data,
 )
 
 NODE_NAME = "precision_land"
-ACTION_NAME = "/navigation/precision_land"
-MARKERS_TOPIC = "/perception/markers"
-ODOMETRY_TOPIC = "/fcu/odometry"
-POSE_AT_SERVICE = "/fcu/pose_at"
+ACTION_NAME = graph.PRECISION_LAND.name
 
-PRECISION_LAND = interfaces.get_action("quadmission_interfaces/action/PrecisionLand")
-REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
-LAND = interfaces.get_action("quadmission_interfaces/action/Land")
-POSE_AT = interfaces.get_service("quadmission_interfaces/srv/PoseAt")
-SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
+PRECISION_LAND = interfaces.get_action(graph.PRECISION_LAND.type)
+REACH = interfaces.get_action(graph.REACH.type)
+LAND = interfaces.get_action(graph.LAND.type)
+POSE_AT = interfaces.get_service(graph.POSE_AT.type)
+SET_BOOL = interfaces.get_service(graph.SCANNER_ENABLE.type)
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 RESULT: Any = PRECISION_LAND.Result
 REACH_RESULT: Any = REACH.Result
@@ -102,16 +97,15 @@ class PrecisionLandNode(Node):
         self.watch_id: int | None = None  # the pad the running goal wants
         self.active = False
         self.last_outcome = ""
-        self.reach = ActionClient(self, REACH, "/flight_control/reach")
-        self.land = ActionClient(self, LAND, "/flight_control/land")
-        self.pose_at = self.create_client(POSE_AT, POSE_AT_SERVICE)
-        self.scanner_enable = self.create_client(SET_BOOL, SCANNER_ENABLE_SERVICE)
-        self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
-                                 MARKERS_TOPIC, self._on_markers, qos_profile_default)
-        self.create_subscription("nav_msgs/msg/Odometry", ODOMETRY_TOPIC, self._on_odometry,
-                                 qos_profile_sensor_data)
-        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
-                                                "~/health", qos_profile_default)
+        self.reach = ActionClient(self, REACH, graph.REACH.name)
+        self.land = ActionClient(self, LAND, graph.LAND.name)
+        self.pose_at = self.create_client(POSE_AT, graph.POSE_AT.name)
+        self.scanner_enable = self.create_client(SET_BOOL, graph.SCANNER_ENABLE.name)
+        for topic, callback in ((graph.PERCEPTION_MARKERS, self._on_markers),
+                                (graph.FCU_ODOMETRY, self._on_odometry)):
+            self.create_subscription(topic.type, topic.name, callback, topic.subscriber_qos)
+        health = graph.HEALTH[NODE_NAME]
+        self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
         self.server = ActionServer(self, PRECISION_LAND, ACTION_NAME, self._execute,
                                    goal_callback=self._check_goal)
@@ -141,7 +135,7 @@ class PrecisionLandNode(Node):
             return Rejection("a precision landing is already running")
         latest = self._latest()
         if latest is None:
-            return Rejection(f"no {ODOMETRY_TOPIC} yet: where is the vehicle?")
+            return Rejection(f"no {graph.FCU_ODOMETRY.name} yet: where is the vehicle?")
         problem = goal_problem(goal.pad_id, _point(goal.pad_position), latest[0].position,
                                max_pad_distance=self.params.max_pad_distance,
                                min_altitude=self.params.min_altitude)
@@ -258,11 +252,11 @@ class PrecisionLandNode(Node):
     # -- health ----------------------------------------------------------------------------
     def _publish_health(self) -> None:
         now = self.now()
-        problems = [] if self.odometry is not None else [f"no {ODOMETRY_TOPIC}"]
+        problems = [] if self.odometry is not None else [f"no {graph.FCU_ODOMETRY.name}"]
         if not self.reach.server_is_ready():
-            problems.append("no /flight_control/reach server")
+            problems.append(f"no {graph.REACH.name} server")
         if not self.pose_at.service_is_ready():
-            problems.append(f"no {POSE_AT_SERVICE} service")
+            problems.append(f"no {graph.POSE_AT.name} service")
         level = HEALTH.LEVEL_ERROR if problems else HEALTH.LEVEL_OK
         values = {"strategy": self.params.strategy.value, "active": str(self.active).lower(),
                   "last_outcome": self.last_outcome}

@@ -17,10 +17,10 @@ due when, and where a robot is: :class:`perception.scan_policy.ScanPolicy`, pure
   as captured and annotated), at most once per ``robot_report_interval_s`` per robot;
 - ``~/health`` (HealthReport): camera stale, disabled, frames and detections.
 
-``~/enable`` (std_srvs/SetBool, :data:`ENABLE_SERVICE`) switches scanning on and off; off,
-the node also leaves the image topic, so a camera that renders only for its subscribers
-renders nothing (the mission switches it off where no phase reads markers). The ``mode``
-parameter (pads, robots, both) chooses the ID whitelist and can be set at run time.
+``~/enable`` (std_srvs/SetBool, ``interfaces.graph.SCANNER_ENABLE``) switches scanning on
+and off; off, the node also leaves the image topic, so a camera that renders only for its
+subscribers renders nothing (the mission switches it off where no phase reads markers). The
+``mode`` parameter (pads, robots, both) chooses the ID whitelist and can be set at run time.
 Parameters: ``config/aruco_scanner.yaml`` (:class:`perception.params.ScannerParams`).
 """
 
@@ -36,82 +36,29 @@ import numpy as np
 import interfaces
 from flight_control.frames import quat_to_yaw_f
 from flight_control.health import health_report
-from perception.aruco import (
-    DICTIONARY_NAME,
-    ArucoScanner,
-    Marker,
-    MarkerKind,
-    annotate,
-    measure_all,
-)
-from perception.names import SCANNER_ENABLE_SERVICE, SCANNER_NODE_NAME
+from interfaces import graph
+from perception.aruco import ArucoScanner, Marker, annotate, measure_all
+from perception.messages import detection_msg, jpeg_msg
 from perception.params import ScannerParams
 from perception.scan_policy import Problem, ScanPolicy, marker_in_map
 from perception.tracking import RegionTracker
-from runtime import Node, Parameter, Time, qos_profile_default, qos_profile_sensor_data
+from runtime import Node, Parameter, Time
 from runtime.parameters import SetParametersResult
 
-NODE_NAME = SCANNER_NODE_NAME
-ENABLE_SERVICE = SCANNER_ENABLE_SERVICE
-IMAGE_TOPIC = "/camera/down/image_raw"
-INFO_TOPIC = "/camera/down/camera_info"
-MARKERS_TOPIC = "/perception/markers"
-ROBOT_FOUND_TOPIC = "/perception/robot_found"
-POSE_AT_SERVICE = "/fcu/pose_at"
-ODOMETRY_TOPIC = "/fcu/odometry"
+NODE_NAME = "aruco_scanner"
+IMAGE, INFO = graph.CAMERA_DOWN_RAW, graph.CAMERA_DOWN_INFO
+IMAGE_TOPIC, INFO_TOPIC = IMAGE.name, INFO.name
+MARKERS_TOPIC = graph.PERCEPTION_MARKERS.name
+ROBOT_FOUND_TOPIC = graph.PERCEPTION_ROBOT_FOUND.name
 POSE_AT_RETRIES = 5  # a frame is processed when captured; the odometry of that instant
 POSE_AT_RETRY_S = 0.02  # s, comes over the link a few ms later: ask again this often
 MAP_FRAME = "map"
 
-MARKER: Any = interfaces.get_message("quadmission_interfaces/msg/MarkerDetection")
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
-SET_BOOL = interfaces.get_service("std_srvs/srv/SetBool")
-POSE_AT = interfaces.get_service("quadmission_interfaces/srv/PoseAt")
-_KIND_CODE = {MarkerKind.PAD: MARKER.KIND_PAD, MarkerKind.ROBOT: MARKER.KIND_ROBOT,
-              MarkerKind.OTHER: MARKER.KIND_OTHER}
+SET_BOOL = interfaces.get_service(graph.SCANNER_ENABLE.type)
+POSE_AT = interfaces.get_service(graph.POSE_AT.type)
 _PROBLEM_TEXT = {Problem.IMAGE_STALE: f"no image on {IMAGE_TOPIC}",
                  Problem.NO_CAMERA_INFO: f"no {INFO_TOPIC}"}
-
-
-def _quat_wxyz_from_matrix(r: np.ndarray) -> tuple[float, float, float, float]:
-    w = math.sqrt(max(0.0, 1.0 + r[0, 0] + r[1, 1] + r[2, 2])) / 2.0
-    x = math.copysign(math.sqrt(max(0.0, 1.0 + r[0, 0] - r[1, 1] - r[2, 2])) / 2.0,
-                      r[2, 1] - r[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] + r[1, 1] - r[2, 2])) / 2.0,
-                      r[0, 2] - r[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] - r[1, 1] + r[2, 2])) / 2.0,
-                      r[1, 0] - r[0, 1])
-    return w, x, y, z
-
-
-def detection_msg(marker: Marker, header: Any) -> Any:
-    """A MarkerDetection of one measured marker, with the image's header."""
-    w, x, y, z = _quat_wxyz_from_matrix(marker.rotation_cam)
-    p = marker.position_cam
-    return interfaces.new(
-        MARKER, header=header, id=marker.id, kind=_KIND_CODE[marker.kind],
-        dictionary=DICTIONARY_NAME,
-        corners_px=marker.corners_px.reshape(-1).astype(np.float32),
-        center_px=marker.center_px.astype(np.float32),
-        error_px=marker.error_px.astype(np.float32),
-        offset_x=float(marker.offset_body[0]), offset_y=float(marker.offset_body[1]),
-        height=float(marker.height), side_length=float(marker.side_length),
-        pose=interfaces.new("geometry_msgs/msg/Pose",
-                            position=interfaces.new("geometry_msgs/msg/Point", x=float(p[0]),
-                                                    y=float(p[1]), z=float(p[2])),
-                            orientation=interfaces.new("geometry_msgs/msg/Quaternion", w=w,
-                                                       x=x, y=y, z=z)),
-        reprojection_error_px=float(marker.reprojection_error_px))
-
-
-def jpeg_msg(rgb: np.ndarray, header: Any, quality: int) -> Any:
-    """A sensor_msgs/CompressedImage (JPEG) of an RGB image."""
-    ok, buffer = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR),
-                              [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
-    if not ok:
-        raise ValueError(f"cannot encode a {rgb.shape} image as JPEG")
-    return interfaces.new("sensor_msgs/msg/CompressedImage", header=header, format="jpeg",
-                          data=np.frombuffer(buffer.tobytes(), dtype=np.uint8))
 
 
 class ArucoScannerNode(Node):
@@ -134,22 +81,18 @@ class ArucoScannerNode(Node):
         self._scanning = False  # a frame's scan is under way (offloaded)
         self._waiting: Any = None  # the newest image that came meanwhile, scanned next
         self.frames_dropped = 0  # images replaced by a newer one while they waited
-        self.markers_pub = self.create_publisher(
-            "quadmission_interfaces/msg/MarkerDetectionArray", MARKERS_TOPIC, qos_profile_default)
-        self.robot_pub = self.create_publisher("quadmission_interfaces/msg/RobotFound",
-                                               ROBOT_FOUND_TOPIC, qos_profile_default)
-        self.annotated_pub = self.create_publisher("sensor_msgs/msg/Image", "~/annotated",
-                                                   qos_profile_sensor_data)
-        self.health_pub = self.create_publisher("quadmission_interfaces/msg/HealthReport",
-                                                "~/health", qos_profile_default)
-        self.pose_at = self.create_client(POSE_AT, POSE_AT_SERVICE)
-        self.create_subscription("sensor_msgs/msg/CameraInfo", INFO_TOPIC, self._on_info,
-                                 qos_profile_sensor_data)
+        self.markers_pub, self.robot_pub, self.annotated_pub, self.health_pub = (
+            self.create_publisher(t.type, t.name, t.qos)
+            for t in (graph.PERCEPTION_MARKERS, graph.PERCEPTION_ROBOT_FOUND,
+                      graph.SCANNER_ANNOTATED, graph.HEALTH[NODE_NAME]))
+        self.pose_at = self.create_client(POSE_AT, graph.POSE_AT.name)
+        self.create_subscription(INFO.type, INFO.name, self._on_info, INFO.subscriber_qos)
         self._image_sub: Any = None  # on the image topic while enabled
         self._follow_images()
-        self.create_subscription("nav_msgs/msg/Odometry", ODOMETRY_TOPIC, self._on_odometry,
-                                 qos_profile_sensor_data)
-        self.create_service(SET_BOOL, "~/enable", self._on_enable)
+        odometry = graph.FCU_ODOMETRY
+        self.create_subscription(odometry.type, odometry.name, self._on_odometry,
+                                 odometry.subscriber_qos)
+        self.create_service(SET_BOOL, graph.SCANNER_ENABLE.name, self._on_enable)
         self.add_on_set_parameters_callback(self._on_set)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
@@ -167,8 +110,8 @@ class ArucoScannerNode(Node):
     def _follow_images(self) -> None:
         """On the image topic while enabled, off it while not (no frame to render)."""
         if self.enabled and self._image_sub is None:
-            self._image_sub = self.create_subscription(
-                "sensor_msgs/msg/Image", IMAGE_TOPIC, self._on_image, qos_profile_sensor_data)
+            self._image_sub = self.create_subscription(IMAGE.type, IMAGE.name, self._on_image,
+                                                       IMAGE.subscriber_qos)
         elif not self.enabled and self._image_sub is not None:
             self.destroy_subscription(self._image_sub)
             self._image_sub = self._waiting = None
@@ -301,5 +244,4 @@ class ArucoScannerNode(Node):
         self.health_pub.publish(health_report(NODE_NAME, level, message, values, now.to_msg()))
 
 
-__all__ = ["ENABLE_SERVICE", "MARKERS_TOPIC", "NODE_NAME", "ROBOT_FOUND_TOPIC", "ArucoScannerNode",
-           "ScannerParams", "detection_msg", "jpeg_msg"]
+__all__ = ["MARKERS_TOPIC", "NODE_NAME", "ROBOT_FOUND_TOPIC", "ArucoScannerNode", "ScannerParams"]

@@ -91,11 +91,26 @@ def _interfaces_args(p: argparse.ArgumentParser) -> None:
                    "response, an action's goal, result and feedback), e.g. "
                    "px4_msgs/msg/VehicleOdometry or quadmission_interfaces/action/Reach")
     p.add_argument("--package", help="list only this package's types")
+    p.add_argument("--graph", action="store_true",
+                   help="list the companion graph instead (interfaces/graph.py): each topic, "
+                        "service and action with its type, QoS and the nodes at its ends")
+    p.add_argument("--markdown", action="store_true",
+                   help="with --graph: as the docs page (docs/graph.md)")
 
 
 def _interfaces_run(args: argparse.Namespace) -> int:
     import interfaces
 
+    if args.graph or args.markdown:
+        if not args.graph or args.name or args.package:
+            from quadmission.errors import OptionsError
+
+            raise OptionsError("interfaces --graph lists the whole graph: give it without a "
+                               "type or --package (--markdown needs --graph)")
+        from interfaces import graph
+
+        sys.stdout.write(graph.markdown() if args.markdown else graph.text())
+        return 0
     if args.name:
         parts = interfaces.interface_parts(args.name)
         for i, (part, typename) in enumerate(parts):

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 import interfaces
-from interfaces.qos import QoSProfile, ReliabilityPolicy
-from runtime import Node, Time, qos_profile_sensor_data
+from interfaces import graph
+from runtime import Node, Time
 from runtime.clock import seconds_to_ns
 from runtime.errors import ParameterError
 from runtime.parameters import param, validate_parameters
@@ -34,15 +34,14 @@ from sim.render import CameraIntrinsics, DepthPointCloud, Image, Points, SceneRe
 from sim.scene import quad_state
 from sim.world import Scene, divides
 
-DOWN_IMAGE_TOPIC = "/camera/down/image_raw"
-DOWN_INFO_TOPIC = "/camera/down/camera_info"
-DEPTH_POINTS_TOPIC = "/camera/depth/points"
-CLOCK_TOPIC = "/clock"
+DOWN_IMAGE_TOPIC = graph.CAMERA_DOWN_RAW.name
+DOWN_INFO_TOPIC = graph.CAMERA_DOWN_INFO.name
+DEPTH_POINTS_TOPIC = graph.CAMERA_DEPTH_POINTS.name
+CLOCK_TOPIC = graph.CLOCK.name
 DOWN_FRAME = "down_camera"
 DEPTH_FRAME = "depth_camera"
 
 _FLOAT32 = 7  # sensor_msgs/PointField.FLOAT32
-_CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 def image_msg(image: Image, stamp: Time, frame_id: str) -> Any:
@@ -169,13 +168,10 @@ class SimSensorsNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(SENSORS_NODE_NAME, **kwargs)
         self.params = self.declare_params(SensorParams)
-        self.down_image = self.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
-                                                qos_profile_sensor_data)
-        self.down_info = self.create_publisher("sensor_msgs/msg/CameraInfo", DOWN_INFO_TOPIC,
-                                               qos_profile_sensor_data)
-        self.depth_points = self.create_publisher("sensor_msgs/msg/PointCloud2",
-                                                  DEPTH_POINTS_TOPIC, qos_profile_sensor_data)
-        self.clock = self.create_publisher("rosgraph_msgs/msg/Clock", CLOCK_TOPIC, _CLOCK_QOS)
+        self.down_image, self.down_info, self.depth_points, self.clock = (
+            self.create_publisher(t.type, t.name, t.qos)
+            for t in (graph.CAMERA_DOWN_RAW, graph.CAMERA_DOWN_INFO, graph.CAMERA_DEPTH_POINTS,
+                      graph.CLOCK))
 
 
 @dataclass

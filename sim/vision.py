@@ -18,12 +18,13 @@ from typing import Any
 import numpy as np
 
 import interfaces
-from runtime import Node, Time, qos_profile_sensor_data
+from interfaces import graph
+from runtime import Node, Time
 from runtime.clock import seconds_to_ns
 from runtime.parameters import param, validate_parameters
 from sim.world import Scene
 
-VISION_POSE_TOPIC = "/sim/vision/pose"
+VISION_POSE_TOPIC = graph.SIM_VISION_POSE.name
 MAP_FRAME = "map"
 _BLOCK = 256  # updates whose standard normals are drawn at once
 
@@ -65,8 +66,8 @@ class VisionNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("sim_vision", **kwargs)
         self.params = self.declare_params(VisionParams)
-        self.pose = self.create_publisher("geometry_msgs/msg/PoseWithCovarianceStamped",
-                                          VISION_POSE_TOPIC, qos_profile_sensor_data)
+        pose = graph.SIM_VISION_POSE
+        self.pose = self.create_publisher(pose.type, pose.name, pose.qos)
 
 
 @dataclass

@@ -29,6 +29,7 @@ import numpy.typing as npt
 import interfaces
 from flight_control.px4_messages import vehicle_command, vision_odometry
 from flight_control.timesync import make_estimator
+from interfaces import graph
 from interfaces.px4 import (
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     ArmingState,
@@ -37,12 +38,11 @@ from interfaces.px4 import (
     VehicleCmd,
 )
 from interfaces.px4.timesync import TimesyncExchange, ns_to_us
-from interfaces.px4.topics import FMU_OUT, XRCE_SESSION
+from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
 from interfaces.qos import QoSProfile, ReliabilityPolicy
-from runtime import Node, Time, qos_profile_px4_subscriber, qos_profile_sensor_data
+from runtime import Node, Time, qos_profile_px4_subscriber
 from sim.fcu.firmware import FirmwareConfig
 from sim.fcu.sitl import Sitl, build_sitl
-from sim.vision import VISION_POSE_TOPIC
 from sim.world import WorldResult
 
 TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
@@ -158,20 +158,16 @@ class OffboardHarness(Node):
                                  FMU_OUT["vehicle_local_position"].name, self._on_position, out)
         self.create_subscription("px4_msgs/msg/VehicleStatus", FMU_OUT["vehicle_status"].name,
                                  self._on_status, out)
-        self.create_subscription("px4_msgs/msg/VehicleCommandAck", "/fmu/out/vehicle_command_ack",
-                                 self.acks.append, out)
+        ack = FMU_OUT["vehicle_command_ack"]
+        self.create_subscription(ack.type, ack.name, self.acks.append, out)
         self.create_subscription(TIMESYNC_MSG, XRCE_SESSION["reply"].name, self._on_timesync,
                                  out)
-        self.create_subscription("geometry_msgs/msg/PoseWithCovarianceStamped", VISION_POSE_TOPIC,
-                                 self._on_vision, qos_profile_sensor_data)
-        self.mode_pub = self.create_publisher("px4_msgs/msg/OffboardControlMode",
-                                              "/fmu/in/offboard_control_mode", _PX4_IN)
-        self.setpoint_pub = self.create_publisher("px4_msgs/msg/TrajectorySetpoint",
-                                                  "/fmu/in/trajectory_setpoint", _PX4_IN)
-        self.command_pub = self.create_publisher("px4_msgs/msg/VehicleCommand",
-                                                 "/fmu/in/vehicle_command", _PX4_IN)
-        self.vision_pub = self.create_publisher("px4_msgs/msg/VehicleOdometry",
-                                                "/fmu/in/vehicle_visual_odometry", _PX4_IN)
+        pose = graph.SIM_VISION_POSE
+        self.create_subscription(pose.type, pose.name, self._on_vision, pose.subscriber_qos)
+        self.mode_pub, self.setpoint_pub, self.command_pub, self.vision_pub = (
+            self.create_publisher(FMU_IN[short].type, FMU_IN[short].name, _PX4_IN)
+            for short in ("offboard_control_mode", "trajectory_setpoint", "vehicle_command",
+                          "vehicle_visual_odometry"))
         self.timesync_pub = self.create_publisher(TIMESYNC_MSG, XRCE_SESSION["request"].name,
                                                   _PX4_IN)
         self.create_timer(0.02, self._send_timesync)  # 50 Hz: converged in ~2 s

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from runtime import Node, Time, qos_profile_sensor_data
+from interfaces import graph
+from runtime import Node, Time
 from sim.world import Trajectory
 
 FloatArray = npt.NDArray[np.float64]
-SETPOINT_TOPIC = "/fcu/setpoint"
 
 
 class SetpointRecorder(Node):
@@ -34,8 +34,9 @@ class SetpointRecorder(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("setpoint_recorder", **kwargs)
         self._rows: list[tuple[float, float, float, float]] = []
-        self.create_subscription("quadmission_interfaces/msg/FcuSetpoint", SETPOINT_TOPIC,
-                                 self._on_setpoint, qos_profile_sensor_data)
+        setpoint = graph.FCU_SETPOINT
+        self.create_subscription(setpoint.type, setpoint.name, self._on_setpoint,
+                                 setpoint.subscriber_qos)
 
     def _on_setpoint(self, msg: Any) -> None:
         p = msg.position
@@ -94,7 +95,7 @@ def tracking(stamps: FloatArray, setpoints: FloatArray, truth: Trajectory,
     t = stamps[keep]
     flown = np.column_stack([np.interp(t, truth.t, truth.position[:, i]) for i in range(3)]) \
         if len(t) else np.zeros((0, 3))
-    return Tracking(t, setpoints[keep], flown, (start, end), SETPOINT_TOPIC)
+    return Tracking(t, setpoints[keep], flown, (start, end), graph.FCU_SETPOINT.name)
 
 
 def nearest_on_polyline(points: FloatArray, polyline: FloatArray) -> FloatArray:
@@ -139,5 +140,5 @@ def rounded(value: float | None, digits: int = 4) -> float | None:
     return round(float(value), digits)
 
 
-__all__ = ["SETPOINT_TOPIC", "SetpointRecorder", "Tracking", "nearest_on_polyline",
+__all__ = ["SetpointRecorder", "Tracking", "nearest_on_polyline",
            "outline_tracking", "rounded", "tracking"]

@@ -8,14 +8,15 @@ from typing import Any
 
 import cv2
 
+from interfaces import graph
 from quadmission.reports.report import write_report
 from quadmission.scenarios.options import ScenarioOptions
-from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
+from runtime import DeterministicExecutor, Node
 from sim.markers import detect_markers
 from sim.quadrotor import MotorModel
 from sim.render import Image, SceneRenderer
 from sim.scene import place_quadrotor
-from sim.sensors import DOWN_IMAGE_TOPIC, SimSensorsNode, image_from_msg, sensor_parts
+from sim.sensors import SimSensorsNode, image_from_msg, sensor_parts
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
 
 __all__ = ["TOUR_HEIGHT", "arena_tour", "save_png"]
@@ -34,8 +35,8 @@ class _FrameGrabber(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("frame_grabber", **kwargs)
         self.latest: Image | None = None
-        self.create_subscription("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, self._on_image,
-                                 qos_profile_sensor_data)
+        image = graph.CAMERA_DOWN_RAW
+        self.create_subscription(image.type, image.name, self._on_image, image.subscriber_qos)
 
     def _on_image(self, msg: Any) -> None:
         self.latest = image_from_msg(msg)
@@ -63,7 +64,8 @@ def arena_tour(options: ScenarioOptions) -> dict[str, Any]:
             grabber.latest = None
             run_world(scene, ex, duration_s=1.0 / 12.0, parts=parts)
             if grabber.latest is None:
-                raise RuntimeError(f"pad {pad.id}: no frame arrived on {DOWN_IMAGE_TOPIC}")
+                raise RuntimeError(f"pad {pad.id}: no frame arrived on "
+                                   f"{graph.CAMERA_DOWN_RAW.name}")
             image_name = f"pad_{pad.id}.png"
             save_png(options.out / image_name, grabber.latest)
             decoded = sorted(detect_markers(grabber.latest))

@@ -25,16 +25,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 import interfaces
+from interfaces import graph
 from navigation.errors import NavigationError
 from navigation.mapping_node import MappingNode
-from navigation.navigator_node import NAVIGATE, TAKEOFF, NavigatorNode
-from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
+from navigation.navigator_messages import NAVIGATE, TAKEOFF
+from navigation.navigator_node import NavigatorNode
+from navigation.path_finder_node import PLAN_PATH, PathFinderNode, path_points
 from quadmission.assembly.companion import navigator_overrides, planning_bounds, start_companion
 from quadmission.assembly.faults import check_faults, judge_flight
 from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.evaluation.tracking import SetpointRecorder, rounded, tracking
 from quadmission.reports.report import write_report
-from runtime import ActionClient, Node, qos_profile_default, qos_profile_sensor_data
+from quadmission.scenarios.pilot import Pilot
 from sim.arena import ArenaSpec
 from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
@@ -45,8 +47,9 @@ from sim.world import StopWhen, Trajectory
 if TYPE_CHECKING:
     from quadmission.scenarios.options import ScenarioOptions
 
-ARM = interfaces.get_service("quadmission_interfaces/srv/Arm")
-LAND = interfaces.get_action("quadmission_interfaces/action/Land")
+LAND = interfaces.get_action(graph.LAND.type)
+ARM_ATTEMPTS = 3
+READY_TIMEOUT_S = 20.0  # s for flight control to report ready
 CRUISE_ALTITUDE = 1.5  # m: the navigator's cruise altitude (config/navigator.yaml)
 FLIGHT_LIMIT_S = 900.0  # s of simulated time before the run is declared stuck
 PATH_IMAGE = "path.png"
@@ -76,28 +79,20 @@ class _Script:
     events: list[str] = field(default_factory=list)
 
 
-class NavigatePilot(Node):
+class NavigatePilot(Pilot):
     """Arm, take off through the navigator, navigate to each leg's goal in turn, land."""
 
     def __init__(self, legs: list[Leg], *, land: bool = True, **kwargs: Any) -> None:
-        super().__init__("navigate_pilot", **kwargs)
+        super().__init__("navigate_pilot", (graph.PLAN_PATH, graph.NAVIGATION_TAKEOFF,
+                                            graph.NAVIGATE, graph.LAND), **kwargs)
         self.script = _Script(legs)
         self.land_at_end = land
-        self._health: int | None = None
-        self.arm = self.create_client(ARM, "/flight_control/arm")
-        self.planner = self.create_client(PLAN_PATH, PLAN_PATH_SERVICE)
-        self.takeoff = ActionClient(self, TAKEOFF, "/navigation/takeoff")
-        self.navigate = ActionClient(self, NAVIGATE, "/navigation/navigate")
-        self.land = ActionClient(self, LAND, "/flight_control/land")
+        self.planner = self.clients[graph.PLAN_PATH.name]
         self.position = np.zeros(3)
-        self.create_subscription("quadmission_interfaces/msg/HealthReport",
-                                 "/flight_control/health", self._on_health, qos_profile_default)
-        self.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", self._on_odom,
-                                 qos_profile_sensor_data)
+        odometry = graph.FCU_ODOMETRY
+        self.create_subscription(odometry.type, odometry.name, self._on_odom,
+                                 odometry.subscriber_qos)
         self.create_task(self._mission())
-
-    def _on_health(self, msg: Any) -> None:
-        self._health = int(msg.level)
 
     def _on_odom(self, msg: Any) -> None:
         p = msg.pose.pose.position
@@ -108,32 +103,19 @@ class NavigatePilot(Node):
         self.script.phase = "failed"
         self.script.done = True
 
-    async def _goal(self, client: ActionClient, goal: Any) -> tuple[bool, str]:
-        handle = await client.send_goal_async(goal)
-        response = await handle.get_result_async()
-        return bool(handle.accepted and response.result.success), str(response.result.message)
-
     async def _mission(self) -> None:
         s = self.script
-        for _ in range(200):
-            if self._health == 0:
-                break
-            await self.sleep(0.1)
-        else:
+        if not await self.wait_ready(READY_TIMEOUT_S):
             self._fail("flight control not ready")
             return
         s.phase = "arm"
-        for _ in range(3):
-            if (await self.arm.call_async(interfaces.new(ARM.Request))).success:
-                break
-            await self.sleep(1.0)
-        else:
+        if await self.arm_vehicle(ARM_ATTEMPTS) is not None:
             self._fail("arm refused")
             return
         s.phase = "takeoff"
-        ok, message = await self._goal(self.takeoff, interfaces.new(TAKEOFF.Goal))
-        if not ok:
-            self._fail(f"takeoff: {message}")
+        reply = await self.goal(graph.NAVIGATION_TAKEOFF, interfaces.new(TAKEOFF.Goal))
+        if not reply.success:
+            self._fail(f"takeoff: {reply.message}")
             return
         s.takeoff_s = self.now().nanoseconds / 1e9
         for k, leg in enumerate(s.legs):
@@ -147,14 +129,15 @@ class NavigatePilot(Node):
             leg.planned = path_points(plan.path) if plan.success else None
             leg.plan_message = str(plan.message)
             leg.started_s = self.now().nanoseconds / 1e9
-            ok, message = await self._goal(self.navigate, interfaces.new(
-                NAVIGATE.Goal, goal=goal, yaw=math.nan))
+            reply = await self.goal(graph.NAVIGATE, interfaces.new(NAVIGATE.Goal, goal=goal,
+                                                                   yaw=math.nan))
             leg.ended_s = self.now().nanoseconds / 1e9
-            leg.reached, leg.message = ok, message
-            s.events.append(f"pad {leg.pad}: {'reached' if ok else 'FAILED ' + message}")
+            leg.reached, leg.message = reply.success, reply.message
+            s.events.append(f"pad {leg.pad}: "
+                            f"{'reached' if reply.success else 'FAILED ' + reply.message}")
         if self.land_at_end:
             s.phase = "land"
-            await self._goal(self.land, interfaces.new(LAND.Goal, disarm=True))
+            await self.goal(graph.LAND, interfaces.new(LAND.Goal, disarm=True))
         s.phase = "done"
         s.done = True
 

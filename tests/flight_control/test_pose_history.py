@@ -128,3 +128,13 @@ def test_slerp_stays_unit_and_hits_its_ends(yaw0: float, yaw1: float, u: float) 
     assert np.linalg.norm(q) == pytest.approx(1.0)
     assert abs(float(np.dot(slerp(q0, q1, 0.0), q0))) == pytest.approx(1.0)
     assert abs(float(np.dot(slerp(q0, q1, 1.0), q1))) == pytest.approx(1.0)
+
+
+def test_missing_says_why_there_is_no_pose() -> None:
+    history = PoseHistory(span_ns=10**9)
+    assert history.missing(0) == "no odometry kept yet"
+    history.add(_sample(1.0, 0.0, 0.0))
+    history.add(_sample(1.5, 1.0, 0.0))
+    assert history.at(2_000_000_000) is None
+    assert history.missing(2_000_000_000) == (
+        "2.000 s is outside the kept history [1.000, 1.500] s")

@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 import interfaces
-from fsm.mission_node import COMMAND, COMMAND_TOPIC, EVENTS_TOPIC, STATE_TOPIC, MissionNode
+from fsm.mission_messages import COMMAND
+from fsm.mission_node import MissionNode
 from fsm.operator_node import OperatorNode
+from interfaces import graph
 from runtime import DeterministicExecutor, Node, qos_profile_default, qos_profile_latched
 
 PADS = {"pad_ids": [1, 2, 3], "pad_x": [1.5, 3.0, 7.0], "pad_y": [1.5, 7.5, 10.5],
@@ -26,10 +28,10 @@ class Station(Node):
         super().__init__("station", **kwargs)
         self.states: list[Any] = []
         self.events: list[Any] = []
-        self.pub = self.create_publisher(COMMAND, COMMAND_TOPIC, qos_profile_default)
-        self.create_subscription("quadmission_interfaces/msg/MissionState", STATE_TOPIC,
+        self.pub = self.create_publisher(COMMAND, graph.MISSION_COMMAND.name, qos_profile_default)
+        self.create_subscription(graph.MISSION_STATE.type, graph.MISSION_STATE.name,
                                  self.states.append, qos_profile_latched)
-        self.create_subscription("quadmission_interfaces/msg/MissionEvent", EVENTS_TOPIC,
+        self.create_subscription(graph.MISSION_EVENTS.type, graph.MISSION_EVENTS.name,
                                  self.events.append, qos_profile_default)
 
     def send(self, command: int, **fields: Any) -> None:
@@ -95,7 +97,6 @@ def _operator_answer(robot_xy: tuple[float, float], *, cloud: np.ndarray | None 
                      overrides: dict[str, Any] | None = None) -> tuple[list[Any], list[Any]]:
     """The real path finder and operator on a 12 m x 12 m field: a robot seen at
     ``robot_xy``; (the operator's proposals, its commands)."""
-    from fsm.mission_node import PROPOSAL_TOPIC, ROBOT_TOPIC
     from navigation.cloud_msgs import cloud_msg
     from navigation.path_finder_node import PathFinderNode
     from runtime import Time
@@ -108,11 +109,12 @@ def _operator_answer(robot_xy: tuple[float, float], *, cloud: np.ndarray | None 
         | (overrides or {}))
     station = Station(context=ex.context)
     proposals: list[Any] = []
-    station.create_subscription("quadmission_interfaces/msg/LandingSequence", PROPOSAL_TOPIC,
+    station.create_subscription(graph.SEQUENCE_PROPOSAL.type, graph.SEQUENCE_PROPOSAL.name,
                                 proposals.append, qos_profile_latched)
     commands: list[Any] = []
-    station.create_subscription(COMMAND, COMMAND_TOPIC, commands.append, qos_profile_default)
-    robot_pub = station.create_publisher("quadmission_interfaces/msg/RobotFound", ROBOT_TOPIC,
+    station.create_subscription(COMMAND, graph.MISSION_COMMAND.name, commands.append,
+                                qos_profile_default)
+    robot_pub = station.create_publisher(graph.MISSION_ROBOT.type, graph.MISSION_ROBOT.name,
                                          qos_profile_latched)
     for node in (finder, operator, station):
         ex.add_node(node)

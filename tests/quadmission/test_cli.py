@@ -61,6 +61,24 @@ def test_interfaces_lists_and_shows_types(capsys: pytest.CaptureFixture[str]) ->
     assert "uint16 VEHICLE_CMD_COMPONENT_ARM_DISARM=400" in shown
 
 
+def test_interfaces_graph_lists_each_name_with_its_kind_type_qos_and_ends(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["interfaces", "--graph"]) == 0
+    out = capsys.readouterr().out
+    block = out[out.index("/fcu/odometry  [topic]"):].split("\n/", 1)[0]
+    assert block.splitlines() == [
+        "/fcu/odometry  [topic]  nav_msgs/msg/Odometry",
+        "  qos: best effort, volatile, keep last 5",
+        "  publishers: fcu_bridge",
+        "  subscribers: flight_control, aruco_scanner, precision_land, navigator, mission, "
+        "navigate_pilot, ground_station (monitor)"]
+    assert "/navigation/navigate  [action]  quadmission_interfaces/action/Navigate" in out
+    assert "/fcu/pose_at  [service]  quadmission_interfaces/srv/PoseAt" in out
+    assert main(["interfaces", "--graph", "px4_msgs/msg/VehicleOdometry"]) == 2
+    assert "--graph lists the whole graph" in capsys.readouterr().err
+
+
 def test_interfaces_shows_each_fields_type_name_and_default(
     capsys: pytest.CaptureFixture[str],
 ) -> None:

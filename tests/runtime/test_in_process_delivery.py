@@ -87,7 +87,7 @@ def test_every_type_round_trips_through_cdr(typename: str) -> None:
 
 
 class _BytesOnlyTransport:
-    """The in-process channels behind writers that only take CDR bytes (like the ROS 2 transport's)."""
+    """The in-process channels behind writers that only take CDR bytes (like ROS 2's)."""
 
     def __init__(self) -> None:
         self._inner = InProcessTransport()

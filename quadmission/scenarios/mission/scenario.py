@@ -37,9 +37,11 @@ import numpy as np
 import interfaces
 from flight_control.vio_node import VioNode
 from fsm.mission_machine import EventKind
-from fsm.mission_node import COMMAND, COMMAND_TOPIC, MissionNode
+from fsm.mission_messages import COMMAND
+from fsm.mission_node import MissionNode
 from fsm.operator_node import OperatorNode
 from fsm.params import MissionParams
+from interfaces import graph
 from navigation.mapping_node import MappingNode
 from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
@@ -64,7 +66,7 @@ from quadmission.reports.mission_plots import (
     save_timeline,
 )
 from quadmission.reports.report import write_report
-from runtime import Node, qos_profile_default
+from runtime import Node
 from runtime.parameters import load_parameters
 from sim.arena import ArenaSpec, robot_pose
 from sim.faults import install_faults
@@ -174,7 +176,8 @@ class ScriptedOperator(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("scripted_operator", **kwargs)
-        self.pub = self.create_publisher(COMMAND, COMMAND_TOPIC, qos_profile_default)
+        command = graph.MISSION_COMMAND
+        self.pub = self.create_publisher(command.type, command.name, command.qos)
 
     def press(self, act: Act) -> None:
         msg = interfaces.new(COMMAND, command=int(getattr(COMMAND, _COMMAND_OF[act])),

@@ -1,8 +1,8 @@
 """A mission script for one precision-landing episode: arm, take off, precision_land.
 
-Like :mod:`quadmission.scenarios.square.pilot`, it is a client of the companion's public interface
-only: ``/flight_control/health``, ``/flight_control/arm``, ``/flight_control/takeoff``
-and ``/navigation/precision_land``. It never reads the simulator.
+Like :mod:`quadmission.scenarios.square.pilot`, it is a :class:`~quadmission.scenarios.pilot.Pilot`:
+a client of the companion's public interface only (flight control's health, arm and
+takeoff, and ``precision_land``). It never reads the simulator.
 """
 
 from __future__ import annotations
@@ -11,12 +11,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import interfaces
-from runtime import ActionClient, Node, qos_profile_default
+from interfaces import graph
+from quadmission.scenarios.pilot import Pilot
 
-ARM = interfaces.get_service("quadmission_interfaces/srv/Arm")
-TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
-PRECISION_LAND = interfaces.get_action("quadmission_interfaces/action/PrecisionLand")
-HEALTH_OK = 0  # ModuleHealth.LEVEL_OK
+TAKEOFF = interfaces.get_action(graph.TAKEOFF.type)
+PRECISION_LAND = interfaces.get_action(graph.PRECISION_LAND.type)
+ARM_ATTEMPTS = 3
 
 
 @dataclass(frozen=True)
@@ -29,57 +29,38 @@ class EpisodeOutcome:
     land_ended_ns: int | None = None
 
 
-class LandingPilot(Node):
+class LandingPilot(Pilot):
     """Arm, take off to ``altitude`` [m], then land precisely on ``pad_id`` expected at
     ``pad_position`` (map frame [m])."""
 
     def __init__(self, pad_id: int, pad_position: tuple[float, float, float], *,
                  altitude: float, ready_timeout_s: float = 20.0, **kwargs: Any) -> None:
-        super().__init__("landing_pilot", **kwargs)
+        super().__init__("landing_pilot", (graph.TAKEOFF, graph.PRECISION_LAND), **kwargs)
         self.pad_id = pad_id
         self.pad_position = pad_position
         self.altitude = altitude
         self.ready_timeout_s = ready_timeout_s
         self.step = "ready"
         self.outcome: EpisodeOutcome | None = None
-        self._health: int | None = None
-        self.arm = self.create_client(ARM, "/flight_control/arm")
-        self.takeoff = ActionClient(self, TAKEOFF, "/flight_control/takeoff")
-        self.precision_land = ActionClient(self, PRECISION_LAND, "/navigation/precision_land")
-        self.create_subscription("quadmission_interfaces/msg/HealthReport",
-                                 "/flight_control/health", self._on_health, qos_profile_default)
         self.create_task(self._run())
 
     @property
     def done(self) -> bool:
         return self.outcome is not None
 
-    def _on_health(self, msg: Any) -> None:
-        self._health = int(msg.level)
-
     async def _run(self) -> None:
-        waited = 0.0
-        while self._health != HEALTH_OK:
-            if waited >= self.ready_timeout_s:
-                self.outcome = EpisodeOutcome(False, self.step, "flight control not ready")
-                return
-            await self.sleep(0.1)
-            waited += 0.1
+        if not await self.wait_ready(self.ready_timeout_s):
+            self.outcome = EpisodeOutcome(False, self.step, "flight control not ready")
+            return
         self.step = "arm"
-        for _ in range(3):
-            response = await self.arm.call_async(interfaces.new(ARM.Request))
-            if response.success:
-                break
-            await self.sleep(1.0)
-        else:
-            self.outcome = EpisodeOutcome(False, self.step, f"arm: {response.message}")
+        refused = await self.arm_vehicle(ARM_ATTEMPTS)
+        if refused is not None:
+            self.outcome = EpisodeOutcome(False, self.step, f"arm: {refused}")
             return
         self.step = "takeoff"
-        handle = await self.takeoff.send_goal_async(
-            interfaces.new(TAKEOFF.Goal, altitude=self.altitude))
-        result = (await handle.get_result_async()).result
-        if not (handle.accepted and result.success):
-            self.outcome = EpisodeOutcome(False, self.step, f"takeoff: {result.message}")
+        reply = await self.goal(graph.TAKEOFF, interfaces.new(TAKEOFF.Goal, altitude=self.altitude))
+        if not reply.success:
+            self.outcome = EpisodeOutcome(False, self.step, f"takeoff: {reply.message}")
             return
         self.step = "precision_land"
         started = self.now().nanoseconds
@@ -87,11 +68,9 @@ class LandingPilot(Node):
         goal = interfaces.new(PRECISION_LAND.Goal, pad_id=self.pad_id,
                               pad_position=interfaces.new("geometry_msgs/msg/Point", x=x, y=y,
                                                           z=z))
-        handle = await self.precision_land.send_goal_async(goal)
-        result = (await handle.get_result_async()).result
-        self.outcome = EpisodeOutcome(bool(handle.accepted and result.success), self.step,
-                                      str(result.message), int(result.result), started,
-                                      self.now().nanoseconds)
+        reply = await self.goal(graph.PRECISION_LAND, goal)
+        self.outcome = EpisodeOutcome(reply.success, self.step, reply.message,
+                                      int(reply.result.result), started, self.now().nanoseconds)
 
 
 __all__ = ["EpisodeOutcome", "LandingPilot"]

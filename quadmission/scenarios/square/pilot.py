@@ -21,14 +21,12 @@ import numpy as np
 import numpy.typing as npt
 
 import interfaces
-from flight_control.clients import ARM_RETRY_S, arm, arm_client
-from flight_control.goal_checks import NO_POSITION_MESSAGE
-from runtime import ActionClient, Node, qos_profile_default
+from interfaces import graph
+from quadmission.scenarios.pilot import Pilot
 
-TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
-REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
-LAND = interfaces.get_action("quadmission_interfaces/action/Land")
-HEALTH_OK = 0  # ModuleHealth.LEVEL_OK
+TAKEOFF = interfaces.get_action(graph.TAKEOFF.type)
+REACH = interfaces.get_action(graph.REACH.type)
+LAND = interfaces.get_action(graph.LAND.type)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -54,7 +52,7 @@ class PilotOutcome:
     message: str
 
 
-class SquarePilot(Node):
+class SquarePilot(Pilot):
     """Arm, take off to ``altitude``, reach ``corners`` in order at ``speed``, land at
     ``land_speed`` and disarm.
 
@@ -65,7 +63,7 @@ class SquarePilot(Node):
     def __init__(self, corners: Sequence[Sequence[float]], *, altitude: float,
                  speed: float = 0.0, land_speed: float = 0.0, ready_timeout_s: float = 20.0,
                  arm_attempts: int = 5, goal_attempts: int = 3, **kwargs: Any) -> None:
-        super().__init__("square_pilot", **kwargs)
+        super().__init__("square_pilot", (graph.TAKEOFF, graph.REACH, graph.LAND), **kwargs)
         self.corners: FloatArray = np.asarray(corners, dtype=np.float64).reshape(-1, 3)
         if len(self.corners) == 0:
             raise ValueError("SquarePilot: no corners to fly")
@@ -79,21 +77,11 @@ class SquarePilot(Node):
         self.phase_started_ns: dict[PilotPhase, int] = {PilotPhase.WAIT_READY: 0}
         self.corner_index = 0  # the corner being flown to (during SQUARE)
         self.outcome: PilotOutcome | None = None
-        self._health_level: int | None = None
-        self.arm_client = arm_client(self)
-        self.takeoff = ActionClient(self, TAKEOFF, "/flight_control/takeoff")
-        self.reach = ActionClient(self, REACH, "/flight_control/reach")
-        self.land = ActionClient(self, LAND, "/flight_control/land")
-        self.create_subscription("quadmission_interfaces/msg/HealthReport",
-                                 "/flight_control/health", self._on_health, qos_profile_default)
         self.create_task(self._mission())
 
     @property
     def done(self) -> bool:
         return self.outcome is not None
-
-    def _on_health(self, msg: Any) -> None:
-        self._health_level = int(msg.level)
 
     def _enter(self, phase: PilotPhase) -> None:
         self.phase = phase
@@ -105,44 +93,20 @@ class SquarePilot(Node):
         self._enter(PilotPhase.DONE if success else PilotPhase.FAILED)
         self.outcome = PilotOutcome(success, PilotPhase.DONE if success else failed_in, message)
 
-    async def _goal(self, client: ActionClient, goal: Any) -> tuple[bool, str]:
-        """Send ``goal`` and wait for its result: (succeeded, the server's message). A goal
-        rejected for want of a position estimate is sent again, up to ``goal_attempts``
-        times ``ARM_RETRY_S`` apart, as arming is: a process starved of CPU can leave the
-        FCU's estimate invalid for a moment. Any other rejection ends it at once."""
-        for attempt in range(self.goal_attempts):
-            if attempt:
-                await self.sleep(ARM_RETRY_S)
-            handle = await client.send_goal_async(goal)
-            if handle.accepted:
-                response = await handle.get_result_async()
-                return bool(response.result.success), str(response.result.message)
-            response = await handle.get_result_async()
-            message = f"rejected: {response.result.message}"
-            if response.result.message != NO_POSITION_MESSAGE:
-                break
-            self.get_logger().warning(f"goal {message} (attempt {attempt + 1}/"
-                                      f"{self.goal_attempts})")
-        return False, message
-
     async def _mission(self) -> None:
-        waited = 0.0
-        while self._health_level != HEALTH_OK:
-            if waited >= self.ready_timeout_s:
-                self._finish(False, f"flight control not ready after {self.ready_timeout_s:g} s")
-                return
-            await self.sleep(0.1)
-            waited += 0.1
+        if not await self.wait_ready(self.ready_timeout_s):
+            self._finish(False, f"flight control not ready after {self.ready_timeout_s:g} s")
+            return
         self._enter(PilotPhase.ARM)
-        refused = await arm(self, self.arm_client, self.arm_attempts)
+        refused = await self.arm_vehicle(self.arm_attempts)
         if refused is not None:
             self._finish(False, f"arm: {refused}")
             return
         self._enter(PilotPhase.TAKEOFF)
-        ok, message = await self._goal(self.takeoff,
-                                       interfaces.new(TAKEOFF.Goal, altitude=self.altitude))
-        if not ok:
-            self._finish(False, f"takeoff: {message}")
+        reply = await self.goal(graph.TAKEOFF, interfaces.new(TAKEOFF.Goal, altitude=self.altitude),
+                                self.goal_attempts)
+        if not reply.success:
+            self._finish(False, f"takeoff: {reply.text}")
             return
         self._enter(PilotPhase.SQUARE)
         for i, corner in enumerate(self.corners):
@@ -150,17 +114,18 @@ class SquarePilot(Node):
             goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.speed)
             goal.target.position = interfaces.new("geometry_msgs/msg/Point", x=float(corner[0]),
                                                   y=float(corner[1]), z=float(corner[2]))
-            ok, message = await self._goal(self.reach, goal)
-            if not ok:
-                self._finish(False, f"reach corner {i + 1}/{len(self.corners)}: {message}")
+            reply = await self.goal(graph.REACH, goal, self.goal_attempts)
+            if not reply.success:
+                self._finish(False, f"reach corner {i + 1}/{len(self.corners)}: {reply.text}")
                 return
         self._enter(PilotPhase.LAND)
-        ok, message = await self._goal(self.land, interfaces.new(LAND.Goal, disarm=True,
-                                                                speed=self.land_speed))
-        if not ok:
-            self._finish(False, f"land: {message}")
+        reply = await self.goal(graph.LAND, interfaces.new(LAND.Goal, disarm=True,
+                                                          speed=self.land_speed),
+                                self.goal_attempts)
+        if not reply.success:
+            self._finish(False, f"land: {reply.text}")
             return
-        self._finish(True, message)
+        self._finish(True, reply.message)
 
 
 __all__ = ["PilotOutcome", "PilotPhase", "SquarePilot"]

@@ -15,8 +15,9 @@ from typing import Any
 
 import interfaces
 from fsm.mission_table import phase_of
+from interfaces import graph
 from quadmission.scenarios.square.pilot import PilotPhase, SquarePilot
-from runtime import Node, qos_profile_default
+from runtime import Node
 
 STATUS_PERIOD_S = 0.2  # s between /mission/state messages
 #: The mission machine's state (fsm/mission_table.py) each pilot step stands for.
@@ -32,11 +33,9 @@ class SquareStatusNode(Node):
                  **kwargs: Any) -> None:
         super().__init__("square_status", **kwargs)
         self.pilot = pilot
-        self._state = interfaces.get_message("quadmission_interfaces/msg/MissionState")
-        self.state_pub = self.create_publisher(self._state, "/mission/state",
-                                               qos_profile_default)
-        self.path_pub = self.create_publisher("nav_msgs/msg/Path", "/navigation/path",
-                                              qos_profile_default)
+        self._state = interfaces.get_message(graph.MISSION_STATE.type)
+        self.state_pub, self.path_pub = (self.create_publisher(t.type, t.name, t.qos) for t in
+                                         (graph.MISSION_STATE, graph.NAVIGATION_PATH))
         self._poses = [
             interfaces.new("geometry_msgs/msg/PoseStamped", pose=interfaces.new(
                 "geometry_msgs/msg/Pose", position=interfaces.new(
