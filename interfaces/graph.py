@@ -44,6 +44,7 @@ __all__ = [
     "CAMERA_DOWN_RAW",
     "CLOCK",
     "CLOCK_QOS",
+    "CLOCK_WRITER_QOS",
     "DISARM",
     "ENTRIES",
     "EVENTS_QOS",
@@ -104,9 +105,11 @@ MONITOR_QOS = QoSProfile(depth=10, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.BEST_EFFORT)
 #: The mission's events: every one counts, so a deeper queue than the default.
 EVENTS_QOS = QoSProfile(depth=100)
-#: /clock as rclcpp's TimeSource reads it, and as the simulator writes it: best effort,
-#: keep last 1.
+#: /clock as rclcpp's TimeSource reads it: best effort, keep last 1.
 CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: /clock as the simulator writes it: reliable, keep last 1 (a launch's lockstep must not
+#: lose a step; a reliable writer matches the best-effort readers).
+CLOCK_WRITER_QOS = QoSProfile(depth=1)
 
 
 @dataclass(frozen=True)
@@ -210,9 +213,10 @@ def _topic(name: str, type_name: str, qos: QoSProfile, publishers: tuple[str, ..
 _GCS = ("ground_station",)
 
 # -- the simulator's sensors (a real vehicle's drivers and VIO stand here) -------------------
-CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_QOS, ("sim_sensors",),
+CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_WRITER_QOS, ("sim_sensors",),
+               subscriber_qos=CLOCK_QOS,
                note="read by every process's time source under use_sim_time "
-                    "(runtime.processes.executor.CLOCK_QOS, the same profile)")
+                    "(runtime.processes.executor)")
 CAMERA_DOWN_RAW = _topic("/camera/down/image_raw", "sensor_msgs/msg/Image", _SENSOR,
                          ("sim_sensors",), ("aruco_scanner", "frame_grabber"), _GCS,
                          note="rendered only while it has subscribers")

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 import interfaces
+from interfaces import graph
 from interfaces.qos import QoSProfile
 from runtime.clock import Time
 from runtime.executor import DeterministicExecutor
@@ -63,7 +64,7 @@ EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 EXIT_STALLED = 5  # a node process sent no report for stall_timeout_s while it was waited for
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
-_CLOCK_PUB_QOS = QoSProfile(depth=1)  # reliable, volatile, keep last 1
+_ACK_QOS = QoSProfile(depth=1)  # the lockstep reports: reliable, volatile, keep last 1
 _WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
 _CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
 
@@ -156,7 +157,7 @@ def run_nodes(spec: ProcessSpec) -> int:
             transport.mirror_parameters(node)
     if spec.use_sim_time:
         reporter = Node(f"launch_{_node_name(spec.name)}_clock", context=ex.context)
-        ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _CLOCK_PUB_QOS)
+        ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _ACK_QOS)
 
         def report() -> None:
             ack.publish(interfaces.new(CLOCK_TYPE, clock=reporter.now().to_msg()))
@@ -204,7 +205,7 @@ def run_simulator(spec: ProcessSpec) -> int:
         for node in list(ex.context.nodes):
             transport.mirror_parameters(node)
     clock_node = Node("simulator_clock", context=ex.context)
-    clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, _CLOCK_PUB_QOS)
+    clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, graph.CLOCK.qos)
     reached = dict.fromkeys(spec.followers, 0)
 
     def on_ack(who: str) -> Callable[[Any], None]:
@@ -214,7 +215,7 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     for follower in spec.followers:
         clock_node.create_subscription(CLOCK_TYPE, ack_topic(follower), on_ack(follower),
-                                       _CLOCK_PUB_QOS)
+                                       _ACK_QOS)
     max_lead_ns = round(spec.max_lead_s * 1e9)
     deadline = time.monotonic() + spec.startup_timeout_s
     while clock_pub.get_subscription_count() < spec.clock_subscribers and not stop["now"]:

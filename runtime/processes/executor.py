@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import interfaces
-from interfaces.qos import QoSProfile, ReliabilityPolicy
+from interfaces import graph
 from runtime.clock import Time
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
 from runtime.node import Node
@@ -29,10 +29,8 @@ from runtime.transport import Endpoint, Reader, RequestId, Transport
 __all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CLOCK_TYPE", "ClockedExecutor", "ParameterMirror",
            "ProcessTransport", "TimeFollower"]
 
-CLOCK_TOPIC = "/clock"
-CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
-#: What rclcpp's TimeSource subscribes /clock with: best effort, keep last 1.
-CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: /clock as the graph contract names it; its readers' QoS is rclcpp TimeSource's.
+CLOCK_TOPIC, CLOCK_TYPE, CLOCK_QOS = graph.CLOCK.name, graph.CLOCK.type, graph.CLOCK.subscriber_qos
 _POLL_S = 0.05  # longest wait before looking at the stop condition again [s]
 
 

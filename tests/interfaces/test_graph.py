@@ -23,9 +23,6 @@ EXEMPT = {
     # a plain rclpy program for users: it imports only rclpy and the built messages;
     # test_the_user_example_names_only_contract_topics checks its names instead
     "examples/user_node.py": None,
-    # ROS 2's own time topic in the process runtime (as rclpy's TimeSource writes it);
-    # runtime/ is below no contract of ours: the same profile is graph.CLOCK_QOS
-    "runtime/processes/executor.py": {"/clock"},
 }
 MAX_NODE_LINES = 300
 
