@@ -32,12 +32,12 @@ from flight_control.behaviours import (
     CommandReply,
     CommandRequest,
     Observation,
-    Outcome,
     Setpoint,
 )
 from flight_control.command_protocol import CommandProtocol
 from flight_control.goal_checks import GoalProblem, VehicleState, check_vehicle, nav_state_text
 from flight_control.params import FlightControlParams
+from flight_control.policy import Outcome
 from interfaces import graph
 from interfaces.px4 import CommandResult
 from runtime import (

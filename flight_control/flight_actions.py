@@ -15,7 +15,6 @@ from flight_control.behaviours import (
     Land,
     LandFeedback,
     Observation,
-    Outcome,
     Reach,
     ReachFeedback,
     Setpoint,
@@ -35,6 +34,7 @@ from flight_control.goal_checks import (
     fmt_m,
 )
 from flight_control.params import FlightControlParams
+from flight_control.policy import Outcome
 from flight_control.setpoints import FloatArray
 
 TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")

@@ -156,7 +156,6 @@ __all__ = [
     "CommandReply",
     "CommandRequest",
     "Observation",
-    "Outcome",
     "Setpoint",
     "Step",
     "arm_disarm",

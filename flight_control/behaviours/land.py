@@ -26,10 +26,10 @@ from flight_control.behaviours.base import (
     NAV_LAND,
     CommandReply,
     Observation,
-    Outcome,
     Setpoint,
     Step,
 )
+from flight_control.policy import Outcome
 from flight_control.setpoints import FloatArray
 
 DISARM_ATTEMPTS = 3  # disarm requests before a refusal ends the landing

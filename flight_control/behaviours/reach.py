@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from flight_control.behaviours.base import Observation, Outcome, Setpoint, Step, elapsed_s
+from flight_control.behaviours.base import Observation, Setpoint, Step, elapsed_s
+from flight_control.policy import Outcome
 from flight_control.setpoints import FloatArray, ReachPlan, ReachProgress
 
 

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flight_control.behaviours.base import OFFBOARD, Observation, Outcome, Setpoint, Step
+from flight_control.behaviours.base import OFFBOARD, Observation, Setpoint, Step
 from flight_control.behaviours.reach import Reach, ReachTuning
+from flight_control.policy import Outcome
 from flight_control.setpoints import FloatArray
 
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from flight_control.behaviours.base import Observation, Outcome, Setpoint, Step, elapsed_s
+from flight_control.behaviours.base import Observation, Setpoint, Step, elapsed_s
 from flight_control.frames import wrap_pi
+from flight_control.policy import Outcome
 from flight_control.setpoints import yaw_toward
 
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from flight_control.behaviour_server import MotionAction, Needs
-from flight_control.behaviours import Outcome
 from flight_control.flight_actions import REACH
+from flight_control.policy import Outcome
 from flight_control.setpoints import trapezoid_duration
 from interfaces.px4 import NavigationState, VehicleCmd
 from runtime import GoalStatus

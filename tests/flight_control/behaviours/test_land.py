@@ -12,10 +12,10 @@ from flight_control.behaviours import (
     NAV_LAND,
     CommandReply,
     Land,
-    Outcome,
     Setpoint,
 )
 from flight_control.behaviours.land import DISARM_ATTEMPTS, DISARM_RETRY_NS
+from flight_control.policy import Outcome
 from tests.flight_control.behaviours.observe import TICK_NS, observe
 
 AT = np.array([4.0, 5.0, 1.2])

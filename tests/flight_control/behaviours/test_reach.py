@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from flight_control.behaviours import Outcome, Reach, ReachTuning, Setpoint
+from flight_control.behaviours import Reach, ReachTuning, Setpoint
+from flight_control.policy import Outcome
 from flight_control.setpoints import ReachPlan
 from tests.flight_control.behaviours.observe import TICK_NS, observe
 

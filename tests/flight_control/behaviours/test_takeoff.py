@@ -8,11 +8,11 @@ import pytest
 from flight_control.behaviours import (
     OFFBOARD,
     CommandReply,
-    Outcome,
     ReachTuning,
     Setpoint,
     Takeoff,
 )
+from flight_control.policy import Outcome
 from tests.flight_control.behaviours.observe import TICK_NS, observe
 
 TUNING = ReachTuning(spacing=0.5, acceleration=1.0, waypoint_radius=0.3, stop_speed=0.15,

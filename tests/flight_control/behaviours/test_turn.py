@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from flight_control.behaviours import Outcome, Setpoint, Turn
+from flight_control.behaviours import Setpoint, Turn
+from flight_control.policy import Outcome
 from tests.flight_control.behaviours.observe import TICK_NS, observe
 
 AT = np.array([2.0, 3.0, 1.5])
