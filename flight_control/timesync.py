@@ -131,7 +131,6 @@ class KalmanTimesync(GatedTimesync):
         self._p01 = 0.0
         self._p11 = 0.0
         self._pending: list[TimesyncSample] = []
-        self._high_deviation_count = 0
         self._has_converged = False
 
     # --- protocol --------------------------------------------------------------------
@@ -217,7 +216,7 @@ class KalmanTimesync(GatedTimesync):
             # Clock jump: restart from the rejected run, which agrees with the new clock.
             pending = self._pending
             self._clear_filter()
-            self._resets += 1
+            self._restarted()
             for s in pending:
                 self._filter(s, self._excess_of(s.rtt_us))
         return RejectReason.HIGH_DEVIATION

@@ -176,7 +176,9 @@ class GatedTimesync(ABC):
     as HIGH_RTT and counted; any other exchange goes to :meth:`_accept`, which filters it
     or rejects it as HIGH_DEVIATION (:meth:`_deviated` counts that). The estimate is
     rebuilt after each exchange from the counts and :meth:`_state`. :meth:`reset` clears
-    the filter (:meth:`_restart`) and the consecutive counts and counts a reset."""
+    the filter (:meth:`_restart`), then :meth:`_restarted` clears the consecutive counts
+    and counts a reset; a filter that restarts itself on a clock jump calls
+    :meth:`_restarted` too."""
 
     def __init__(self, max_rtt_us: int) -> None:
         self._max_rtt_us = max_rtt_us
@@ -221,9 +223,7 @@ class GatedTimesync(ABC):
 
     def reset(self) -> None:
         self._restart()
-        self._high_rtt_count = 0
-        self._high_deviation_count = 0
-        self._resets += 1
+        self._restarted()
         self._estimate = replace(
             self._estimate, offset_us=0, skew_ppm=0.0, converged=False, resets=self._resets,
             samples=0, high_rtt_count=0, high_deviation_count=0,
@@ -234,6 +234,13 @@ class GatedTimesync(ABC):
         self._high_deviation_total += 1
         self._high_deviation_count += 1
         return self._high_deviation_count
+
+    def _restarted(self) -> None:
+        """The filter started again from nothing (a reset or a clock jump): the
+        consecutive rejections are over, and it counts as a reset."""
+        self._high_rtt_count = 0
+        self._high_deviation_count = 0
+        self._resets += 1
 
     def _accepted(self) -> None:
         """A sample went into the filter: the consecutive rejections are over."""
