@@ -341,6 +341,11 @@ def new(type_or_name: type | str, **fields: Any) -> Any:
     return layout.construct(**fields)
 
 
+def point(x: float, y: float, z: float) -> Any:
+    """A geometry_msgs/Point at ``(x, y, z)`` [m], each coordinate a Python float."""
+    return new("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
+
+
 def _check_base(path: str, base: str, bound: int, value: Any) -> None:
     if base in ("string", "wstring"):
         if not isinstance(value, str):

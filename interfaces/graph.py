@@ -10,7 +10,9 @@ A topic holds its publishers' QoS and its subscribers' separately (as the PX4 co
 does); where one end of a topic differs from the others it says so in ``note``. A
 monitor (the ground station's page) reads any topic with :data:`MONITOR_QOS`, which
 matches every writer. An action's internal topics and services are named after it, as
-ROS 2 does (:meth:`Action.internal`). Each module's health is ``/<module>/health``
+ROS 2 does (:meth:`Action.internal`). Each entry's ``interface()`` is its type's class
+(a message class, a :class:`~interfaces.api.ServiceType`, an
+:class:`~interfaces.api.ActionType`). Each module's health is ``/<module>/health``
 (:data:`HEALTH`), and the mission watches all of them.
 
 Nodes are named by their node names (``fcu_bridge``, ``navigator``...); names ending in
@@ -19,11 +21,13 @@ Nodes are named by their node names (``fcu_bridge``, ``navigator``...); names en
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Literal
 
+from interfaces.api import ActionType, ServiceType, get_action, get_message, get_service
 from interfaces.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -134,6 +138,10 @@ class Topic:
             raise ValueError(f"topic {self.name}: its subscribers cannot match its "
                              f"publishers: {reason}")
 
+    def interface(self) -> builtins.type:  # the field ``type`` shadows the builtin here
+        """The message class of :attr:`type`."""
+        return get_message(self.type)
+
 
 @dataclass(frozen=True)
 class Service:
@@ -149,6 +157,10 @@ class Service:
 
     def __post_init__(self) -> None:
         _check_name(self.name)
+
+    def interface(self) -> ServiceType:
+        """The service type of :attr:`type` (its request and response classes)."""
+        return get_service(self.type)
 
 
 #: An action's parts on the wire, as ROS 2 names them (``<action>/_action/<part>``).
@@ -169,6 +181,10 @@ class Action:
 
     def __post_init__(self) -> None:
         _check_name(self.name)
+
+    def interface(self) -> ActionType:
+        """The action type of :attr:`type` (goal, result, feedback and the composed types)."""
+        return get_action(self.type)
 
     def internal(self, part: str) -> str:
         """The name of one of the action's topics or services (``feedback``, ``status``,

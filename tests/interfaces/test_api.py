@@ -505,3 +505,10 @@ def test_serialize_without_the_check_gives_the_same_bytes_and_still_refuses_what
         interfaces.serialize(bad)
     with pytest.raises(MessageError, match="cannot serialize std_msgs/msg/String"):
         interfaces.serialize(bad, check=False)
+
+
+def test_point_is_a_geometry_point_of_python_floats() -> None:
+    p = interfaces.point(1, np.float32(2.5), np.float64(-3.25))
+    assert interfaces.type_name(p) == "geometry_msgs/msg/Point"
+    assert (p.x, p.y, p.z) == (1.0, 2.5, -3.25)
+    assert all(type(v) is float for v in (p.x, p.y, p.z))

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+import interfaces
 from interfaces import graph
 from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
 
@@ -186,3 +187,17 @@ def test_a_topic_whose_ends_cannot_match_is_refused() -> None:
         graph.Topic("/x/y", "std_msgs/msg/Empty", graph.MONITOR_QOS, graph.EVENTS_QOS, ("a",))
     with pytest.raises(ValueError, match="names in the contract are absolute"):
         graph.Service("x/y", "std_srvs/srv/SetBool", ("a",))
+
+
+def test_each_entrys_interface_is_the_class_of_its_type() -> None:
+    """``interface()`` is what every module used to look up by the entry's type name."""
+    for entry in graph.ENTRIES.values():
+        found = entry.interface()
+        if isinstance(entry, graph.Topic):
+            assert interfaces.type_name(found) == entry.type, entry.name
+        else:
+            assert found.name == entry.type, entry.name
+    navigate = graph.NAVIGATE.interface()
+    assert interfaces.type_name(navigate.Result) == "quadmission_interfaces/action/Navigate_Result"
+    assert interfaces.type_name(graph.POSE_AT.interface().Request) == (
+        "quadmission_interfaces/srv/PoseAt_Request")
