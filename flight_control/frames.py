@@ -99,6 +99,7 @@ __all__ = [
     "quat_to_xyzw",
     "quat_to_yaw",
     "quat_to_yaw_f",
+    "quat_to_yaw_roll_pitch",
     "variance_enu_to_ned",
     "variance_enu_to_ned_f",
     "variance_ned_to_enu",
@@ -660,3 +661,24 @@ def quat_enu_flu_to_ned_frd_f(q_enu_flu: Sequence[float]) -> Quat:
     """:func:`quat_enu_flu_to_ned_frd` of one attitude (not normalised)."""
     q = _quat_f(q_enu_flu, "q_enu_flu")
     return quat_multiply_f(quat_multiply_f(_Q_NED_ENU_F, q), _Q_FLU_FRD_F)
+
+
+# --- Euler angles of one quaternion in closed form ---------------------------------------
+#
+# Not one of the ``*_f`` pairs above: the same angles as :func:`quat_to_euler` in its
+# convention, by other formulas (no matrix, no normalising, ``asin`` for the pitch), so they
+# differ from it in the last bits. Precision landing reads the vehicle's attitude with it;
+# its flights were measured with these numbers, so it keeps them.
+
+
+def quat_to_yaw_roll_pitch(q: Sequence[float]) -> tuple[float, float, float]:
+    """``(yaw, roll, pitch)`` [rad] of one unit ``[w, x, y, z]``: :func:`quat_to_euler`'s
+    Z-Y-X angles (in another order), in closed form: yaw and roll ``atan2`` in [-pi, pi],
+    pitch ``asin`` of its sine clamped to [-1, 1]. ``q`` is not normalised: give a unit
+    one. Away from gimbal lock it agrees with :func:`quat_to_euler` to round-off; at it
+    (pitch = +-pi/2) roll and yaw share the heading differently."""
+    w, x, y, z = _quat_f(q, "q")
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    return yaw, roll, pitch

@@ -23,12 +23,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import interfaces
+from flight_control.frames import quat_to_yaw_roll_pitch
 from flight_control.health import health_report
 from flight_control.policy import Finish, Outcome
 from interfaces import graph
 from navigation.params import PrecisionLandParams
 from navigation.precision_land_policy import (
-    PRECISION_LAND_OUTCOMES,
     Move,
     PrecisionLandPolicy,
     Touchdown,
@@ -49,16 +49,22 @@ from runtime import (
 NODE_NAME = "precision_land"
 ACTION_NAME = graph.PRECISION_LAND.name
 
-PRECISION_LAND = interfaces.get_action(graph.PRECISION_LAND.type)
-REACH = interfaces.get_action(graph.REACH.type)
-LAND = interfaces.get_action(graph.LAND.type)
-POSE_AT = interfaces.get_service(graph.POSE_AT.type)
-SET_BOOL = interfaces.get_service(graph.SCANNER_ENABLE.type)
+PRECISION_LAND = graph.PRECISION_LAND.interface()
+REACH = graph.REACH.interface()
+LAND = graph.LAND.interface()
+POSE_AT = graph.POSE_AT.interface()
+SET_BOOL = graph.SCANNER_ENABLE.interface()
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 RESULT: Any = PRECISION_LAND.Result
 REACH_RESULT: Any = REACH.Result
-_RESULT_CODE = {o: getattr(RESULT, f"RESULT_{o.name}") for o in PRECISION_LAND_OUTCOMES
-                if o is not Outcome.SUCCEEDED} | {Outcome.SUCCEEDED: RESULT.RESULT_LANDED}
+#: How the policy ended (:data:`~navigation.precision_land_policy.PRECISION_LAND_OUTCOMES`)
+#: -> the PrecisionLand result code; ``success`` is :attr:`Finish.success`.
+PRECISION_LAND_CODES = {Outcome.SUCCEEDED: RESULT.RESULT_LANDED,
+                        Outcome.MARKER_NOT_FOUND: RESULT.RESULT_MARKER_NOT_FOUND,
+                        Outcome.MARKER_LOST: RESULT.RESULT_MARKER_LOST,
+                        Outcome.FLIGHT_ERROR: RESULT.RESULT_FLIGHT_ERROR,
+                        Outcome.TIMEOUT: RESULT.RESULT_TIMEOUT,
+                        Outcome.CANCELED: RESULT.RESULT_CANCELED}
 
 
 @dataclass(frozen=True)
@@ -67,21 +73,13 @@ class _Frame:
     marker: Measurement | None
 
 
-def _yaw_roll_pitch(q: Any) -> tuple[float, float, float]:
-    w, x, y, z = float(q.w), float(q.x), float(q.y), float(q.z)
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    return yaw, roll, pitch
-
-
 def _point(point_msg: Any) -> tuple[float, float, float]:
     return float(point_msg.x), float(point_msg.y), float(point_msg.z)
 
 
 def _pose(pose_msg: Any) -> Pose:
-    p = pose_msg.position
-    yaw, roll, pitch = _yaw_roll_pitch(pose_msg.orientation)
+    p, q = pose_msg.position, pose_msg.orientation
+    yaw, roll, pitch = quat_to_yaw_roll_pitch((float(q.w), float(q.x), float(q.y), float(q.z)))
     return Pose((float(p.x), float(p.y), float(p.z)), yaw, roll, pitch)
 
 
@@ -149,14 +147,13 @@ class PrecisionLandNode(Node):
             handle.canceled()
         else:
             handle.abort()
-        result = interfaces.new(RESULT, result=_RESULT_CODE[finish.outcome],
+        result = interfaces.new(RESULT, result=PRECISION_LAND_CODES[finish.outcome],
                                 success=finish.success, message=finish.message,
                                 lateral_error=policy.lateral_error)
         if position is not None:
             result.position = position
         elif (latest := self._latest()) is not None:
-            x, y, z = latest[0].position
-            result.position = interfaces.new("geometry_msgs/msg/Point", x=x, y=y, z=z)
+            result.position = interfaces.point(*latest[0].position)
         self.active = False
         self.watch_id = None
         self.last_outcome = finish.message
@@ -173,8 +170,7 @@ class PrecisionLandNode(Node):
     def _reach_goal(self, move: Move) -> Any:
         goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.params.reach_speed,
                               radius=self.params.reach_radius)
-        x, y, z = move.position
-        goal.target.position = interfaces.new("geometry_msgs/msg/Point", x=x, y=y, z=z)
+        goal.target.position = interfaces.point(*move.position)
         goal.target.orientation = interfaces.new("geometry_msgs/msg/Quaternion",
                                                  w=math.cos(move.yaw / 2.0),
                                                  z=math.sin(move.yaw / 2.0))
@@ -264,4 +260,5 @@ class PrecisionLandNode(Node):
                                               now.to_msg()))
 
 
-__all__ = ["ACTION_NAME", "NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]
+__all__ = ["ACTION_NAME", "NODE_NAME", "PRECISION_LAND_CODES", "PrecisionLandNode",
+           "PrecisionLandParams"]

@@ -412,6 +412,35 @@ def test_a_tilt_does_not_change_the_heading(roll: float, pitch: float, yaw: floa
     assert float(angle_diff(fr.quat_to_yaw_f(q), yaw)) < 1e-9
 
 
+@given(angle, pitch_ok, angle)
+def test_closed_form_euler_angles_are_quat_to_eulers(roll: float, pitch: float,
+                                                     yaw: float) -> None:
+    """Precision landing's closed form (:func:`quat_to_yaw_roll_pitch`) reads the angles
+    in :func:`quat_to_euler`'s convention, only ordered yaw, roll, pitch."""
+    q = fr.quat_from_euler(roll, pitch, yaw)
+    got = fr.quat_to_yaw_roll_pitch(q.tolist())
+    want_roll, want_pitch, want_yaw = fr.quat_to_euler(q).tolist()
+    # round-off in roll and yaw grows as 1 / cos(pitch) towards gimbal lock
+    bound = 1e-9 / max(math.cos(pitch), 1e-6)
+    assert float(angle_diff(got[0], want_yaw)) < bound
+    assert float(angle_diff(got[1], want_roll)) < bound
+    assert float(angle_diff(got[2], want_pitch)) < 1e-9
+    assert float(angle_diff(got[2], pitch)) < 1e-7
+
+
+@pytest.mark.parametrize(("rpy", "yaw_roll_pitch"), [
+    ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+    ((0.0, 0.0, 0.5), (0.5, 0.0, 0.0)),  # heading, counter-clockwise from above
+    ((0.3, 0.0, 0.0), (0.0, 0.3, 0.0)),  # roll about the body x axis
+    ((0.0, -0.2, 0.0), (0.0, 0.0, -0.2)),  # pitch about the body y axis
+    ((0.1, 0.2, 3.0), (3.0, 0.1, 0.2)),
+])
+def test_closed_form_euler_angles_of_known_attitudes(
+        rpy: tuple[float, float, float], yaw_roll_pitch: tuple[float, float, float]) -> None:
+    got = fr.quat_to_yaw_roll_pitch(fr.quat_from_euler(*rpy).tolist())
+    assert got == pytest.approx(yaw_roll_pitch, abs=1e-12)
+
+
 @given(st.floats(-1e6, 1e6, allow_nan=False))
 def test_wrap_pi_range_and_equivalence(a: float) -> None:
     w = fr.wrap_pi(a)
