@@ -40,7 +40,6 @@ from navigation.navigator_messages import (
     TURN,
     flight_goal,
     plan_request,
-    point,
 )
 from navigation.navigator_policy import (
     ActionState,
@@ -211,9 +210,8 @@ class NavigatorNode(Node):
                                 radius=goal.reach_radius or self.params.goal_radius,
                                 speed=goal.speed or self.params.cruise_speed, yaw=goal.yaw)
         end = await self._drive(policy, handle, feedback)
-        return self._finish(handle, NAVIGATE, NAVIGATE_CODES[end.outcome],
-                            end.outcome is Outcome.SUCCEEDED, end.message,
-                            position=point(*self._here()))
+        return self._finish(handle, NAVIGATE, NAVIGATE_CODES[end.outcome], end.success,
+                            end.message, position=interfaces.point(*self._here()))
 
     # -- takeoff ---------------------------------------------------------------------------
     async def _takeoff(self, handle: ServerGoalHandle) -> Any:
@@ -231,8 +229,8 @@ class NavigatorNode(Node):
         code = TAKEOFF_CODES[end.outcome]
         message = (f"at {altitude:.2f} m, {end.message}" if end.outcome is Outcome.SUCCEEDED
                    else end.message)
-        return self._finish(handle, TAKEOFF, code, end.outcome is Outcome.SUCCEEDED, message,
-                            position=point(*self._here()))
+        return self._finish(handle, TAKEOFF, code, end.success, message,
+                            position=interfaces.point(*self._here()))
 
     # -- explore ---------------------------------------------------------------------------
     def explore_waypoints(self, area: np.ndarray, altitude: float,
@@ -253,7 +251,7 @@ class NavigatorNode(Node):
             handle.publish_feedback(interfaces.new(
                 EXPLORE.Feedback, coverage=progress.coverage, elapsed=elapsed(),
                 markers_found=list(progress.markers_found),
-                next_waypoint=point(*progress.waypoint)))
+                next_waypoint=interfaces.point(*progress.waypoint)))
 
         policy = ExplorePolicy(
             self.follow, self.explore_tuning,
@@ -264,10 +262,9 @@ class NavigatorNode(Node):
             budget_ns=goal.time_budget.sec * 1_000_000_000 + goal.time_budget.nanosec)
         end = await self._drive(policy, handle, feedback)
         assert isinstance(end, ExploreFinish)
-        code, success = EXPLORE_CODES[end.outcome]
-        return self._finish(handle, EXPLORE, code, success, end.message,
-                            coverage=end.coverage, markers_found=list(end.markers_found),
-                            elapsed=elapsed())
+        return self._finish(handle, EXPLORE, EXPLORE_CODES[end.outcome], end.success,
+                            end.message, coverage=end.coverage,
+                            markers_found=list(end.markers_found), elapsed=elapsed())
 
     # -- health ----------------------------------------------------------------------------
     def _publish_health(self) -> None:
