@@ -585,7 +585,7 @@ class Driver:
             self._action_failed(f"takeoff: {reply.message}")
 
     def _explored(self, target_robot: int, reply: GoalDone) -> None:
-        if reply.outcome is Outcome.SUCCEEDED:
+        if reply.outcome is Outcome.MARKER_FOUND:
             self.mission.robot_found(target_robot)
         elif reply.outcome in (Outcome.COVERED, Outcome.TIME_BUDGET):
             self.mission.explore_ended(f"robot {target_robot} not seen: {reply.message}")

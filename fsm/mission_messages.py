@@ -1,8 +1,9 @@
 """The mission node's messages: the driver's goals as action goals, its snapshots, events
 and pictures as MissionState, MissionEvent and RobotFound, the operator's commands as
-orders, and the result codes that are not a plain success or failure. Pure conversion, no
-node (time stamps are :mod:`runtime.clock` values); :mod:`fsm.mission_node` sends and
-receives them."""
+orders, and the result codes that are not a plain success or failure. Conversion only, no
+node; not pure in ``tests/test_layers.py``'s sense (``PURE_MODULES``): its time stamps are
+:mod:`runtime.clock` values, so importing it loads runtime/. :mod:`fsm.mission_node` sends
+and receives them."""
 
 from __future__ import annotations
 
@@ -28,24 +29,24 @@ ACTIONS: dict[d.Action, graph.Action] = {
     d.Action.NAVIGATE: graph.NAVIGATE,
     d.Action.PRECISION_LAND: graph.PRECISION_LAND,
 }
-TAKEOFF = interfaces.get_action(graph.TAKEOFF.type)
-LAND = interfaces.get_action(graph.LAND.type)
-REACH = interfaces.get_action(graph.REACH.type)
-EXPLORE = interfaces.get_action(graph.EXPLORE.type)
-NAVIGATE = interfaces.get_action(graph.NAVIGATE.type)
-PRECISION_LAND = interfaces.get_action(graph.PRECISION_LAND.type)
+TAKEOFF = graph.TAKEOFF.interface()
+LAND = graph.LAND.interface()
+REACH = graph.REACH.interface()
+EXPLORE = graph.EXPLORE.interface()
+NAVIGATE = graph.NAVIGATE.interface()
+PRECISION_LAND = graph.PRECISION_LAND.interface()
 EXPLORE_RESULT: Any = EXPLORE.Result
 NAVIGATE_RESULT: Any = NAVIGATE.Result
 LAND_RESULT: Any = PRECISION_LAND.Result
-COMMAND: Any = interfaces.get_message(graph.MISSION_COMMAND.type)
-STATE: Any = interfaces.get_message(graph.MISSION_STATE.type)
-EVENT: Any = interfaces.get_message(graph.MISSION_EVENTS.type)
+COMMAND: Any = graph.MISSION_COMMAND.interface()
+STATE: Any = graph.MISSION_STATE.interface()
+EVENT: Any = graph.MISSION_EVENTS.interface()
 HEALTH: Any = interfaces.get_message(f"{QM}/msg/ModuleHealth")
 ROBOT = graph.MISSION_ROBOT.type
 
 #: Result codes that are not a plain success or failure, per action.
 OUTCOMES: dict[d.Action, dict[int, Outcome]] = {
-    d.Action.EXPLORE: {EXPLORE_RESULT.RESULT_MARKER_FOUND: Outcome.SUCCEEDED,
+    d.Action.EXPLORE: {EXPLORE_RESULT.RESULT_MARKER_FOUND: Outcome.MARKER_FOUND,
                        EXPLORE_RESULT.RESULT_COVERED: Outcome.COVERED,
                        EXPLORE_RESULT.RESULT_TIME_BUDGET: Outcome.TIME_BUDGET},
     d.Action.NAVIGATE: {NAVIGATE_RESULT.RESULT_NO_PATH: Outcome.NO_PATH},
@@ -76,13 +77,13 @@ def goal_msg(goal: d.Goal) -> Any:
     if isinstance(goal, d.PrecisionLandGoal):
         msg = interfaces.new(PRECISION_LAND.Goal, pad_id=goal.pad,
                              search_radius=goal.search_radius)
-        msg.pad_position = point(*goal.position, 0.0)
+        msg.pad_position = interfaces.point(*goal.position, 0.0)
     elif isinstance(goal, d.NavigateGoal):
         msg = interfaces.new(NAVIGATE.Goal, yaw=math.nan)
-        msg.goal = point(*goal.position)
+        msg.goal = interfaces.point(*goal.position)
     else:
         msg = interfaces.new(REACH.Goal, stop_at_target=True)
-        msg.target.position = point(*goal.position)
+        msg.target.position = interfaces.point(*goal.position)
     return msg
 
 
@@ -120,13 +121,9 @@ def robot_msg(picture: object, stamp: Any) -> Any:
     msg = interfaces.new(ROBOT, marker_id=picture.marker_id, position_std=math.nan,
                          sightings=0)
     msg.header = header(stamp)
-    msg.pose.position = point(picture.x, picture.y, 0.0)
+    msg.pose.position = interfaces.point(picture.x, picture.y, 0.0)
     msg.pose.orientation.w = 1.0
     return msg
-
-
-def point(x: float, y: float, z: float) -> Any:
-    return interfaces.new("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
 
 
 def header(stamp: Any) -> Any:

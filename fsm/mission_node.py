@@ -46,7 +46,7 @@ from runtime import (
 from runtime.action import ClientGoalHandle, GoalStatus
 
 NODE_NAME = "mission"
-SET_BOOL = interfaces.get_service(graph.SCANNER_ENABLE.type)
+SET_BOOL = graph.SCANNER_ENABLE.interface()
 HEALTH_TOPICS = tuple(t.name for t in graph.HEALTH.values())
 """The HealthReport topics the mission watches: every module's (the graph contract's)."""
 

@@ -27,9 +27,9 @@ from fsm.params import FIELD_SOURCE, OperatorParams, PadsParams, RobotsParams
 from interfaces import graph
 from runtime import Node, ParameterError
 
-PLAN_PATH = interfaces.get_service(graph.PLAN_PATH.type)
+PLAN_PATH = graph.PLAN_PATH.interface()
 _PLANNED: Any = PLAN_PATH.Response
-COMMAND: Any = interfaces.get_message(graph.MISSION_COMMAND.type)
+COMMAND: Any = graph.MISSION_COMMAND.interface()
 PHASE_IDLE = 0  # MissionState.PHASE_IDLE
 
 
@@ -168,8 +168,8 @@ class OperatorNode(Node):
         for i in range(n):
             for j in range(i + 1, n):
                 request = interfaces.new(PLAN_PATH.Request)
-                request.start = _point(*xy[i], z)
-                request.goal = _point(*xy[j], z)
+                request.start = interfaces.point(*xy[i], z)
+                request.goal = interfaces.point(*xy[j], z)
                 response = await self.plan_client.call_async(request)
                 if response.success:
                     value = float(response.length)
@@ -188,10 +188,6 @@ class OperatorNode(Node):
 
     def _battery(self) -> float:
         return math.nan if self._status is None else float(self._status.battery_remaining)
-
-
-def _point(x: float, y: float, z: float) -> Any:
-    return interfaces.new("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
 
 
 __all__ = ["Decision", "OperatorNode"]

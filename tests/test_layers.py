@@ -113,6 +113,7 @@ PURE_MODULES = (
     "perception.scan_policy", "navigation.astar", "navigation.voxel_graph",
     "navigation.precision_landing", "navigation.precision_land_policy",
     "navigation.navigator_policy", "fsm.mission_driver", "fsm.mission_machine",
+    "navigation.navigator_messages", "perception.messages",
 )
 
 

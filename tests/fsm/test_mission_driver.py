@@ -146,7 +146,7 @@ def exploring() -> Rig:
 def awaiting_sequence() -> Rig:
     rig = exploring()
     rig.feed(RobotSeen(19, "picture"))
-    rig.done()
+    rig.done(Outcome.MARKER_FOUND)
     rig.woke()
     assert rig.state == "mission.await_sequence"
     return rig
@@ -188,7 +188,7 @@ def test_the_contest_tick_by_tick_from_start_to_the_last_pad() -> None:
     # the target's pictures are kept from the start of the exploration, others ignored
     rig.feed(RobotSeen(19, "first"))
     rig.feed(RobotSeen(12, "another robot"))
-    out = rig.done(after_s=60.0)
+    out = rig.done(Outcome.MARKER_FOUND, after_s=60.0)
     assert rig.state == "mission.report_robot"
     assert rig.events(EventKind.ROBOT_FOUND)[0].marker_id == 19
     assert of(out, Sleep) == [Sleep(1.0, job=rig.job.job)]  # hover, collecting
@@ -385,9 +385,11 @@ def test_a_failed_takeoff_holds_with_the_reason() -> None:
 
 
 # -- exploration and the robot's pictures --------------------------------------------------
-def test_the_explore_budget_running_out_returns_home_and_lands() -> None:
+@pytest.mark.parametrize("ended", [Outcome.TIME_BUDGET, Outcome.COVERED])
+def test_the_explore_budget_running_out_returns_home_and_lands(ended: Outcome) -> None:
+    """The exploration ending without the robot, out of time or with the area covered."""
     rig = exploring()
-    out = rig.done(Outcome.TIME_BUDGET, "time budget used up", after_s=600.0)
+    out = rig.done(ended, "time budget used up", after_s=600.0)
     assert rig.state == "returning.navigate"
     stop = rig.driver.mission.stop
     assert stop is not None and stop.cause is ErrorCause.ROBOT_NOT_FOUND
@@ -459,7 +461,7 @@ def test_pictures_are_those_of_the_target_since_the_exploration_the_latest_kept(
     for picture in ("a", "b", "c"):
         rig.feed(RobotSeen(19, picture))
     rig.feed(RobotSeen(13, "other"))
-    rig.done()
+    rig.done(Outcome.MARKER_FOUND)
     rig.feed(RobotSeen(19, "d"))
     out = rig.woke()
     assert of(out, SendPictures)[0].pictures == ("b", "c", "d")  # max_pictures = 3
@@ -478,7 +480,7 @@ def test_a_new_exploration_forgets_the_pictures_of_the_previous_one() -> None:
 def test_without_a_picture_the_report_waits_then_sends_the_robot_id_and_position() -> None:
     rig = exploring()
     rig.feed(Position((6.0, 4.0, 1.5)))
-    rig.done()
+    rig.done(Outcome.MARKER_FOUND)
     assert rig.job == Sleep(PARAMS.report_hover_s, job=rig.job.job)
     polls = 0
     out = rig.woke()
@@ -499,7 +501,7 @@ def test_without_a_picture_the_report_waits_then_sends_the_robot_id_and_position
 def test_without_a_position_the_robot_is_sent_without_one() -> None:
     rig = exploring()
     rig.driver.position = None
-    rig.done()
+    rig.done(Outcome.MARKER_FOUND)
     out = rig.woke()
     while not of(out, SendPictures):
         out = rig.woke()
@@ -509,7 +511,7 @@ def test_without_a_position_the_robot_is_sent_without_one() -> None:
 
 def test_a_picture_during_the_wait_ends_it() -> None:
     rig = exploring()
-    rig.done()
+    rig.done(Outcome.MARKER_FOUND)
     rig.woke()
     rig.feed(RobotSeen(19, "late but there"))
     out = rig.woke()
@@ -541,13 +543,16 @@ def test_a_pad_without_a_path_is_skipped_with_the_reason() -> None:
     assert of(out, SendGoal)[0].goal == NavigateGoal((7.0, 10.5, 1.5))  # the next pad
 
 
-def test_a_pad_not_seen_is_searched_for_then_skipped_and_after_the_last_home() -> None:
+@pytest.mark.parametrize("not_seen", [Outcome.MARKER_NOT_FOUND, Outcome.MARKER_LOST])
+def test_a_pad_not_seen_is_searched_for_then_skipped_and_after_the_last_home(
+        not_seen: Outcome) -> None:
+    """A marker never seen and one lost in the descent are both "marker not found"."""
     rig = flying_pads(pads=(3,), points=(20,))
     rig.done()
-    out = rig.done(Outcome.MARKER_NOT_FOUND, "marker never seen")
+    out = rig.done(not_seen, "marker never seen")
     assert rig.state == "mission.pad.search"
     assert of(out, SendGoal)[0].goal == PrecisionLandGoal(3, (7.0, 10.5), 2.0)
-    out = rig.done(Outcome.MARKER_NOT_FOUND, "still not")
+    out = rig.done(not_seen, "still not")
     (skipped,) = rig.driver.mission.skipped
     assert skipped.pad == 3 and skipped.reason.endswith("of its known position: still not")
     snapshot = rig.driver.snapshot(rig.t_ns)
@@ -555,7 +560,7 @@ def test_a_pad_not_seen_is_searched_for_then_skipped_and_after_the_last_home() -
     assert rig.state == "returning.navigate"
     assert of(out, SendGoal)[0].goal == NavigateGoal((1.5, 1.5, 1.5))
     rig.done()
-    out = rig.done(Outcome.MARKER_NOT_FOUND, "start pad not seen")
+    out = rig.done(not_seen, "start pad not seen")
     assert rig.state == "landing_now"
     assert of(out, SendGoal) == [SendGoal(rig.job.job, Action.LAND, LandGoal(0.4, True))]
     rig.done()
@@ -734,9 +739,9 @@ def test_pause_cancels_and_resume_starts_the_action_again_in_a_new_job() -> None
     assert rig.state == "mission.explore"
     (again,) = of(out, SendGoal)
     assert again.goal == explore.goal and again.job != explore.job
-    assert rig.feed(GoalDone(explore.job, Outcome.SUCCEEDED, "")) == []  # the old one
+    assert rig.feed(GoalDone(explore.job, Outcome.MARKER_FOUND, "")) == []  # the old one
     assert rig.state == "mission.explore"
-    rig.done()
+    rig.done(Outcome.MARKER_FOUND)
     assert rig.state == "mission.report_robot"
 
 
