@@ -36,11 +36,12 @@ from flight_control.goal_checks import (
 from flight_control.params import FlightControlParams
 from flight_control.policy import Outcome
 from flight_control.setpoints import FloatArray
+from interfaces import graph
 
-TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
-LAND = interfaces.get_action("quadmission_interfaces/action/Land")
-REACH = interfaces.get_action("quadmission_interfaces/action/Reach")
-TURN = interfaces.get_action("quadmission_interfaces/action/Turn")
+TAKEOFF = graph.TAKEOFF.interface()
+LAND = graph.LAND.interface()
+REACH = graph.REACH.interface()
+TURN = graph.TURN.interface()
 
 
 class Flight(Vehicle, Protocol):
@@ -50,11 +51,6 @@ class Flight(Vehicle, Protocol):
     bounds: FieldBounds
     position: FloatArray | None  # m, map frame; None before the first odometry
     home: FloatArray | None  # m, the take-off point
-
-
-def point(p: FloatArray) -> Any:
-    return interfaces.new("geometry_msgs/msg/Point", x=float(p[0]), y=float(p[1]),
-                          z=float(p[2]))
 
 
 def xyz(p: FloatArray) -> str:
@@ -97,7 +93,7 @@ def takeoff(fc: Flight) -> MotionAction:
                               distance_left=f.distance_left)
 
     def finish(goal: Any, result: Any, obs: Observation) -> str:
-        result.position = point(obs.position)
+        result.position = interfaces.point(*obs.position)
         home = fc.home if fc.home is not None else obs.position
         return (f"at {fmt_m(float(obs.position[2] - home[2]))} m above the take-off point "
                 f"{xyz(home)}")
@@ -129,13 +125,13 @@ def reach(fc: Flight) -> MotionAction:
                             velocity=obs.velocity)
 
     def feedback(f: ReachFeedback) -> Any:
-        return interfaces.new(REACH.Feedback, position=point(f.position),
+        return interfaces.new(REACH.Feedback, position=interfaces.point(*f.position),
                               distance_left=f.distance_left)
 
     def finish(goal: Any, result: Any, obs: Observation) -> str:
         target = target_of(goal)
         error = float(np.linalg.norm(obs.position - target))
-        result.position = point(obs.position)
+        result.position = interfaces.point(*obs.position)
         result.distance_error = error
         radius = goal.radius or p.reach_radius
         verb = "reached" if error <= radius else "stopped"
@@ -192,7 +188,7 @@ def land(fc: Flight) -> MotionAction:
                               vertical_speed=f.vertical_speed)
 
     def finish(goal: Any, result: Any, obs: Observation) -> str:
-        result.position = point(obs.position)
+        result.position = interfaces.point(*obs.position)
         verb = "landed" if obs.landed else "stopped"
         return f"{verb} at {xyz(obs.position)}"
 
@@ -206,4 +202,4 @@ def motion_actions(fc: Flight) -> list[MotionAction]:
     return [takeoff(fc), reach(fc), turn(fc), land(fc)]
 
 
-__all__ = ["LAND", "REACH", "TAKEOFF", "TURN", "Flight", "motion_actions", "point", "xyz"]
+__all__ = ["LAND", "REACH", "TAKEOFF", "TURN", "Flight", "motion_actions", "xyz"]

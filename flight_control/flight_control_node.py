@@ -33,7 +33,7 @@ import interfaces
 from flight_control.behaviour_server import BehaviourServer, FcuCommands
 from flight_control.behaviours import OFFBOARD, CommandReply, Observation, Setpoint, arm_disarm
 from flight_control.command_protocol import CommandProtocol
-from flight_control.flight_actions import LAND, REACH, TAKEOFF, TURN, motion_actions, point, xyz
+from flight_control.flight_actions import LAND, REACH, TAKEOFF, TURN, motion_actions, xyz
 from flight_control.frames import quat_rotate_f, quat_to_yaw_f
 from flight_control.goal_checks import (
     NO_POSITION_MESSAGE,
@@ -48,8 +48,8 @@ from interfaces import graph
 from runtime import Node, ParameterError
 
 NODE_NAME = "flight_control"
-ARM = interfaces.get_service(graph.ARM.type)
-DISARM = interfaces.get_service(graph.DISARM.type)
+ARM = graph.ARM.interface()
+DISARM = graph.DISARM.interface()
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 MAP_FRAME = "map"
 
@@ -157,7 +157,7 @@ class FlightControlNode(Node):
             "quadmission_interfaces/msg/FcuSetpoint",
             header=interfaces.new("std_msgs/msg/Header", stamp=self.now().to_msg(),
                                   frame_id=MAP_FRAME),
-            position=point(sp.position),
+            position=interfaces.point(*sp.position),
             velocity=interfaces.new("geometry_msgs/msg/Vector3", x=float(sp.velocity[0]),
                                     y=float(sp.velocity[1]), z=float(sp.velocity[2])),
             acceleration=interfaces.new("geometry_msgs/msg/Vector3", x=math.nan, y=math.nan,

@@ -47,7 +47,7 @@ from sim.world import StopWhen, Trajectory
 if TYPE_CHECKING:
     from quadmission.scenarios.options import ScenarioOptions
 
-LAND = interfaces.get_action(graph.LAND.type)
+LAND = graph.LAND.interface()
 ARM_ATTEMPTS = 3
 READY_TIMEOUT_S = 20.0  # s for flight control to report ready
 CRUISE_ALTITUDE = 1.5  # m: the navigator's cruise altitude (config/navigator.yaml)

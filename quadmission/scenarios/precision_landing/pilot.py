@@ -14,8 +14,8 @@ import interfaces
 from interfaces import graph
 from quadmission.scenarios.pilot import Pilot
 
-TAKEOFF = interfaces.get_action(graph.TAKEOFF.type)
-PRECISION_LAND = interfaces.get_action(graph.PRECISION_LAND.type)
+TAKEOFF = graph.TAKEOFF.interface()
+PRECISION_LAND = graph.PRECISION_LAND.interface()
 ARM_ATTEMPTS = 3
 
 

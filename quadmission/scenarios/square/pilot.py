@@ -24,9 +24,9 @@ import interfaces
 from interfaces import graph
 from quadmission.scenarios.pilot import Pilot
 
-TAKEOFF = interfaces.get_action(graph.TAKEOFF.type)
-REACH = interfaces.get_action(graph.REACH.type)
-LAND = interfaces.get_action(graph.LAND.type)
+TAKEOFF = graph.TAKEOFF.interface()
+REACH = graph.REACH.interface()
+LAND = graph.LAND.interface()
 
 FloatArray = npt.NDArray[np.float64]
 

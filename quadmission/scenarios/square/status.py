@@ -33,7 +33,7 @@ class SquareStatusNode(Node):
                  **kwargs: Any) -> None:
         super().__init__("square_status", **kwargs)
         self.pilot = pilot
-        self._state = interfaces.get_message(graph.MISSION_STATE.type)
+        self._state = graph.MISSION_STATE.interface()
         self.state_pub, self.path_pub = (self.create_publisher(t.type, t.name, t.qos) for t in
                                          (graph.MISSION_STATE, graph.NAVIGATION_PATH))
         self._poses = [
