@@ -84,6 +84,14 @@ LANE_POINT_DETOUR_M = 5.0
 FACE_LEG_MIN_M = 0.3  # m, a waypoint nearer than this (horizontally) keeps the heading
 END_TOLERANCE_M = 1e-6  # m, a plan to a leg's end that ends farther away snapped it: not free
 
+#: How each policy can end (its subset of :class:`Outcome`); the node maps each to its
+#: action's result code (:mod:`navigation.navigator_messages`).
+NAVIGATE_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.NO_PATH, Outcome.FLIGHT_ERROR,
+                               Outcome.CANCELED})
+SURVEY_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.FLIGHT_ERROR, Outcome.CANCELED})
+EXPLORE_OUTCOMES = frozenset({Outcome.MARKER_FOUND, Outcome.COVERED, Outcome.TIME_BUDGET,
+                              Outcome.FLIGHT_ERROR, Outcome.CANCELED})
+
 
 def _pick(cls: Any, params: object) -> Any:
     return cls(**{f.name: getattr(params, f.name) for f in dataclasses.fields(cls)})
@@ -633,8 +641,8 @@ class _Follower(_Policy):
 
 
 class NavigatePolicy(_Follower):
-    """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading). Ends SUCCEEDED,
-    NO_PATH, FLIGHT_ERROR or CANCELED."""
+    """Fly to ``goal`` [m], then face ``yaw`` [rad] (NaN: any heading). Ends with one of
+    :data:`NAVIGATE_OUTCOMES`: SUCCEEDED, NO_PATH, FLIGHT_ERROR or CANCELED."""
 
     def __init__(self, follow: FollowTuning, goal: FloatArray, *, radius: float,
                  speed: float, yaw: float = math.nan) -> None:
@@ -655,8 +663,8 @@ class NavigatePolicy(_Follower):
 
 
 class SurveyPolicy(_Policy):
-    """``turns`` quarter turns to the left, where the vehicle is. Ends SUCCEEDED,
-    FLIGHT_ERROR or CANCELED."""
+    """``turns`` quarter turns to the left, where the vehicle is. Ends with one of
+    :data:`SURVEY_OUTCOMES`: SUCCEEDED, FLIGHT_ERROR or CANCELED."""
 
     def __init__(self, turns: int) -> None:
         self.turns = turns
@@ -675,7 +683,8 @@ class ExplorePolicy(_Follower):
     """Explore ``area`` ((M, 2) polygon [m]; empty: the field) at ``altitude`` [m] until a
     marker of ``wanted`` is seen (none: one sweep), or ``budget_ns`` (0: none) has passed
     since ``start_ns``; ``explore_paths``: arena -> start pad -> (N, 2) waypoints. Ends
-    (:class:`ExploreFinish`) MARKER_FOUND, COVERED, TIME_BUDGET, FLIGHT_ERROR or CANCELED."""
+    (:class:`ExploreFinish`) with one of :data:`EXPLORE_OUTCOMES`: MARKER_FOUND, COVERED,
+    TIME_BUDGET, FLIGHT_ERROR or CANCELED."""
 
     def __init__(self, follow: FollowTuning, explore: ExploreTuning, *, area: FloatArray,
                  altitude: float, field_min: FloatArray, field_max: FloatArray,
@@ -813,10 +822,13 @@ class ExplorePolicy(_Follower):
 
 
 __all__ = [
+    "EXPLORE_OUTCOMES",
     "LANE_DETOUR",
     "LANE_POINT_DETOUR_M",
     "LANE_STEP_M",
+    "NAVIGATE_OUTCOMES",
     "POLL_S",
+    "SURVEY_OUTCOMES",
     "ActionState",
     "Answer",
     "CancelAction",

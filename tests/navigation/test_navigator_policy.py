@@ -15,8 +15,11 @@ from flight_control.policy import Finish, Log, Outcome, PolicyError, Sleep
 from navigation.astar import path_length
 from navigation.coverage import lane_spacing
 from navigation.navigator_policy import (
+    EXPLORE_OUTCOMES,
     LANE_STEP_M,
+    NAVIGATE_OUTCOMES,
     POLL_S,
+    SURVEY_OUTCOMES,
     ActionState,
     CancelAction,
     Command,
@@ -51,6 +54,9 @@ EXPLORE = ExploreTuning(explore_sweeps=3, replace_blocked_lane_ends=False, cover
 Z = 1.5
 HERE = np.array([0.0, 0.0, Z])
 GOAL = np.array([4.0, 0.0, Z])
+#: The outcomes each policy names as its ends.
+ENDS = {NavigatePolicy: NAVIGATE_OUTCOMES, SurveyPolicy: SURVEY_OUTCOMES,
+        ExplorePolicy: EXPLORE_OUTCOMES}
 
 
 def p(*xy: tuple[float, float]) -> np.ndarray:
@@ -79,8 +85,11 @@ class Stepper:
         self.markers: dict[int, int] = {}
 
     def __call__(self, answer: Any = None) -> Command:
-        return self.policy.step(Inputs(self.now_ns, self.position.copy(), self.yaw, self.cancel,
-                                       dict(self.markers), answer))
+        command = self.policy.step(Inputs(self.now_ns, self.position.copy(), self.yaw,
+                                          self.cancel, dict(self.markers), answer))
+        if isinstance(command, Finish):  # every end a test walks to is one its policy names
+            assert command.outcome in ENDS[type(self.policy)], command
+        return command
 
     def wait(self, seconds: float) -> None:
         self.now_ns += round(seconds * 1e9)
