@@ -16,7 +16,8 @@ carries out. The policies that share this vocabulary:
   commands; its waits are the :class:`Sleep` here tagged with the job they belong to, and
   it reads each action's end, which crosses a message, as an :class:`Outcome`;
 - the ArUco scanner's (:mod:`perception.scan_policy`): queries at each image, with no
-  goal and so no outcome; it shares the time convention only.
+  goal and so no outcome, no wait and no log (its answers are values the node acts on);
+  it shares the time convention only.
 
 What is shared is how a goal ends (:class:`Outcome`, one set of words; each policy names
 the subset it ends with, next to its code), the end itself (:class:`Finish`), waiting
