@@ -24,11 +24,13 @@ _PLAN: Any = PLAN_PATH.Response
 #: Plan failures that block a leg (the policy re-plans around them).
 LEG_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH)
 _NAV: Any = NAVIGATE.Result
-#: How each action's policy ended -> its result code; ``success`` is :attr:`Finish.success`.
+#: How navigate's policy ended -> the Navigate result code (the node sends
+#: :attr:`~flight_control.policy.Finish.success` beside it, as for explore and takeoff).
 NAVIGATE_CODES = {Outcome.SUCCEEDED: _NAV.RESULT_OK, Outcome.NO_PATH: _NAV.RESULT_NO_PATH,
                   Outcome.FLIGHT_ERROR: _NAV.RESULT_FLIGHT_ERROR,
                   Outcome.CANCELED: _NAV.RESULT_CANCELED, Outcome.STOPPED: _NAV.RESULT_CANCELED}
 _EXP: Any = EXPLORE.Result
+#: How explore's policy ended -> the Explore result code.
 EXPLORE_CODES = {Outcome.MARKER_FOUND: _EXP.RESULT_MARKER_FOUND,
                  Outcome.COVERED: _EXP.RESULT_COVERED,
                  Outcome.TIME_BUDGET: _EXP.RESULT_TIME_BUDGET,

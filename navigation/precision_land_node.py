@@ -260,5 +260,4 @@ class PrecisionLandNode(Node):
                                               now.to_msg()))
 
 
-__all__ = ["ACTION_NAME", "NODE_NAME", "PRECISION_LAND_CODES", "PrecisionLandNode",
-           "PrecisionLandParams"]
+__all__ = ["ACTION_NAME", "NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]
