@@ -41,8 +41,7 @@ def detection_msg(marker: Marker, header: Any) -> Any:
         offset_x=float(marker.offset_body[0]), offset_y=float(marker.offset_body[1]),
         height=float(marker.height), side_length=float(marker.side_length),
         pose=interfaces.new("geometry_msgs/msg/Pose",
-                            position=interfaces.new("geometry_msgs/msg/Point", x=float(p[0]),
-                                                    y=float(p[1]), z=float(p[2])),
+                            position=interfaces.point(*p),
                             orientation=interfaces.new("geometry_msgs/msg/Quaternion", w=w,
                                                        x=x, y=y, z=z)),
         reprojection_error_px=float(marker.reprojection_error_px))

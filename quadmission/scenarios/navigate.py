@@ -122,8 +122,7 @@ class NavigatePilot(Pilot):
             s.phase = f"leg {k + 1}/{len(s.legs)} to pad {leg.pad}"
             goal = interfaces.new("geometry_msgs/msg/Point", x=leg.goal[0], y=leg.goal[1],
                                   z=leg.goal[2])
-            here = interfaces.new("geometry_msgs/msg/Point", x=float(self.position[0]),
-                                  y=float(self.position[1]), z=float(self.position[2]))
+            here = interfaces.point(*self.position)
             plan = await self.planner.call_async(
                 interfaces.new(PLAN_PATH.Request, start=here, goal=goal))
             leg.planned = path_points(plan.path) if plan.success else None

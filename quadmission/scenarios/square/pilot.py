@@ -112,8 +112,7 @@ class SquarePilot(Pilot):
         for i, corner in enumerate(self.corners):
             self.corner_index = i
             goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.speed)
-            goal.target.position = interfaces.new("geometry_msgs/msg/Point", x=float(corner[0]),
-                                                  y=float(corner[1]), z=float(corner[2]))
+            goal.target.position = interfaces.point(*corner)
             reply = await self.goal(graph.REACH, goal, self.goal_attempts)
             if not reply.success:
                 self._finish(False, f"reach corner {i + 1}/{len(self.corners)}: {reply.text}")
