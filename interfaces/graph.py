@@ -232,7 +232,7 @@ SIM_VISION_POSE = _topic("/sim/vision/pose", "geometry_msgs/msg/PoseWithCovarian
 # -- the bridge: the FCU on the companion's frames and clock ---------------------------------
 FCU_ODOMETRY = _topic("/fcu/odometry", "nav_msgs/msg/Odometry", _SENSOR, ("fcu_bridge",),
                       ("flight_control", "aruco_scanner", "precision_land", "navigator",
-                       "mission", "navigate_pilot"), _GCS)
+                       "mission", "navigate_pilot", "square_pilot"), _GCS)
 FCU_IMU = _topic("/fcu/imu", "sensor_msgs/msg/Imu", _SENSOR, ("fcu_bridge",),
                  note="built only while it has subscribers")
 FCU_BATTERY = _topic("/fcu/battery", "sensor_msgs/msg/BatteryState", _DEFAULT, ("fcu_bridge",))

@@ -65,6 +65,10 @@ class Node:
         self._remappings = remappings
         self.context = context
         self._guid_counter = 0
+        born_ns = context.loop.clock.now().nanoseconds
+        #: "" for a node made at the start; a node made later (a restart of a dead one)
+        #: gets its own identifiers: the same name would give the dead one's again
+        self.instance_tag = "" if born_ns == 0 else f"@{born_ns}"
         self._entities: list[Any] = []
         self._tasks: list[Task[Any]] = []
         self._sleeps: set[Handle] = set()  # pending sleeps, cancelled on destroy_node
@@ -106,7 +110,8 @@ class Node:
 
     def next_guid(self, kind: str, name: str) -> int:
         self._guid_counter += 1
-        return stable_guid(self.get_fully_qualified_name(), kind, name, str(self._guid_counter))
+        return stable_guid(self.get_fully_qualified_name() + self.instance_tag, kind, name,
+                           str(self._guid_counter))
 
     # entities ----------------------------------------------------------------------------
     def _keep(self, entity: T) -> T:

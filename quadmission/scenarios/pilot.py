@@ -53,6 +53,8 @@ class Pilot(Node):
                  **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.health_level: int | None = None  # flight control's, None before any report
+        #: flight control's last report's values (``armed``, ``streaming``... as text)
+        self.health_values: dict[str, str] = {}
         self.arm_client = arm_client(self)
         self.clients: dict[str, Any] = {
             entry.name: (ActionClient(self, entry.type, entry.name)
@@ -65,6 +67,14 @@ class Pilot(Node):
 
     def _on_health(self, msg: Any) -> None:
         self.health_level = int(msg.level)
+        self.health_values = {kv.key: kv.value for m in msg.modules for kv in m.values}
+
+    @property
+    def flying(self) -> bool:
+        """Flight control reports the vehicle armed and its setpoint stream on: a flight
+        is under way (a restarted script takes it over instead of taking off again)."""
+        v = self.health_values
+        return v.get("armed") == "true" and v.get("streaming") == "true"
 
     async def wait_ready(self, timeout_s: float) -> bool:
         """Until flight control reports OK (True) or ``timeout_s`` has passed (False)."""
