@@ -235,6 +235,10 @@ def _launch_faults(args: argparse.Namespace, description: Any) -> tuple[Any, lis
                                f"{' over ros2' if processes else ''}; quadmission sim "
                                "--scenario mission plays it")
         if processes and f.kind is FaultKind.NODE_STOP:
+            if f.duration_s is not None:
+                raise OptionsError(f"--fault {f.spec()}: over ros2 a killed process comes back "
+                                   "by its launch file's respawn (respawn: true, "
+                                   "respawn_delay: S), not a duration")
             name = f.text("name")
             named = {n.name: n.process_name() for n in description.nodes if n.name}
             groups = sorted({n.process_name() for n in description.nodes})

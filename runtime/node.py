@@ -248,6 +248,15 @@ class Node:
         if self in self.context.nodes:
             self.context.nodes.remove(self)
 
+    def respawn(self) -> Node:
+        """A fresh instance of this node in its context, as a restarted process makes it:
+        the same class, name, namespace, parameter overrides and remappings, and nothing
+        else of this one (its state comes back from topics and parameters). A subclass
+        whose constructor takes more than those overrides this."""
+        remappings = dict(self._remappings) | {"__node": self._name}
+        return type(self)(context=self.context, namespace=self._namespace,  # type: ignore[call-arg]
+                          parameter_overrides=dict(self._overrides), remappings=remappings)
+
     # parameters --------------------------------------------------------------------------
     def _where(self, name: str) -> str:
         return f"{self._name}.{name}"

@@ -134,10 +134,11 @@ KINDS: dict[FaultKind, KindSpec] = {
             "mission's target)"),), "no robot carries the marker any more"),
     FaultKind.OPERATOR_SILENT: KindSpec(Duration.NONE, (), "the operator answers nothing "
                                         "from then on (no landing sequence)"),
-    FaultKind.NODE_STOP: KindSpec(Duration.NONE, (
+    FaultKind.NODE_STOP: KindSpec(Duration.OPTIONAL, (
         Key("name", math.nan, "", 0.0, 0.0, "the node's name", required=True, text=True),),
         "a companion node stops (in process: no longer executed; under --transport ros2: "
-        "its process killed)"),
+        "its process killed); in process, DURATION s later a fresh instance of it starts "
+        "(its process restarted; under ros2 the launch file's respawn says it)"),
     FaultKind.ROBOT_ACROSS: KindSpec(Duration.NONE, (
         Key("robot", math.nan, "", 1.0, 1000.0, "the robot's marker (default: the robot "
             "nearest the crossing point)"),
