@@ -102,6 +102,9 @@ class PathFinderNode(Node):
         self.static_points = (load_map(self.params.map_file) if self.params.map_file
                               else np.empty((0, 3)))
         self.live_points = np.empty((0, 3))
+        #: what a mapping node that died had seen: the map only grows, so a smaller one is
+        #: a restarted mapping node's, which starts empty; its points are kept beside it
+        self.kept_points = np.empty((0, 3))
         self._graphs: dict[float, VoxelGraph] = {}  # by request clearance
         self._graph_version: dict[float, int] = {}  # the map version each graph is of
         self._counts: tuple[int, np.ndarray] | None = None  # (map version, points per cube)
@@ -124,12 +127,18 @@ class PathFinderNode(Node):
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
     def _on_map(self, msg: Any) -> None:
-        self.live_points = cloud_points(msg)
+        points = cloud_points(msg)
+        if len(points) < len(self.live_points):
+            self.get_logger().info(f"/map/points shrank from {len(self.live_points)} to "
+                                   f"{len(points)} points (mapping restarted): keeping the "
+                                   "old map's")
+            self.kept_points = np.vstack([self.kept_points, self.live_points])
+        self.live_points = points
         self.map_stamp = msg.header.stamp
         self.map_version += 1
 
     def map_points(self) -> np.ndarray:
-        return np.vstack([self.static_points, self.live_points])
+        return np.vstack([self.static_points, self.kept_points, self.live_points])
 
     def graph(self, clearance: float = 0.0) -> VoxelGraph | None:
         """The graph of the current map (None: no map yet). Raises GraphError."""
