@@ -28,6 +28,12 @@ node process answers such a repeat with its report at once: its reports are time
 simulated time, which advances at most one /clock step while the simulator waits, and
 the first ones can be lost while discovery matches the report's reader; without that
 answer the launch would wait for a report that never comes.
+
+A node process that died and is to be restarted (``respawn`` in the launch file) leaves
+the lockstep: the launcher writes ``left NAME`` on the simulator's stdin
+(``control_stdin``) and the simulator waits for it no more; the restarted process
+(``rejoin``) makes its nodes at the simulated time it finds on ``/clock``, and its first
+report, newer than any of the dead one's, takes it back.
 """
 
 from __future__ import annotations
