@@ -18,7 +18,6 @@ lockstep.
 
 from __future__ import annotations
 
-import math
 import os
 import signal
 import subprocess
@@ -130,6 +129,7 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr,
     pending = sorted(kills)
     killed: set[str] = set()  # killed by a fault, their death not yet taken in
     restarts: dict[str, float] = {}  # dead processes to start again, and when
+    gone: set[str] = set()  # killed by a fault, not to be restarted: the graph runs on
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(_PROJECT_ROOT), env.get("PYTHONPATH", "")) if p)
@@ -171,7 +171,7 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr,
                 return LaunchResult(EXIT_INTERRUPTED, "interrupted (Ctrl-C)")
             for name, proc in procs.items():
                 code = proc.poll()
-                if code is None or name in restarts:
+                if code is None or name in restarts or name in gone:
                     continue
                 was_killed = name in killed
                 killed.discard(name)
@@ -183,7 +183,7 @@ def run_launch(specs: list[ProcessSpec], *, log: TextIO = sys.stderr,
                     _tell(simulator, f"left {name}")
                     continue
                 if was_killed:  # a fault's kill without respawn: the graph runs on without it
-                    restarts[name] = math.inf
+                    gone.add(name)
                     say(decision.line)
                     continue
                 _stop_all(procs)
