@@ -81,11 +81,13 @@ class Reader(Protocol):
 
 
 class Transport(Protocol):
-    """Creates writers and readers for endpoints."""
+    """Creates writers and readers for endpoints, and lists the graph's topics."""
 
     def create_writer(self, endpoint: Endpoint) -> Writer: ...
 
     def create_reader(self, endpoint: Endpoint, on_sample: SampleCallback) -> Reader: ...
+
+    def topic_names_and_types(self) -> list[tuple[str, str]]: ...
 
 
 @dataclass(frozen=True)
