@@ -57,7 +57,8 @@ class TimeFollower(Protocol):
 
 @runtime_checkable
 class ParameterMirror(Protocol):
-    """A transport whose nodes show our nodes' parameters to foreign tools."""
+    """A transport whose nodes show our nodes' parameters to foreign tools (those declared
+    later too); mirroring a node a second time changes nothing."""
 
     def mirror_parameters(self, node: Node) -> None: ...
 
