@@ -24,11 +24,11 @@ EXEMPT: dict[str, tuple[str, ...] | None] = {
     # a plain rclpy program for users: it imports only rclpy and the built messages;
     # test_the_user_example_names_only_contract_topics checks its names instead
     "examples/user_node.py": None,
-    # tests may write the names they assert (91 literals in 26 files, mostly rigs standing
-    # where a node or a user's rclpy program would): a contract entry renamed by mistake
-    # then fails them, as it would break a user's program, where a test reading the name
-    # from the contract would follow the rename and pass. Tests that import a module's
-    # names use the contract's entries (graph.X.name), as that module does.
+    # tests may write the names they assert (most are rigs standing where a node or a
+    # user's rclpy program would): a contract entry renamed by mistake then fails them, as
+    # it would break a user's program, where a test reading the name from the contract
+    # would follow the rename and pass. Tests that took a module's alias of a name use
+    # the contract's entry (graph.X.name), as that module does.
     "tests/": None,
     # pages for people: they name topics in prose (docs/graph.md is generated from the
     # contract and checked by test_docs_graph_page_is_what_the_contract_gives_now)
