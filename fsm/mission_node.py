@@ -14,8 +14,9 @@ driver's inputs, carries out its commands and feeds the answers back; the decisi
 - ``/aruco_scanner/enable`` (SetBool): the scanner on in the states that read markers,
   off in the others (:func:`fsm.mission_table.scans`), asked on each change and again at
   each watchdog tick until the scanner has answered that it is so;
-- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each of
-  ``health_topics``; preflight also needs every action of ``action_servers``;
+- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each
+  module's health topic (``/<module>/health``, ``graph.HEALTH``: :data:`HEALTH_TOPICS`);
+  preflight also needs every action of the ``action_servers`` parameter;
   ``/fcu/odometry`` gives the position (a take-off resumed in the air, the robot's
   position when no picture came).
 

@@ -11,7 +11,10 @@ does); where one end of a topic differs from the others it says so in ``note``. 
 monitor (the ground station's page) reads any topic with :data:`MONITOR_QOS`, which
 matches every writer. An action's internal topics and services are named after it, as
 ROS 2 does (:meth:`Action.internal`). Each module's health is ``/<module>/health``
-(:data:`HEALTH`), and the mission watches all of them.
+(:data:`HEALTH`), and the mission watches all of them. A topic made once per instance of
+something (a launch's lockstep report, one per node process) is a :class:`TopicPattern`:
+its name and its ends' node names hold a ``{field}`` that :meth:`TopicPattern.name_for`
+fills.
 
 Nodes are named by their node names (``fcu_bridge``, ``navigator``...); names ending in
 ``_pilot`` or ``_status`` are the scenarios' mission scripts.
@@ -19,6 +22,7 @@ Nodes are named by their node names (``fcu_bridge``, ``navigator``...); names en
 
 from __future__ import annotations
 
+import string
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -61,6 +65,7 @@ __all__ = [
     "FLIGHT_CONTROL_ACTIONS",
     "HEALTH",
     "LAND",
+    "LAUNCH_CLOCK_REPORT",
     "MAP_POINTS",
     "MISSION_COMMAND",
     "MISSION_EVENTS",
@@ -89,6 +94,7 @@ __all__ = [
     "Row",
     "Service",
     "Topic",
+    "TopicPattern",
     "describe_qos",
     "health",
     "markdown",
@@ -133,6 +139,30 @@ class Topic:
         if reason is not None:
             raise ValueError(f"topic {self.name}: its subscribers cannot match its "
                              f"publishers: {reason}")
+
+
+@dataclass(frozen=True)
+class TopicPattern(Topic):
+    """Topics made once per instance of something: ``name`` (and node names at its ends)
+    hold one ``{field}``, e.g. ``/launch/{process}/clock``; :meth:`name_for` gives one
+    instance's name."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        fields = {f for _, f, _, _ in string.Formatter().parse(self.name) if f}
+        if len(fields) != 1:
+            raise ValueError(f"topic pattern {self.name}: expected one {{field}}, "
+                             f"found {sorted(fields)}")
+
+    @property
+    def field(self) -> str:
+        """The name of the pattern's one field (``process``)."""
+        return next(f for _, f, _, _ in string.Formatter().parse(self.name) if f)
+
+    def name_for(self, value: str) -> str:
+        """The topic of one instance: ``name_for("companion")`` is
+        ``/launch/companion/clock``."""
+        return self.name.format_map({self.field: value})
 
 
 @dataclass(frozen=True)
@@ -213,10 +243,11 @@ def _topic(name: str, type_name: str, qos: QoSProfile, publishers: tuple[str, ..
 _GCS = ("ground_station",)
 
 # -- the simulator's sensors (a real vehicle's drivers and VIO stand here) -------------------
-CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_WRITER_QOS, ("sim_sensors",),
-               subscriber_qos=CLOCK_QOS,
+CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_WRITER_QOS,
+               ("sim_sensors", "simulator_clock"), subscriber_qos=CLOCK_QOS,
                note="read by every process's time source under use_sim_time "
-                    "(runtime.processes.executor)")
+                    "(runtime.processes.executor); simulator_clock is a process launch's "
+                    "lockstep (runtime.processes.child)")
 CAMERA_DOWN_RAW = _topic("/camera/down/image_raw", "sensor_msgs/msg/Image", _SENSOR,
                          ("sim_sensors",), ("aruco_scanner", "frame_grabber"), _GCS,
                          note="rendered only while it has subscribers")
@@ -228,6 +259,14 @@ SIM_VISION_POSE = _topic("/sim/vision/pose", "geometry_msgs/msg/PoseWithCovarian
                          _SENSOR, ("sim_vision",),
                          ("vio", "latency_test", "offboard_harness"),
                          note="the visual odometry, map frame, sample time in the stamp")
+
+# -- a launch over processes ----------------------------------------------------------------
+LAUNCH_CLOCK_REPORT = TopicPattern(
+    "/launch/{process}/clock", CLOCK.type, CLOCK_WRITER_QOS, CLOCK_WRITER_QOS,
+    ("launch_{process}_clock",), ("simulator_clock",),
+    note="the lockstep: each node process reports the simulated time it has reached; the "
+         "simulator never runs more than max_lead_s ahead of the slowest "
+         "(runtime.processes.child)")
 
 # -- the bridge: the FCU on the companion's frames and clock ---------------------------------
 FCU_ODOMETRY = _topic("/fcu/odometry", "nav_msgs/msg/Odometry", _SENSOR, ("fcu_bridge",),
@@ -345,11 +384,11 @@ def _by_name(entries: tuple[Entry, ...]) -> Mapping[str, Entry]:
 
 
 TOPICS: tuple[Topic, ...] = (
-    CLOCK, CAMERA_DOWN_RAW, CAMERA_DOWN_INFO, CAMERA_DEPTH_POINTS, SIM_VISION_POSE,
-    FCU_ODOMETRY, FCU_IMU, FCU_BATTERY, FCU_STATUS, FCU_COMMAND_ACK, FCU_TIMESYNC_STATUS,
-    FCU_SETPOINT, FCU_COMMAND, FCU_VISION, PERCEPTION_MARKERS, PERCEPTION_ROBOT_FOUND,
-    SCANNER_ANNOTATED, MAP_POINTS, NAVIGATION_PATH, MISSION_STATE, MISSION_EVENTS,
-    MISSION_COMMAND, MISSION_ROBOT, SEQUENCE_PROPOSAL, *HEALTH.values())
+    CLOCK, LAUNCH_CLOCK_REPORT, CAMERA_DOWN_RAW, CAMERA_DOWN_INFO, CAMERA_DEPTH_POINTS,
+    SIM_VISION_POSE, FCU_ODOMETRY, FCU_IMU, FCU_BATTERY, FCU_STATUS, FCU_COMMAND_ACK,
+    FCU_TIMESYNC_STATUS, FCU_SETPOINT, FCU_COMMAND, FCU_VISION, PERCEPTION_MARKERS,
+    PERCEPTION_ROBOT_FOUND, SCANNER_ANNOTATED, MAP_POINTS, NAVIGATION_PATH, MISSION_STATE,
+    MISSION_EVENTS, MISSION_COMMAND, MISSION_ROBOT, SEQUENCE_PROPOSAL, *HEALTH.values())
 SERVICES: tuple[Service, ...] = (POSE_AT, ARM, DISARM, SCANNER_ENABLE, PLAN_PATH)
 ACTIONS: tuple[Action, ...] = (TAKEOFF, LAND, REACH, TURN, NAVIGATE, EXPLORE,
                                NAVIGATION_TAKEOFF, PRECISION_LAND)

@@ -50,7 +50,6 @@ from runtime import Node, ParameterError, Time
 
 NODE_NAME = "path_finder"
 PLAN_PATH = interfaces.get_service(graph.PLAN_PATH.type)
-PLAN_PATH_SERVICE = graph.PLAN_PATH.name
 MAP_FRAME = "map"
 _R: Any = PLAN_PATH.Response
 #: The one place where planning errors become result codes.
@@ -121,7 +120,7 @@ class PathFinderNode(Node):
         if self.params.use_live_map:
             live = graph.MAP_POINTS
             self.create_subscription(live.type, live.name, self._on_map, live.subscriber_qos)
-        self.create_service(PLAN_PATH, PLAN_PATH_SERVICE, self._plan_path)
+        self.create_service(PLAN_PATH, graph.PLAN_PATH.name, self._plan_path)
         health = graph.HEALTH[NODE_NAME]
         self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
@@ -226,5 +225,4 @@ class PathFinderNode(Node):
             self.now().to_msg()))
 
 
-__all__ = ["PLAN_PATH", "PLAN_PATH_SERVICE", "RESULT_OF", "PathFinderNode", "path_msg",
-           "path_points"]
+__all__ = ["PLAN_PATH", "RESULT_OF", "PathFinderNode", "path_msg", "path_points"]

@@ -47,7 +47,6 @@ from runtime import (
 )
 
 NODE_NAME = "precision_land"
-ACTION_NAME = graph.PRECISION_LAND.name
 
 PRECISION_LAND = interfaces.get_action(graph.PRECISION_LAND.type)
 REACH = interfaces.get_action(graph.REACH.type)
@@ -107,7 +106,7 @@ class PrecisionLandNode(Node):
         health = graph.HEALTH[NODE_NAME]
         self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
-        self.server = ActionServer(self, PRECISION_LAND, ACTION_NAME, self._execute,
+        self.server = ActionServer(self, PRECISION_LAND, graph.PRECISION_LAND.name, self._execute,
                                    goal_callback=self._check_goal)
 
     # -- inputs ----------------------------------------------------------------------------
@@ -264,4 +263,4 @@ class PrecisionLandNode(Node):
                                               now.to_msg()))
 
 
-__all__ = ["ACTION_NAME", "NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]
+__all__ = ["NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]

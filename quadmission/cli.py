@@ -200,8 +200,8 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
         raise OptionsError(
             f"{' '.join(asked)}: not available with a launch file with a simulator, in "
             "process; add the nodes to the launch "
-            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder' and "
-            "its 'topics', ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
+            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder', "
+            "ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 

@@ -268,7 +268,8 @@ class Node:
         descriptor: ParameterDescriptor | None = None,
     ) -> Parameter:
         """Declare a parameter; its value is the launch override, else the node's YAML,
-        else ``value``. Type comes from the descriptor or the default."""
+        else ``value``. Type comes from the descriptor or the default. The post-set
+        callbacks hear it (rclpy's do)."""
         if name in self._parameters:
             raise ParameterError("declared twice", key=self._where(name))
         descriptor = descriptor or ParameterDescriptor()
@@ -295,6 +296,8 @@ class Node:
         param = Parameter(name, kind, coerced)
         self._parameters[name] = param
         self._descriptors[name] = descriptor
+        for post in self._post_set_callbacks:
+            post([param])
         return param
 
     def declare_parameters(
@@ -359,8 +362,9 @@ class Node:
     def add_post_set_parameters_callback(
         self, callback: Callable[[list[Parameter]], None]
     ) -> None:
-        """Call ``callback([parameter])`` after each parameter is set, with its new value
-        (rclpy's): whoever set it, the node itself or a tool through the transport."""
+        """Call ``callback([parameter])`` after each parameter is declared or set, with its
+        new value (rclpy's): whoever set it, the node itself or a tool through the
+        transport."""
         self._post_set_callbacks.append(callback)
 
     def set_parameters(self, parameters: Sequence[Parameter]) -> list[SetParametersResult]:

@@ -16,16 +16,16 @@ from typing import Any
 
 from flight_control.clients import ARM_RETRY_S, arm, arm_client
 from flight_control.goal_checks import NO_POSITION_MESSAGE
+from flight_control.health import MODULE_HEALTH
 from interfaces import graph
 from runtime import ActionClient, Node
 
-HEALTH_OK = 0  # ModuleHealth.LEVEL_OK
 READY_POLL_S = 0.1  # s between looks at the health report while waiting for ready
 
 
 @dataclass(frozen=True)
 class GoalReply:
-    """How a goal ended: accepted or not, its result's success, message and message."""
+    """How a goal ended: accepted or not, and its result (success and message)."""
 
     accepted: bool
     result: Any  # the action's Result
@@ -79,7 +79,7 @@ class Pilot(Node):
     async def wait_ready(self, timeout_s: float) -> bool:
         """Until flight control reports OK (True) or ``timeout_s`` has passed (False)."""
         waited = 0.0
-        while self.health_level != HEALTH_OK:
+        while self.health_level != MODULE_HEALTH.LEVEL_OK:
             if waited >= timeout_s:
                 return False
             await self.sleep(READY_POLL_S)
@@ -111,4 +111,4 @@ class Pilot(Node):
         return reply
 
 
-__all__ = ["HEALTH_OK", "GoalReply", "Pilot"]
+__all__ = ["GoalReply", "Pilot"]

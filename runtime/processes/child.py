@@ -51,18 +51,11 @@ from typing import Any
 
 import interfaces
 from interfaces import graph
-from interfaces.qos import QoSProfile
 from runtime.clock import Time
 from runtime.executor import DeterministicExecutor
 from runtime.launch import LaunchDescription, NodeSpec, SimulatorSpec, finished, launch
 from runtime.node import Node
-from runtime.processes.executor import (
-    CLOCK_TOPIC,
-    CLOCK_TYPE,
-    ClockedExecutor,
-    ParameterMirror,
-    ProcessTransport,
-)
+from runtime.processes.executor import ClockedExecutor, ParameterMirror, ProcessTransport
 from runtime.processes.respawn import DEFAULT_RESPAWN_MAX, RespawnPolicy
 
 __all__ = ["TRANSPORTS", "ProcessSpec", "main"]
@@ -72,14 +65,8 @@ EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 EXIT_STALLED = 5  # a node process sent no report for stall_timeout_s while it was waited for
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
-_ACK_QOS = QoSProfile(depth=1)  # the lockstep reports: reliable, volatile, keep last 1
 _WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
 _CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
-
-
-def ack_topic(process: str) -> str:
-    """Where node process ``process`` reports the simulated time it has reached."""
-    return f"/launch/{process}/clock"
 
 
 @dataclass(frozen=True)
@@ -171,10 +158,11 @@ def _start_nodes(spec: ProcessSpec, ex: ClockedExecutor,
             transport.mirror_parameters(node)
     if spec.use_sim_time:
         reporter = Node(f"launch_{_node_name(spec.name)}_clock", context=ex.context)
-        ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _ACK_QOS)
+        reports = graph.LAUNCH_CLOCK_REPORT
+        ack = reporter.create_publisher(reports.type, reports.name_for(spec.name), reports.qos)
 
         def report() -> None:
-            ack.publish(interfaces.new(CLOCK_TYPE, clock=reporter.now().to_msg()))
+            ack.publish(interfaces.new(reports.type, clock=reporter.now().to_msg()))
 
         reporter.create_timer(spec.ack_period_s, report)
         # a /clock sent again is the simulator waiting for us: report at once. The timer
@@ -202,7 +190,7 @@ def run_nodes(spec: ProcessSpec) -> int:
     if not ex.wait_for_clock(spec.startup_timeout_s):
         if ex.stopping:
             return 0
-        _say(spec.name, f"no {CLOCK_TOPIC} after {spec.startup_timeout_s:g} s; is the "
+        _say(spec.name, f"no {graph.CLOCK.name} after {spec.startup_timeout_s:g} s; is the "
                         "simulator running on this domain?")
         return EXIT_NO_CLOCK
     if rejoin:
@@ -263,7 +251,7 @@ def run_simulator(spec: ProcessSpec) -> int:
         for node in list(ex.context.nodes):
             transport.mirror_parameters(node)
     clock_node = Node("simulator_clock", context=ex.context)
-    clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, graph.CLOCK.qos)
+    clock_pub = clock_node.create_publisher(graph.CLOCK.type, graph.CLOCK.name, graph.CLOCK.qos)
     reached = dict.fromkeys(spec.followers, 0)
     left: dict[str, int] = {}  # followers whose process died (to be restarted): last report
     control = _ControlPipe(sys.stdin.fileno()) if spec.control_stdin else None
@@ -290,16 +278,17 @@ def run_simulator(spec: ProcessSpec) -> int:
                 _say(spec.name, f"{who} left the lockstep at {ex.now().nanoseconds / 1e9:.3f} "
                                 "s simulated (its process died); waiting for it no more")
 
+    reports = graph.LAUNCH_CLOCK_REPORT
     for follower in spec.followers:
-        clock_node.create_subscription(CLOCK_TYPE, ack_topic(follower), on_ack(follower),
-                                       _ACK_QOS)
+        clock_node.create_subscription(reports.type, reports.name_for(follower),
+                                       on_ack(follower), reports.subscriber_qos)
     max_lead_ns = round(spec.max_lead_s * 1e9)
     deadline = time.monotonic() + spec.startup_timeout_s
     while clock_pub.get_subscription_count() < spec.clock_subscribers and not stop["now"]:
         if time.monotonic() > deadline:
             _say(spec.name, f"only {clock_pub.get_subscription_count()} of "
                             f"{spec.clock_subscribers} node processes subscribed to "
-                            f"{CLOCK_TOPIC} after {spec.startup_timeout_s:g} s")
+                            f"{graph.CLOCK.name} after {spec.startup_timeout_s:g} s")
             return EXIT_NO_PEERS
         transport.wait(0.05)
         transport.dispatch()
@@ -311,7 +300,7 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     def tick(t_ns: int) -> None:
         sec, nsec = divmod(t_ns, 1_000_000_000)
-        clock = interfaces.new(CLOCK_TYPE, clock=interfaces.new(
+        clock = interfaces.new(graph.CLOCK.type, clock=interfaces.new(
             "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec))
         clock_pub.publish(clock)
         transport.dispatch()

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 import interfaces
+from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
-from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
+from navigation.path_finder_node import PLAN_PATH, PathFinderNode, path_points
 from runtime import DeterministicExecutor, Node, ParameterError, Time, qos_profile_default
 
 R = PLAN_PATH.Response
@@ -24,7 +25,7 @@ class Client(Node):
         super().__init__("test_client", **kwargs)
         self.map_pub = self.create_publisher("sensor_msgs/msg/PointCloud2", "/map/points",
                                              qos_profile_default)
-        self.plan = self.create_client(PLAN_PATH, PLAN_PATH_SERVICE)
+        self.plan = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
         self.health: Any = None
         self.create_subscription("quadmission_interfaces/msg/HealthReport",
                                  "/path_finder/health", self._on_health, qos_profile_default)
