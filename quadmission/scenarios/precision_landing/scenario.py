@@ -27,9 +27,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from navigation.mapping_node import MappingNode
+from navigation.path_finder_node import PathFinderNode
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
-from quadmission.assembly.companion import start_companion
+from quadmission.assembly.companion import planning_bounds, start_companion
 from quadmission.assembly.faults import check_faults, judge_flight
 from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.reports.report import write_report
@@ -50,7 +52,7 @@ from sim.geometry import segment_distance
 from sim.render import SceneRenderer
 from sim.scene import place_quadrotor, quad_state
 from sim.sensors import SimSensorsNode, sensor_parts
-from sim.world import StopWhen
+from sim.world import StopWhen, Trajectory
 
 if TYPE_CHECKING:
     from quadmission.scenarios.options import ScenarioOptions
@@ -95,13 +97,17 @@ class _Episode:
     result_code: int | None
     duration_s: float | None
     faults: list[dict[str, Any]] | None = None
+    trajectory: Trajectory | None = None  # ground truth, for evaluation
 
 
 def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, seed: int,
                 landing_overrides: dict[str, Any] | None = None,
-                faults: Sequence[Fault] = ()) -> _Episode:
+                faults: Sequence[Fault] = (), mapped: bool = False,
+                search_radius: float = 0.0) -> _Episode:
     """One precision landing on ``pad`` from ``start_xy`` through the companion stack,
-    with ``faults`` (times from the episode's start)."""
+    with ``faults`` (times from the episode's start). ``mapped``: the mapping node and the
+    path finder fly too (the depth camera on), so the pad search checks its legs on the
+    live map, as in a mission; ``search_radius`` [m]: the goal's (0: the node's)."""
     sitl = build_sitl(arena, seed=seed)
     scene = sitl.scene
     z = PAD_THICKNESS + scene.quad.leg_height
@@ -112,12 +118,17 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
     scanner = ArucoScannerNode(context=context, parameter_overrides={"mode": "pads"})
     lander = PrecisionLandNode(context=context, parameter_overrides=landing_overrides or {})
     pilot = LandingPilot(pad.id, (pad.center[0], pad.center[1], 0.0), altitude=SEARCH_ALTITUDE,
-                         context=context)
-    for node in (sensors, scanner, lander, pilot):
+                         search_radius=search_radius, context=context)
+    mapping = [MappingNode(context=context),
+               PathFinderNode(context=context, parameter_overrides=planning_bounds(arena))
+               ] if mapped else []
+    for node in (sensors, scanner, lander, pilot, *mapping):
         sitl.executor.add_node(node)
     with SceneRenderer(scene.model) as renderer:
-        parts = [p for p in sensor_parts(sensors, renderer, scene, seed=seed)
-                 if p.name == "down_camera"]
+        cameras = ("down_camera", "depth_camera") if mapped else ("down_camera",)
+        depth_hz = mapping[0].params.process_rate_hz if mapped else None  # as it fuses
+        parts = [p for p in sensor_parts(sensors, renderer, scene, seed=seed, depth_hz=depth_hz)
+                 if p.name in cameras]
         sitl.extra_parts.extend(parts)
         failsafes = FcuFailsafes(sitl.firmware)
         if faults:  # an episode without faults keeps the parts it had
@@ -148,7 +159,8 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
     return _Episode(pad, start_xy,
                     (float(state.position[0]), float(state.position[1])) if landed else None,
                     None if crash is None else crash.reason, landed, message,
-                    None if outcome is None else outcome.result_code, duration, judged)
+                    None if outcome is None else outcome.result_code, duration, judged,
+                    result.trajectory)
 
 
 def _r(value: float | None, digits: int = 4) -> float | None:
