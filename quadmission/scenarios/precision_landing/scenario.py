@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -119,14 +119,16 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
     lander = PrecisionLandNode(context=context, parameter_overrides=landing_overrides or {})
     pilot = LandingPilot(pad.id, (pad.center[0], pad.center[1], 0.0), altitude=SEARCH_ALTITUDE,
                          search_radius=search_radius, context=context)
-    mapping = [MappingNode(context=context),
-               PathFinderNode(context=context, parameter_overrides=planning_bounds(arena))
-               ] if mapped else []
-    for node in (sensors, scanner, lander, pilot, *mapping):
-        sitl.executor.add_node(node)
+    mapping = MappingNode(context=context) if mapped else None
+    finder = (PathFinderNode(context=context, parameter_overrides=planning_bounds(arena))
+              if mapped else None)
+    for node in (sensors, scanner, lander, pilot, mapping, finder):
+        if node is not None:
+            sitl.executor.add_node(node)
     with SceneRenderer(scene.model) as renderer:
         cameras = ("down_camera", "depth_camera") if mapped else ("down_camera",)
-        depth_hz = mapping[0].params.process_rate_hz if mapped else None  # as it fuses
+        # the depth camera renders only as often as the mapping node fuses clouds
+        depth_hz = None if mapping is None else mapping.params.process_rate_hz
         parts = [p for p in sensor_parts(sensors, renderer, scene, seed=seed, depth_hz=depth_hz)
                  if p.name in cameras]
         sitl.extra_parts.extend(parts)
@@ -136,9 +138,14 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
             sitl.extra_parts.append(failsafes)
         result = sitl.run(EPISODE_LIMIT_S, stop=StopWhen(lambda: pilot.done))
         crash = result.crash
+        flights = [result.trajectory]
         if result.crash is None and pilot.done:
             result = sitl.run(SETTLE_S)
             crash = result.crash
+            flights.append(result.trajectory)
+    # the whole episode's truth: each run records its own
+    truth = Trajectory(*(np.concatenate([getattr(t, f.name) for t in flights])
+                         for f in fields(Trajectory)))
     state = quad_state(scene.data, scene.index)
     outcome = pilot.outcome
     landed = crash is None and outcome is not None and outcome.success
@@ -154,13 +161,12 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
         ended_s = result.sim_time_s if outcome is None or outcome.land_ended_ns is None \
             else outcome.land_ended_ns / 1e9
         skipped = [] if landed else [(ended_s, pad.id, message)]
-        judged = judge_flight(faults, failsafes, result.trajectory, arena,
+        judged = judge_flight(faults, failsafes, truth, arena,
                               scene.quad.leg_height, crash, skipped)
     return _Episode(pad, start_xy,
                     (float(state.position[0]), float(state.position[1])) if landed else None,
                     None if crash is None else crash.reason, landed, message,
-                    None if outcome is None else outcome.result_code, duration, judged,
-                    result.trajectory)
+                    None if outcome is None else outcome.result_code, duration, judged, truth)
 
 
 def _r(value: float | None, digits: int = 4) -> float | None:
