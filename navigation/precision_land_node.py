@@ -36,7 +36,6 @@ from navigation.path_finder_node import PLAN_PATH, path_points
 from navigation.precision_land_policy import (
     PRECISION_LAND_OUTCOMES,
     CheckLeg,
-    LegKind,
     Move,
     PlanAnswer,
     PrecisionLandPolicy,
@@ -70,7 +69,6 @@ _PLAN: Any = PLAN_PATH.Response
 #: Plan failures that say a search point is not to be flown to; any other says nothing.
 SEARCH_POINT_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH,
                          _PLAN.RESULT_OUT_OF_BOUNDS)
-SHOWN_LEGS = (LegKind.SKIP, LegKind.VIA)  # logged
 _RESULT_CODE = {o: getattr(RESULT, f"RESULT_{o.name}") for o in PRECISION_LAND_OUTCOMES
                 if o is not Outcome.SUCCEEDED} | {Outcome.SUCCEEDED: RESULT.RESULT_LANDED}
 
@@ -248,9 +246,8 @@ class PrecisionLandNode(Node):
                 while isinstance(command, CheckLeg):
                     command = policy.leg_planned(command, *(await self._plan_leg(command)),
                                                  self.now().nanoseconds)
-                    if (leg := policy.last_leg) is not None and leg.kind in SHOWN_LEGS:
-                        self.get_logger().info(f"precision_land: search point "
-                                               f"{leg.kind.value}: {leg.why}")
+                    if policy.leg_note:
+                        self.get_logger().info(f"precision_land: {policy.leg_note}")
                 self._feedback(handle, policy, frame.marker is not None)
                 if isinstance(command, Finish):
                     return self._result(handle, command, policy)

@@ -151,6 +151,14 @@ class PrecisionLandPolicy:
         return self.lander.reference_altitude
 
     @property
+    def leg_note(self) -> str:
+        """What the last search leg check changed, for the log ("" when nothing)."""
+        leg = self.last_leg
+        if leg is None or leg.kind not in (LegKind.SKIP, LegKind.VIA):
+            return ""
+        return f"search point {leg.kind.value}: {leg.why}"
+
+    @property
     def lateral_error(self) -> float:
         """m, the last (filtered, truncated) horizontal error; NaN before any."""
         error = self.lander.error

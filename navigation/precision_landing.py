@@ -25,7 +25,9 @@ On top of the seed, selectable (:class:`LandingStrategy`) so the two can be comp
   and the error is taken from the latest position to it. ``SEED`` adds the error to the
   latest pose and filters the error itself, as the paper does;
 - phases after PX4's precision landing: SEARCH (a square spiral around the pad's known
-  position while the marker is not in view, with a timeout), ALIGN, DESCEND, FINAL_LAND,
+  position while the marker is not in view, with a timeout; the policy checks each leg on
+  the map, :mod:`navigation.search_legs`, and may skip a point:
+  :meth:`PrecisionLander.skip_search_point`), ALIGN, DESCEND, FINAL_LAND,
   and a retry count when the marker is lost during the descent (climb back, search);
 - outlier rejection: a pad estimate that jumps more than ``outlier_distance`` from the
   filtered one, or a PnP height that disagrees with the vehicle's, is dropped (a flipped
