@@ -326,7 +326,7 @@ SCANNER_ENABLE = Service("/aruco_scanner/enable", "std_srvs/srv/SetBool", ("aruc
 MAP_POINTS = _topic("/map/points", "sensor_msgs/msg/PointCloud2", _DEFAULT, ("mapping",),
                     ("path_finder",), _GCS)
 PLAN_PATH = Service("/navigation/plan_path", f"{QM}/srv/PlanPath", ("path_finder",),
-                    ("navigator", "operator", "navigate_pilot"))
+                    ("navigator", "precision_land", "operator", "navigate_pilot"))
 NAVIGATE = Action("/navigation/navigate", f"{QM}/action/Navigate", ("navigator",),
                   ("mission", "navigate_pilot"),
                   note="the ground station reads its feedback topic (the planned path)")
