@@ -125,9 +125,10 @@ RECOVERS: dict[Handler, ErrorCause] = {Handler.FCU: ErrorCause.OFFBOARD_LOST}
 its own: the FCU's offboard-loss failsafe, ended, is the mission's ``offboard_lost``."""
 
 
-def expectation(fault: Fault) -> Expectation:
+def expectation(fault: Fault, *, mission: bool = True) -> Expectation:
     """The expected reaction to ``fault`` (``node_stop``: by the node's name); one that
-    ends, with a transient cause, recovers."""
+    ends, with a transient cause, recovers when the mission flies (``mission``; a flight
+    without it, the navigate or precision-landing scenario, has no one to resume)."""
     if fault.kind is FaultKind.NODE_STOP:
         name = fault.text("name")
         if name not in NODE_STOP_EXPECTED:
@@ -138,7 +139,8 @@ def expectation(fault: Fault) -> Expectation:
     else:
         base = EXPECTED[fault.kind]
     cause = base.cause if base.cause is not None else RECOVERS.get(base.handler)
-    if math.isfinite(fault.end_s) and cause is not None and ERROR_POLICY[cause].transient:
+    if mission and math.isfinite(fault.end_s) and cause is not None \
+            and ERROR_POLICY[cause].transient:
         return Expectation(Handler.MISSION, cause, recovers=True)
     return base
 
@@ -266,13 +268,14 @@ def _recovered(fault: Fault, expected: Expectation,
 def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
                 fcu_failsafes: Sequence[float], end: EndState,
                 skipped: Sequence[tuple[float, int, str]] = (),
-                completed: bool = False) -> dict[str, Any]:
+                completed: bool = False, mission: bool = True) -> dict[str, Any]:
     """One fault's entry of the report: ``{kind, at_s, expected, observed, reaction_s,
     end_state, handled}``. ``events``: the mission's (time, event); ``fcu_failsafes``:
     the times the FCU entered a failsafe; ``skipped``: the pads the mission skipped
     (time, pad, reason); ``completed``: the mission completed with every landing inside
-    (what a fault that ends, with a transient cause, must still allow)."""
-    expected = expectation(fault)
+    (what a fault that ends, with a transient cause, must still allow); ``mission``: the
+    mission flew (:func:`expectation`)."""
+    expected = expectation(fault, mission=mission)
     observed, reaction_s = "none", None
     handled = end is not EndState.CRASHED
     if expected.recovers:

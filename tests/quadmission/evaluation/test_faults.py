@@ -142,3 +142,11 @@ def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None
     assert mapping["expected"] == "module_silent: HOLD" and mapping["handled"]
     with pytest.raises(FaultExpectationError, match=r"node 'mission'.*flight_control"):
         expectation(parse_fault("node_stop@30,name=mission"))
+
+
+def test_without_the_mission_a_fault_that_ends_is_judged_as_before() -> None:
+    """navigate, precision landing, square: no one to resume, the FCU's failsafe alone."""
+    fault = parse_fault("link_lost@25:3")
+    assert expectation(fault, mission=False).reaction == "FAILSAFE"
+    judged = judge_fault(fault, [], [26.0], EndState.HOLDING, mission=False)
+    assert judged["expected"] == "FAILSAFE" and judged["handled"]
