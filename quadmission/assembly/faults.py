@@ -156,4 +156,5 @@ def judge_flight(faults: Sequence[Fault], failsafes: FcuFailsafes, truth: Trajec
     """The report's ``faults`` of a flight without the mission (navigate, precision
     landing): the FCU's failsafes, the pads not landed on and the end state only."""
     ended = end_state(truth, arena, resting_height_m, crash)
-    return [judge_fault(f, [], failsafes.entered_s, ended, skipped) for f in faults]
+    return [judge_fault(f, [], failsafes.entered_s, ended, skipped, mission=False)
+            for f in faults]
