@@ -55,23 +55,41 @@ def bench_parser(doc: str | None, out: str) -> argparse.ArgumentParser:
     return parser
 
 
-def result_json(result: Mapping[str, Any], indent: int = 2) -> str:
+def result_json(result: Mapping[str, Any], indent: int = 2, *, allow_nan: bool = True) -> str:
     """The result as the JSON file holds it: ``indent`` spaces, a final newline.
 
-    A NaN or an infinity is not JSON: it is written as Python's json module writes it (so a
-    long run's figures are not lost) and named in a warning on stderr.
+    A NaN or an infinity is not JSON. With ``allow_nan`` it is written as Python's json
+    module writes it (so a long run's figures are not lost) and named in a warning on
+    stderr; without, :class:`ValueError` names where it is and nothing is written (a script
+    whose results must be strict JSON, read by other tools, sets it False).
     """
     try:
         return json.dumps(result, indent=indent, allow_nan=False) + "\n"
     except ValueError:
-        progress("warning: the result holds NaN or infinity (not valid JSON); written as is")
+        where = ", ".join(_not_json(result, "result")) or "the result"
+        if not allow_nan:
+            raise ValueError(f"{where}: NaN or infinity, not JSON; not written") from None
+        progress(f"warning: {where}: NaN or infinity (not valid JSON); written as is")
         return json.dumps(result, indent=indent) + "\n"
 
 
-def write_result(out: Path | None, result: Mapping[str, Any], indent: int = 2) -> str:
+def _not_json(value: Any, where: str) -> list[str]:
+    """Where in ``value`` a float is NaN or infinite (``result["runs"][3]["rtf"]``)."""
+    if isinstance(value, float):
+        return [] if math.isfinite(value) else [where]
+    if isinstance(value, Mapping):
+        return [w for k, v in value.items() for w in _not_json(v, f"{where}[{k!r}]")]
+    if isinstance(value, (list, tuple)):
+        return [w for i, v in enumerate(value) for w in _not_json(v, f"{where}[{i}]")]
+    return []
+
+
+def write_result(out: Path | None, result: Mapping[str, Any], indent: int = 2, *,
+                 allow_nan: bool = True) -> str:
     """Write ``result`` to ``out`` (its folder made when missing); nothing when ``out`` is
-    None. Returns the JSON text, for a script that also prints it."""
-    text = result_json(result, indent)
+    None. Returns the JSON text, for a script that also prints it. ``allow_nan``: as
+    :func:`result_json` (False: a NaN leaves ``out`` as it was)."""
+    text = result_json(result, indent, allow_nan=allow_nan)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text, encoding="utf-8")

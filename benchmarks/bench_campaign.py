@@ -116,7 +116,7 @@ def main() -> None:
         "rounds": rounds,
         "host": host(load_1min=load_before, load_1min_after=load_1min()),
     }
-    write_result(args.out, result)
+    write_result(args.out, result, allow_nan=False)
     print(json.dumps({k: v for k, v in result.items() if k != "rounds"}))
 
 

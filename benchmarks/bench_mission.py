@@ -65,7 +65,7 @@ def main() -> None:
     seeds = seed_list(args.seeds)
     if args.merge:
         merged = merge([json.loads(part.read_text()) for part in args.merge], len(seeds))
-        write_result(args.out, merged)
+        write_result(args.out, merged, allow_nan=False)
         print(json.dumps({k: v for k, v in merged.items() if k != "runs"}))
         return
     runs: list[dict[str, Any]] = []
@@ -75,7 +75,7 @@ def main() -> None:
             runs.append(future.result())
             print(f"seed {seed:2d}: {runs[-1]['verdict']}", flush=True)
             # written after each run: a stopped run keeps these
-            write_result(args.out, summary(runs, len(seeds), args.jobs))
+            write_result(args.out, summary(runs, len(seeds), args.jobs), allow_nan=False)
     print(json.dumps({k: v for k, v in summary(runs, len(seeds), args.jobs).items()
                       if k != "runs"}))
 

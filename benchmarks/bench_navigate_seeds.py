@@ -76,7 +76,7 @@ def main() -> None:
         "min_clearance_m": min((r["min_clearance_m"] for r in runs
                                 if r["min_clearance_m"] is not None), default=None),
     }
-    write_result(args.out, result)
+    write_result(args.out, result, allow_nan=False)
     print(json.dumps({k: v for k, v in result.items() if k != "runs"}))
 
 

@@ -29,27 +29,28 @@ from typing import Any
 import cv2
 from _harness import bench_parser, write_result
 
+from interfaces import graph
 from perception.aruco import ArucoScanner, Preprocess, ScanMode, ScannerSettings, to_grey
-from perception.aruco_scanner_node import MARKERS_TOPIC, ArucoScannerNode
+from perception.aruco_scanner_node import ArucoScannerNode
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default, qos_profile_sensor_data
 from sim.arena import Lighting, default_arena
 from sim.camera_model import CameraSensorModel, camera_model_params
 from sim.render import CameraIntrinsics, SceneRenderer
 from sim.scene import place_quadrotor, set_robot_poses
-from sim.sensors import DOWN_FRAME, DOWN_IMAGE_TOPIC, DOWN_INFO_TOPIC, camera_info_msg, image_msg
+from sim.sensors import DOWN_FRAME, camera_info_msg, image_msg
 from sim.world import Scene
 
 
 class _Feeder(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("feeder", **kwargs)
-        self.image = self.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
+        self.image = self.create_publisher("sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name,
                                            qos_profile_sensor_data)
-        self.info = self.create_publisher("sensor_msgs/msg/CameraInfo", DOWN_INFO_TOPIC,
+        self.info = self.create_publisher("sensor_msgs/msg/CameraInfo", graph.CAMERA_DOWN_INFO.name,
                                           qos_profile_sensor_data)
         self.received = 0
         self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
-                                 MARKERS_TOPIC, self._on, qos_profile_default)
+                                 graph.PERCEPTION_MARKERS.name, self._on, qos_profile_default)
 
     def _on(self, _msg: Any) -> None:
         self.received += 1

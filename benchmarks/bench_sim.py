@@ -24,12 +24,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco
 from _harness import bench_parser, write_result
 
+from interfaces import graph
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from sim.arena import default_arena
 from sim.mjcf import DOWN_CAMERA, QUAD_GEOM_GROUP
 from sim.quadrotor import MotorModel, QuadrotorParams
 from sim.render import CameraIntrinsics, SceneRenderer
-from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
+from sim.sensors import DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world
 
 
@@ -70,7 +71,7 @@ def bench_camera(width: int, height: int, frames: int) -> dict[str, Any]:
     node = SimSensorsNode(context=ex.context)
     received: list[int] = []
     Node("viewer", context=ex.context).create_subscription(
-        "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, lambda m: received.append(m.width),
+        "sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name, lambda m: received.append(m.width),
         qos_profile_sensor_data)
     with SceneRenderer(scene.model) as renderer:
         camera = DownCamera(node, renderer, CameraIntrinsics.from_camera(quad.down_camera),

@@ -61,6 +61,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 import interfaces
+from interfaces import graph
 from quadmission.scenarios import ScenarioOptions
 from quadmission.scenarios.square.fit import fit_square
 from quadmission.scenarios.square.flight import fly_square
@@ -73,7 +74,7 @@ from sim.markers import detect_markers
 from sim.quadrotor import MotorModel, QuadrotorParams
 from sim.render import CameraIntrinsics, SceneRenderer
 from sim.scene import place_quadrotor
-from sim.sensors import DOWN_IMAGE_TOPIC, DownCamera, SimSensorsNode
+from sim.sensors import DownCamera, SimSensorsNode
 from sim.world import Actuation, ConstantThrust, RobotMotion, Scene, run_world, world_params
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -154,7 +155,7 @@ def _add_down_camera(sitl: Sitl, renderers: list[SceneRenderer], seen: list[int]
     context = sitl.executor.context
     node = SimSensorsNode(context=context)
     viewer = Node("bench_viewer", context=context)
-    viewer.create_subscription("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
+    viewer.create_subscription("sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name,
                                lambda msg: seen.append(msg.width), qos_profile_sensor_data)
     for n in (node, viewer):
         sitl.executor.add_node(n)

@@ -65,7 +65,7 @@ def main() -> None:
         "worst_xy_rmse_m": max((r["xy_rmse_m"] for r in landed), default=None),
         "all_within_target": all(r["xy_rmse_m"] < TARGET_XY_RMSE for r in landed),
     }
-    write_result(args.out, result)
+    write_result(args.out, result, allow_nan=False)
     print(json.dumps({k: v for k, v in result.items() if k != "runs"}))
 
 

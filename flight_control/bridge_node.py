@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -45,26 +44,14 @@ from flight_control.timesync import ReportedOffset, make_estimator
 from interfaces import graph
 from interfaces.px4 import FMU_IN, FMU_OUT, ArmingState
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
-from interfaces.px4.topics import XRCE_SESSION
-from runtime import (
-    DurabilityPolicy,
-    Node,
-    QoSProfile,
-    ReliabilityPolicy,
-    Subscription,
-    Time,
+from interfaces.px4.topics import (
+    FCU_BRIDGE_ACK_QOS,
+    FCU_BRIDGE_LAZY_QOS,
+    FCU_BRIDGE_QOS,
+    XRCE_SESSION,
 )
+from runtime import Node, Subscription, Time
 
-#: Seed 000's QoS for the bridge topics, both directions: best effort, keep last 1,
-#: transient local (a late subscriber still gets the last sample). It matches PX4's
-#: uXRCE-DDS publishers and subscribers.
-BRIDGE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
-                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: A lazy subscription's: as BRIDGE_QOS, without the writer's last sample on joining.
-LAZY_QOS = replace(BRIDGE_QOS, durability=DurabilityPolicy.VOLATILE)
-#: Acks are events, not state: a queue deep enough that two in one instant both arrive.
-ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
-                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 class FcuBridgeNode(Node):
     """See the module docstring; parameters in ``config/fcu_bridge.yaml``."""
@@ -85,7 +72,7 @@ class FcuBridgeNode(Node):
         self._synced_offset_us = 0  # the offset while last converged, for the restart's log
         self._status = interfaces.new("quadmission_interfaces/msg/FcuStatus",
                                       battery_remaining=math.nan)
-        px4_out = BRIDGE_QOS
+        px4_out = FCU_BRIDGE_QOS
         # companion side
         self.odometry_pub = self._publisher(graph.FCU_ODOMETRY)
         self.imu_pub = self._publisher(graph.FCU_IMU)
@@ -105,7 +92,7 @@ class FcuBridgeNode(Node):
         self.vision_out = self._fmu_publisher("vehicle_visual_odometry")
         request, reply = XRCE_SESSION["request"], XRCE_SESSION["reply"]
         if self.reported is None:
-            self.timesync_out = self.create_publisher(request.type, request.name, BRIDGE_QOS)
+            self.timesync_out = self.create_publisher(request.type, request.name, FCU_BRIDGE_QOS)
             self.create_subscription(reply.type, reply.name, self._on_timesync, px4_out)
             self.create_timer(1.0 / self.params.timesync_rate_hz, self._send_timesync)
         else:
@@ -113,7 +100,7 @@ class FcuBridgeNode(Node):
             self.create_subscription(status.type, status.name, self._on_timesync_status,
                                      px4_out)
         ack = FMU_OUT["vehicle_command_ack"]
-        self.create_subscription(ack.type, ack.name, self._on_ack, ACK_QOS)
+        self.create_subscription(ack.type, ack.name, self._on_ack, FCU_BRIDGE_ACK_QOS)
         for short, handler in (
             ("vehicle_odometry", self._on_odometry),
             ("battery_status", self._on_battery),
@@ -133,7 +120,7 @@ class FcuBridgeNode(Node):
 
     def _fmu_publisher(self, short: str) -> Any:
         topic = FMU_IN[short]
-        return self.create_publisher(topic.type, topic.name, BRIDGE_QOS)
+        return self.create_publisher(topic.type, topic.name, FCU_BRIDGE_QOS)
 
     # -- clocks ---------------------------------------------------------------------------
     @property
@@ -212,7 +199,7 @@ class FcuBridgeNode(Node):
             topic = FMU_OUT["sensor_combined"]
             # volatile: a sample the agent kept from an earlier reader would be stale
             self._imu_in = self.create_subscription(topic.type, topic.name, self._on_imu,
-                                                    LAZY_QOS)
+                                                    FCU_BRIDGE_LAZY_QOS)
         elif not wanted and self._imu_in is not None:
             self.destroy_subscription(self._imu_in)
             self._imu_in = None

@@ -84,9 +84,13 @@ def takeoff(fc: Flight) -> MotionAction:
     def start(goal: Any, obs: Observation, sp: Setpoint) -> Takeoff:
         fc.home = takeoff_home(fc)
         assert fc.home is not None
+        state = fc.vehicle_state()
+        # in the air (a mission resumed after the FCU's failsafe flew): in place
+        airborne = state is not None and state.armed and not state.landed
         return Takeoff(sp, obs.position, fc.home, altitude=goal.altitude or p.takeoff_altitude,
                        speed=goal.speed or p.takeoff_speed, radius=p.reach_radius,
-                       tuning=p.reach_tuning(), mode_wait_s=p.mode_wait_s)
+                       tuning=p.reach_tuning(), mode_wait_s=p.mode_wait_s,
+                       over=obs.position if airborne else None)
 
     def feedback(f: TakeoffFeedback) -> Any:
         return interfaces.new(TAKEOFF.Feedback, altitude=f.altitude,

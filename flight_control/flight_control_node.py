@@ -101,6 +101,14 @@ class FlightControlNode(Node):
         if was_armed and not msg.armed and not self._arming and self.setpoint is not None:
             self.get_logger().info("FCU disarmed: setpoint stream stopped")
             self.setpoint = None
+        elif (self.setpoint is None and msg.armed and not msg.landed and not self._arming
+              and self.position is not None and (msg.offboard or msg.offboard_signal_lost)):
+            # flying in offboard with nobody streaming: this node was restarted (its process
+            # respawned). Hold where the vehicle is, so the FCU has its signal back within
+            # its failsafe hold and returns to OFFBOARD instead of landing
+            self.setpoint = Setpoint.hold(self.position, self.yaw)
+            self.get_logger().info(f"FCU flying in offboard, no stream: holding at "
+                                   f"{xyz(self.position)}")
 
     def _on_odometry(self, msg: Any) -> None:
         # 100 Hz: keep the numbers; yaw and map-frame velocity are worked out when asked

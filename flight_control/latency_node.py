@@ -34,15 +34,12 @@ from flight_control.px4_messages import vision_odometry
 from flight_control.timesync import make_estimator
 from interfaces import graph
 from interfaces.px4.timesync import TimesyncEstimator, TimesyncExchange, ns_to_us
-from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
-from interfaces.qos import QoSProfile, ReliabilityPolicy
+from interfaces.px4.topics import FMU_IN, FMU_OUT, LATENCY_TEST_PUBLISHER_QOS, XRCE_SESSION
 from runtime import Node, qos_profile_px4_subscriber
 
 TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 __all__ = ["LatencyTestNode"]
-
-_PX4_IN = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)  # keep last 1
 
 
 
@@ -104,9 +101,10 @@ class LatencyTestNode(Node):
                              FMU_IN["vehicle_visual_odometry"])
         self.create_subscription(imu.type, imu.name, self._on_imu, qos_profile_px4_subscriber)
         self.create_subscription(pose.type, pose.name, self._on_pose, pose.subscriber_qos)
-        self.vision_pub = self.create_publisher(vision.type, vision.name, _PX4_IN)
+        self.vision_pub = self.create_publisher(vision.type, vision.name,
+                                                LATENCY_TEST_PUBLISHER_QOS)
         self.timesync_pub = self.create_publisher(TIMESYNC_MSG, XRCE_SESSION["request"].name,
-                                                  _PX4_IN)
+                                                  LATENCY_TEST_PUBLISHER_QOS)
         self.create_timer(1.0 / rate_hz, self._send_vision)
         # exchanges half a stream period after the vision samples, so that neither waits
         # behind the other on the serial line (it is FIFO) every time they coincide

@@ -14,18 +14,16 @@ from interfaces import graph
 from runtime import Node, Parameter
 from runtime.parameters import SetParametersResult
 
-VISION_IN = graph.SIM_VISION_POSE
-VISION_OUT = graph.FCU_VISION
-
 
 class VioNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("vio", **kwargs)
         self.enabled = bool(self.declare_parameter("enabled", True).value)
         self.forwarded = 0
-        self.pub = self.create_publisher(VISION_OUT.type, VISION_OUT.name, VISION_OUT.qos)
-        self.create_subscription(VISION_IN.type, VISION_IN.name, self._forward,
-                                 VISION_IN.subscriber_qos)
+        out, measured = graph.FCU_VISION, graph.SIM_VISION_POSE
+        self.pub = self.create_publisher(out.type, out.name, out.qos)
+        self.create_subscription(measured.type, measured.name, self._forward,
+                                 measured.subscriber_qos)
         self.add_on_set_parameters_callback(self._on_set)
 
     def _on_set(self, params: list[Parameter]) -> SetParametersResult:

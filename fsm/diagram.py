@@ -10,6 +10,7 @@ from __future__ import annotations
 from fsm.mission_table import (
     ERROR_POLICY,
     INITIAL,
+    RECOVERABLE,
     RESUMABLE,
     SEPARATOR,
     STATES,
@@ -57,16 +58,24 @@ def mermaid() -> str:
         lines.append(f"    {ids[t.source]} --> {ids[t.dest]} : {label}")
     for top in sorted({name.split(SEPARATOR)[0] for name in RESUMABLE}):
         lines.append(f"    paused --> {ids[top]} : resume (to the state paused in)")
+    for top in sorted({name.split(SEPARATOR)[0] for name in RECOVERABLE}):
+        lines.append(f"    held --> {ids[top]} : resume (clear for the settle time: to the "
+                     "state held in)")
     for name, spec in walk():
         if spec.terminal:
             lines.append(f"    {ids[name]} --> [*]")
     return "\n".join(lines) + "\n"
 
 
+TRANSIENT = "HOLD, then RESUME"  # once clear; else the permanent one (docs/mission.md)
+
+
 def policy_table() -> str:
-    """The error policy as a markdown table: cause, reaction, why."""
-    rows = ["| cause | reaction | why |", "|---|---|---|"]
-    rows += [f"| `{cause.value}` | {policy.reaction.name} | {policy.why} |"
+    """The error policy as a markdown table: cause, the permanent reaction, the transient
+    one (a cause that can clear), why."""
+    rows = ["| cause | permanent reaction | transient reaction | why |", "|---|---|---|---|"]
+    rows += [f"| `{cause.value}` | {policy.reaction.name} | "
+             f"{TRANSIENT if policy.transient else '-'} | {policy.why} |"
              for cause, policy in ERROR_POLICY.items()]
     return "\n".join(rows) + "\n"
 
@@ -76,6 +85,7 @@ def transition_table() -> str:
     rows = [f"{t.source:24s} --{t.trigger}{' ' + t.label if t.label else ''}--> {t.dest}"
             for t in TRANSITIONS]
     rows += [f"{'paused':24s} --resume--> {dest}" for dest in RESUMABLE]
+    rows += [f"{'held':24s} --resume--> {dest}" for dest in RECOVERABLE]
     return "\n".join(rows) + "\n"
 
 

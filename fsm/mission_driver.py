@@ -24,9 +24,20 @@ The other inputs: the operator's commands (:class:`OperatorCommand`,
 start of the exploration to the end of the report: the exploration stops past the robot,
 which may be out of view by then); :class:`VehicleStatus`, :class:`Position`,
 :class:`Health`, and the watchdog's :class:`Tick`: in flight, the alerts (localisation
-lost, module error or silent, battery low or critical) go through the error policy
-(:data:`~fsm.mission_table.ERROR_POLICY`), and ``mission.await_sequence`` ends after
-``sequence_timeout_s``.
+lost, the FCU link or its offboard control lost, module error or silent, battery low or
+critical) go through the error policy (:data:`~fsm.mission_table.ERROR_POLICY`), and
+``mission.await_sequence`` ends after ``sequence_timeout_s``.
+
+Recovery: a transient cause holds the mission in ``held`` (the machine's). Each tick
+there, the cause is clear when no alert is present; clear for ``recovery_settle_s``, the
+mission resumes where it was: the FCU out of offboard (its failsafe flew), offboard is
+asked for first with a take-off goal that climbs where the vehicle is (flight control's
+takeoff asks PX4 for offboard once the setpoints reach it), then the state held in
+restarts its action from where the vehicle is (a new plan). Not clear after
+``recovery_deadline_s``, the permanent reaction; the FCU's failsafe landed the vehicle
+meanwhile (but for a take-off state, which begins on the ground), the mission ends in
+``landed``. The time held is not the interrupted state's: the explore budget and the
+sequence timeout count only the time spent in the state (``held_s`` adds the holds).
 
 The report of the robot: hover ``report_hover_s``, then wait up to ``picture_timeout_s``
 more for a first picture, then :class:`SendPictures` (without any, a :class:`NoPicture`:
@@ -56,10 +67,9 @@ from fsm.mission_machine import (
     MissionConfig,
     MissionEvent,
     Severity,
-    Stop,
     Vec2,
 )
-from fsm.mission_table import ErrorCause, Phase, phase_of
+from fsm.mission_table import TAKEOFFS, ErrorCause, Phase, phase_of
 
 Vec3 = tuple[float, float, float]
 PROBE_PERIOD_S = 0.1  # preflight: the modules are asked again this often
@@ -86,6 +96,9 @@ class DriverParams:
     land_speed: float
     arm_attempts: int
     failsafe_cause_wait_s: float
+    status_timeout_s: float
+    recovery_settle_s: float
+    recovery_deadline_s: float
 
 
 class Action(Enum):
@@ -178,6 +191,8 @@ class VehicleStatus:
     battery_warning: int  # px4 BatteryStatus.WARNING_*
     battery_remaining: float  # 0..1, NaN when unknown
     failsafe: bool = False  # the FCU's own failsafe action is active (it flies, not us)
+    offboard: bool = False  # the FCU is in offboard mode (our setpoints fly the vehicle)
+    offboard_signal_lost: bool = False  # the FCU misses our setpoint stream (COM_OF_LOSS_T)
 
 
 @dataclass(frozen=True)
@@ -344,6 +359,7 @@ class Driver:
         self.events: list[tuple[float, MissionEvent]] = []
         self.pictures: list[object] = []  # of the target robot, while collecting
         self.status: VehicleStatus | None = None
+        self._status_ns: int | None = None  # when the latest status came
         self.position: Vec3 | None = None
         self.modules = {topic: _Module() for topic in params.health_topics}
         self.job = 0  # the job in hand; every request and cancel opens a new one
@@ -357,7 +373,14 @@ class Driver:
         self._out: list[Command]  # the commands of the step under way (set by step)
         #: an action that failed while the FCU's failsafe was flying, until when its cause
         #: may still come, and the mission's stop reason then (:meth:`_action_failed`)
-        self._failure: tuple[str, int, Stop | None] | None = None
+        self._failure: tuple[str, int] | None = None
+        #: recovery: the time the interrupted state had run before its holds [s] (its
+        #: budget counts only that), the time held in all [s], since when the held cause
+        #: has been clear, and whether offboard is being asked for again
+        self._used_s = 0.0
+        self.held_s = 0.0
+        self._clear_ns: int | None = None
+        self._reengaging = False
 
     def step(self, event: Input, now_ns: int) -> list[Command]:
         """Take one input at ``now_ns`` (int nanoseconds, companion clock); the commands
@@ -372,7 +395,7 @@ class Driver:
                 self.pictures.append(event.picture)
                 del self.pictures[:-self.params.max_pictures]
         elif isinstance(event, VehicleStatus):
-            self.status = event
+            self.status, self._status_ns = event, now_ns
         elif isinstance(event, Position):
             self.position = event.position
         elif isinstance(event, Health):
@@ -404,6 +427,14 @@ class Driver:
         if s is not None and not s.position_valid:
             out.append((ErrorCause.LOCALISATION_LOST,
                         "the FCU's position estimate is not valid (visual odometry lost)"))
+        if s is not None and s.armed and not s.landed:  # in the air: offboard is ours
+            assert self._status_ns is not None
+            status_age = (self.now_ns - self._status_ns) / 1e9
+            if status_age > p.status_timeout_s:
+                out.append((ErrorCause.OFFBOARD_LOST,
+                            f"FCU link lost: no /fcu/status for {status_age:.1f} s"))
+            elif s.offboard_signal_lost:
+                out.append((ErrorCause.OFFBOARD_LOST, "the FCU misses the offboard setpoints"))
         for topic, module in self.modules.items():
             age = None if module.last_ns is None else (self.now_ns - module.last_ns) / 1e9
             if age is None or age > p.silence_timeout_s:
@@ -457,18 +488,61 @@ class Driver:
     def _watchdog(self) -> None:
         m = self.mission
         self._apply_alerts()
-        if self._failure is not None:
-            detail, deadline_ns, stop_then = self._failure
-            if m.stop is not stop_then or m.finished:  # the failsafe's cause came: it decided
+        if self._failure is not None:  # (a cause that came meanwhile changed the state)
+            detail, deadline_ns = self._failure
+            if self.now_ns >= deadline_ns:
                 self._failure = None
-            elif self.now_ns >= deadline_ns:
-                self._failure = None
-                m.action_failed(f"{detail} (the FCU's failsafe active, no cause reported "
-                                f"in {self.params.failsafe_cause_wait_s:g} s)")
+                m.error(ErrorCause.OFFBOARD_LOST,
+                        f"{detail} (the FCU's failsafe active, no other cause reported in "
+                        f"{self.params.failsafe_cause_wait_s:g} s)")
         if m.state == "mission.await_sequence":
-            waited = (self.now_ns - self._entered_ns) / 1e9
+            waited = self._used_s + (self.now_ns - self._entered_ns) / 1e9
             if waited > self.params.sequence_timeout_s:
                 m.error(ErrorCause.SEQUENCE_TIMEOUT, f"no landing sequence after {waited:.0f} s")
+        elif m.state == "held":
+            self._held()
+
+    def _held(self) -> None:
+        """Held on a transient cause: resume once clear for the settle time, else the
+        permanent reaction at the deadline (see the module docstring)."""
+        m, p, s, now = self.mission, self.params, self.status, self.now_ns
+        if s is not None and s.landed and m.resume_to not in TAKEOFFS:
+            m.held_landed("the FCU's failsafe landed the vehicle while held")
+            return
+        held_s = (now - self._entered_ns) / 1e9
+        if self.alerts():
+            self._clear_ns = None
+        elif self._clear_ns is None:
+            self._clear_ns = now
+        clear_s = 0.0 if self._clear_ns is None else (now - self._clear_ns) / 1e9
+        if self._clear_ns is not None and clear_s >= p.recovery_settle_s \
+                and not self._reengaging:
+            self._resume(held_s)
+        elif held_s >= p.recovery_deadline_s:  # offboard being asked for included
+            m.give_up(f"not clear after {held_s:.1f} s (deadline {p.recovery_deadline_s:g} s)")
+
+    def _resume(self, held_s: float) -> None:
+        s = self.status
+        if s is not None and s.armed and not s.landed and not s.offboard:
+            # the FCU's failsafe flies: ask for offboard again (flight control's take-off
+            # streams, asks PX4 for offboard and climbs where the vehicle is)
+            self._reengaging = True
+            self._ask(SendGoal(self._new_job(), Action.TAKEOFF,
+                               TakeoffGoal(self.params.cruise_altitude)), self._reengaged)
+            return
+        self.mission.recover(f"clear for {self.params.recovery_settle_s:g} s, held "
+                             f"{held_s:.1f} s")
+
+    def _reengaged(self, reply: GoalDone) -> None:
+        self._reengaging = False
+        held_s = (self.now_ns - self._entered_ns) / 1e9
+        if reply.outcome is Outcome.SUCCEEDED:
+            self.mission.recover(f"clear for {self.params.recovery_settle_s:g} s, offboard "
+                                 f"taken back, held {held_s:.1f} s")
+            return
+        self._clear_ns = None  # try again after another settle time, until the deadline
+        self.emit(MissionEvent(EventKind.ERROR, f"offboard not taken back: {reply.message}",
+                               Severity.WARN))
 
     # -- the machine's requests (MissionDriver) ----------------------------------------------
     def check_health(self) -> None:
@@ -479,9 +553,9 @@ class Driver:
         self._new_job()
         s, altitude = self.status, self.params.cruise_altitude
         if s is not None and s.armed and not s.landed and self.position is not None:
-            # resumed in the air: climb where we are (the take-off action needs the ground)
-            x, y, _ = self.position
-            self._ask(SendGoal(self.job, Action.REACH, ReachGoal((x, y, altitude))),
+            # resumed in the air: flight control's take-off climbs where we are (and asks
+            # for offboard when the FCU is not in it); the navigator's survey needs the ground
+            self._ask(SendGoal(self.job, Action.TAKEOFF, TakeoffGoal(altitude)),
                       self._took_off)
         elif s is not None and s.armed:
             self._send_takeoff()
@@ -491,8 +565,15 @@ class Driver:
     def explore(self, target_robot: int) -> None:
         self.pictures.clear()
         self._collecting = True
-        goal = ExploreGoal(self.params.explore_altitude, (target_robot,),
-                           self.params.explore_budget_s)
+        budget = self.params.explore_budget_s
+        if budget > 0.0:  # resumed: what is left of it (the time held is not exploring)
+            budget -= self._used_s
+            if budget <= 0.0:
+                self._new_job()
+                self.mission.explore_ended(f"robot {target_robot} not seen: explore budget "
+                                           f"{self.params.explore_budget_s:g} s spent")
+                return
+        goal = ExploreGoal(self.params.explore_altitude, (target_robot,), budget)
         self._ask(SendGoal(self._new_job(), Action.EXPLORE, goal),
                   partial(self._explored, target_robot))
 
@@ -523,6 +604,15 @@ class Driver:
         self._out.append(CancelGoal())
 
     def state_changed(self, state: str) -> None:
+        left, ran_s = self.timeline[-1][1], (self.now_ns - self._entered_ns) / 1e9
+        if left == "held":
+            self.held_s += ran_s
+        if state in ("held", "paused"):  # the interrupted state's time so far
+            self._used_s += ran_s
+            self._clear_ns, self._reengaging = None, False
+        elif not (left in ("held", "paused") and state == self.mission.resume_to):
+            self._used_s = 0.0  # a new state, not one resumed
+        self._failure = None  # a failure waiting for its cause belonged to the state left
         self._entered_ns = self.now_ns
         self.timeline.append((self.now_ns / 1e9, state))
         if phase_of(state) != self._phase:
@@ -641,17 +731,17 @@ class Driver:
         """An action failed. While the FCU's own failsafe flies the vehicle (it switched out
         of offboard on a low battery, a lost link...) the failure is its consequence, not
         its cause: the cause (the battery's warning comes at 1 Hz, after the mode change)
-        decides by the error policy when it comes within ``failsafe_cause_wait_s``, and
-        the failure counts as a flight error only after that."""
+        decides by the error policy when it comes within ``failsafe_cause_wait_s``; without
+        one the FCU took the vehicle for a reason of its own (its offboard-loss failsafe:
+        the link or the setpoint stream lost), ``offboard_lost``, a transient cause."""
         s = self.status
         if s is None or not s.failsafe:
             self.mission.action_failed(detail)
             return
-        stop_then = self.mission.stop
+        state_then = self.mission.state
         self._apply_alerts()  # a cause already known decides at once
-        if self.mission.stop is stop_then and not self.mission.finished:
-            self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9),
-                             stop_then)
+        if self.mission.state == state_then:
+            self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9))
 
 
 def _percent(fraction: float) -> str:

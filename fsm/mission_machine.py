@@ -12,9 +12,14 @@ precision landing), and every change and event is reported. An input that does n
 apply to the current state (a late action result) is ignored and returns False.
 
 Errors go through :data:`~fsm.mission_table.ERROR_POLICY`: the cause picks the reaction,
-the reaction is a trigger of the meta-machine. A reaction the current state cannot take
-is already covered by what it does (battery low while returning home, anything while
-landing now) or, on the ground in preflight, becomes a stop. The first error that stops
+the reaction is a trigger of the meta-machine. A transient cause (while resumes are left,
+``MissionConfig.max_resumes``) first holds in ``held``; the driver, which has the clock,
+then calls :meth:`Mission.recover` (the cause clear for its settle time: back to the
+state held in, its action restarted), :meth:`Mission.give_up` (the deadline passed: the
+permanent reaction) or :meth:`Mission.held_landed` (the FCU's failsafe landed the
+vehicle). A reaction the current state cannot take is already covered by what it does
+(battery low while returning home, anything while landing now) or, on the ground in
+preflight, becomes a stop. The first error that stops
 the mission is kept as :attr:`Mission.stop` (the report's reason).
 
 Pure module: transitions and the standard library only.
@@ -34,9 +39,11 @@ from transitions.extensions.nesting import NestedState
 from fsm.mission_table import (
     ERROR_POLICY,
     INITIAL,
+    RECOVERABLE,
     RESUMABLE,
     SEPARATOR,
     STATES,
+    SUSPEND,
     TRANSITIONS,
     ErrorCause,
     Phase,
@@ -125,6 +132,7 @@ class MissionConfig:
     pads: Mapping[int, Vec2]  # pad id -> map-frame centre [m]
     search_radius_near: float = 0.5  # m, the first landing attempt looks this far
     search_radius_wide: float = 2.0  # m, the pad-search branch looks this far
+    max_resumes: int = 0  # resumes after a transient error; 0: every error is permanent
 
     def __post_init__(self) -> None:
         if self.start_pad not in self.pads:
@@ -133,6 +141,8 @@ class MissionConfig:
         if not 0.0 <= self.search_radius_near <= self.search_radius_wide:
             raise ValueError("search radii must satisfy 0 <= near <= wide, got "
                              f"{self.search_radius_near} and {self.search_radius_wide}")
+        if self.max_resumes < 0:
+            raise ValueError(f"max_resumes must be >= 0, got {self.max_resumes}")
 
 
 class MissionDriver(Protocol):
@@ -186,6 +196,7 @@ ACTIONS: dict[str, str] = {
     "mission.pad.search": "_do_pad_search",
     "mission.pad.takeoff": "_do_takeoff",
     "paused": "_do_hold",
+    "held": "_do_hold",
     "returning.navigate": "_do_return_navigate",
     "returning.land": "_do_return_land",
     "landing_now": "_do_land_now",
@@ -245,6 +256,8 @@ def build_machine(model: Mission) -> HierarchicalMachine:
         for t in TRANSITIONS]
     transitions += [{"trigger": "resume", "source": "paused", "dest": dest,
                      "conditions": [partial(model.paused_in, dest)]} for dest in RESUMABLE]
+    transitions += [{"trigger": "resume", "source": "held", "dest": dest,
+                     "conditions": [partial(model.paused_in, dest)]} for dest in RECOVERABLE]
     return _Machine(model=model.core, states=_states_with_callbacks(model, STATES),
                     transitions=transitions, initial=INITIAL, queued=True,
                     auto_transitions=False)
@@ -264,7 +277,10 @@ class Mission:
         self.skipped: list[Skip] = []
         self.robot_marker: int | None = None
         self.stop: Stop | None = None
-        self.resume_to: str | None = None
+        self.resume_to: str | None = None  # the state a pause or a hold resumes into
+        #: the transient error the mission is held on (``held``), None otherwise
+        self.held: Stop | None = None
+        self.resumes = 0  # resumes after transient errors so far
         self._terminal = frozenset(terminal_states())
         self.core = _Core()
         self.machine = build_machine(self)
@@ -302,7 +318,12 @@ class Mission:
         return bool(self.sequence) and self.pad_index >= len(self.sequence)
 
     def paused_in(self, state: str) -> bool:
+        """The state a pause or a hold resumes into is ``state``."""
         return self.resume_to == state
+
+    @property
+    def resumes_left(self) -> int:
+        return max(0, self.config.max_resumes - self.resumes)
 
     # -- operator commands ---------------------------------------------------------------
     def start(self) -> Reply:
@@ -442,24 +463,76 @@ class Mission:
         return self.error(ErrorCause.FLIGHT_ERROR, detail)
 
     def error(self, cause: ErrorCause, detail: str) -> bool:
-        """Apply the error policy to ``cause``. False when it changes nothing."""
+        """Apply the error policy to ``cause``. False when it changes nothing.
+
+        A transient cause with resumes left holds (``held``) in a state it can resume
+        into; held or paused already, it changes nothing (the hold goes on, the operator
+        holds). Otherwise, and for every other cause, the permanent reaction."""
         if self.finished or self.state == INITIAL:
             return False
+        if ERROR_POLICY[cause].transient and self.resumes_left > 0:
+            if self.state in ("held", "paused"):
+                return False
+            if self.state in RECOVERABLE:
+                return self._suspend(cause, detail)
         reaction = ERROR_POLICY[cause].reaction
         if self.state == "preflight":
             reaction = Reaction.HOLD  # on the ground: nothing to fly or land
         if reaction.value not in self.triggers():
             return False  # already returning or landing
+        self._emit_error(cause, detail, reaction.name)
+        self.stop = Stop(cause, reaction, detail, self.state)  # the latest reaction counts
+        return self._fire(reaction.value)
+
+    def recover(self, detail: str) -> bool:
+        """The held cause has cleared (for its settle time): back to the state held in,
+        which restarts its action."""
+        if self.state != "held" or self.held is None:
+            return False
+        held, self.held = self.held, None
+        self.resumes += 1
+        self._emit(EventKind.ERROR, f"{held.cause.value} cleared: {detail} -> RESUME "
+                   f"{held.state} (resume {self.resumes} of {self.config.max_resumes})",
+                   values=(("cause", held.cause.value), ("reaction", "RESUME"),
+                           ("state", held.state)))
+        return self._fire("resume")
+
+    def give_up(self, detail: str) -> bool:
+        """The held cause has not cleared by its deadline: its permanent reaction."""
+        if self.state != "held" or self.held is None:
+            return False
+        held, self.held = self.held, None
+        reaction = ERROR_POLICY[held.cause].reaction
+        self._emit_error(held.cause, f"{held.detail}; {detail}", reaction.name)
+        self.stop = Stop(held.cause, reaction, f"{held.detail}; {detail}", held.state)
+        return self._fire(reaction.value)
+
+    def held_landed(self, detail: str) -> bool:
+        """Held, the FCU's failsafe landed the vehicle: the mission ends there (no take-off
+        again on its own from wherever that is)."""
+        if self.state != "held" or self.held is None:
+            return False
+        held, self.held = self.held, None
+        self.stop = Stop(held.cause, ERROR_POLICY[held.cause].reaction,
+                         f"{held.detail}; {detail}", held.state)
+        return self._fire("landed")
+
+    def _suspend(self, cause: ErrorCause, detail: str) -> bool:
+        self.resume_to = self.state
+        self.held = Stop(cause, Reaction.HOLD, detail, self.state)
+        self._emit_error(cause, detail, Reaction.HOLD.name,
+                         then=f", then RESUME once clear ({self.resumes_left} left)")
+        return self._fire(SUSPEND)
+
+    def _emit_error(self, cause: ErrorCause, detail: str, reaction: str, then: str = "") -> None:
         kind = {ErrorCause.MODULE_SILENT: EventKind.MODULE_FAULT,
                 ErrorCause.MODULE_ERROR: EventKind.MODULE_FAULT,
                 ErrorCause.PREFLIGHT_FAILED: EventKind.MODULE_FAULT,
                 ErrorCause.BATTERY_LOW: EventKind.BATTERY_LOW,
                 ErrorCause.BATTERY_CRITICAL: EventKind.BATTERY_LOW}.get(cause, EventKind.ERROR)
-        self._emit(kind, f"{cause.value}: {detail} -> {reaction.name}", Severity.ERROR,
-                   values=(("cause", cause.value), ("reaction", reaction.name),
+        self._emit(kind, f"{cause.value}: {detail} -> {reaction}{then}", Severity.ERROR,
+                   values=(("cause", cause.value), ("reaction", reaction),
                            ("state", self.state)))
-        self.stop = Stop(cause, reaction, detail, self.state)  # the latest reaction counts
-        return self._fire(reaction.value)
 
     # -- machinery -----------------------------------------------------------------------
     def _fire(self, trigger: str) -> bool:

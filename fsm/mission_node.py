@@ -14,8 +14,9 @@ driver's inputs, carries out its commands and feeds the answers back; the decisi
 - ``/aruco_scanner/enable`` (SetBool): the scanner on in the states that read markers,
   off in the others (:func:`fsm.mission_table.scans`), asked on each change and again at
   each watchdog tick until the scanner has answered that it is so;
-- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each of
-  ``health_topics``; preflight also needs every action of ``action_servers``;
+- inputs of the alerts, checked at ``watchdog_rate_hz``: ``/fcu/status`` and each
+  module's health topic (``/<module>/health``, ``graph.HEALTH``: :data:`HEALTH_TOPICS`);
+  preflight also needs every action of the ``action_servers`` parameter;
   ``/fcu/odometry`` gives the position (a take-off resumed in the air, the robot's
   position when no picture came).
 
@@ -63,7 +64,8 @@ class MissionNode(Node):
             raise ParameterError(f"{exc}; {FIELD_SOURCE}") from None
         self.driver = d.Driver(MissionConfig(
             target_robot=p.target_robot, start_pad=pads.start_pad, pads=pads.positions(),
-            search_radius_near=p.search_radius_near, search_radius_wide=p.search_radius_wide),
+            search_radius_near=p.search_radius_near, search_radius_wide=p.search_radius_wide,
+            max_resumes=p.max_resumes),
             d.DriverParams(health_topics=HEALTH_TOPICS,
                            **{f.name: getattr(p, f.name) for f in fields(d.DriverParams)
                               if f.name != "health_topics"}),
@@ -104,7 +106,8 @@ class MissionNode(Node):
     def _on_status(self, msg: Any) -> None:
         self._feed(d.VehicleStatus(bool(msg.position_valid), bool(msg.armed), bool(msg.landed),
                                    int(msg.battery_warning), float(msg.battery_remaining),
-                                   bool(msg.failsafe)))
+                                   bool(msg.failsafe), bool(msg.offboard),
+                                   bool(msg.offboard_signal_lost)))
 
     def _on_odometry(self, msg: Any) -> None:
         p = msg.pose.pose.position

@@ -31,6 +31,7 @@ class ErrorCause(Enum):
     MODULE_SILENT = "module_silent"  # a module stopped reporting its health
     MODULE_ERROR = "module_error"  # a module reported an error
     FLIGHT_ERROR = "flight_error"  # a flight or navigation action failed
+    OFFBOARD_LOST = "offboard_lost"  # the FCU link or its offboard control lost: the FCU flies
     BATTERY_LOW = "battery_low"
     BATTERY_CRITICAL = "battery_critical"
     ROBOT_NOT_FOUND = "robot_not_found"  # exploration ended without the target robot
@@ -50,18 +51,29 @@ class Reaction(Enum):
 
 @dataclass(frozen=True)
 class Policy:
-    """The reaction to one cause, and why (shown in the README and the diagram)."""
+    """The reaction to one cause, and why (shown in docs/mission.md and the diagram).
+
+    ``reaction`` is the permanent one. A ``transient`` cause can clear: the mission first
+    HOLDs in ``held`` and RESUMEs where it was once the cause has been clear for a settle
+    time; ``reaction`` follows only when it has not cleared by the deadline, or when the
+    resumes allowed are spent (none allowed: at once, the seed's rule)."""
 
     reaction: Reaction
     why: str
+    transient: bool = False
 
 
 ERROR_POLICY: dict[ErrorCause, Policy] = {
     ErrorCause.LOCALISATION_LOST: Policy(
         Reaction.HOLD, "seed 003: an automatic landing without VSLAM is too risky; stop at "
-                       "once and hand over to the pilot"),
-    ErrorCause.MODULE_SILENT: Policy(Reaction.HOLD, "a silent module cannot be trusted"),
-    ErrorCause.MODULE_ERROR: Policy(Reaction.HOLD, "a module reports it cannot work"),
+                       "once and hand over to the pilot", transient=True),
+    ErrorCause.MODULE_SILENT: Policy(Reaction.HOLD, "a silent module cannot be trusted "
+                                     "(its process may be respawning)", transient=True),
+    ErrorCause.MODULE_ERROR: Policy(Reaction.HOLD, "a module reports it cannot work",
+                                    transient=True),
+    ErrorCause.OFFBOARD_LOST: Policy(
+        Reaction.HOLD, "the FCU's failsafe flies (PX4: hold, then COM_OBL_RC_ACT); offboard "
+                       "is asked for again once the setpoints reach it", transient=True),
     ErrorCause.FLIGHT_ERROR: Policy(Reaction.HOLD, "an action failed: the pilot decides"),
     ErrorCause.BATTERY_LOW: Policy(Reaction.RETURN_AND_LAND,
                                    "enough charge to fly home and land on the start pad"),
@@ -124,6 +136,9 @@ STATES: tuple[StateSpec, ...] = (
     StateSpec("preflight", "every module is asked for its health and must answer OK"),
     MISSION,
     StateSpec("paused", "holding position on the operator's PAUSE"),
+    StateSpec("held", "holding on a transient error until its cause has been clear for a "
+                      "settle time (then resume), or its deadline (then the permanent "
+                      "reaction)"),
     RETURNING,
     StateSpec("landing_now", "landing where the vehicle is"),
     StateSpec("completed", "the sequence is over and the vehicle is on the ground",
@@ -136,9 +151,13 @@ STATES: tuple[StateSpec, ...] = (
 INITIAL = "idle"
 
 #: States the meta-machine's error triggers leave from (a parent covers its children).
-_HOLD_FROM = ("idle", "preflight", "mission", "paused", "returning", "landing_now")
-_RETURN_FROM = ("mission", "paused")
-_LAND_NOW_FROM = ("mission", "paused", "returning")
+_HOLD_FROM = ("idle", "preflight", "mission", "paused", "held", "returning", "landing_now")
+_RETURN_FROM = ("mission", "paused", "held")
+_LAND_NOW_FROM = ("mission", "paused", "held", "returning")
+#: The trigger of a transient cause (the mission HOLDs in ``held``), from the states it
+#: can resume into (:data:`RECOVERABLE`, a parent covering its children).
+SUSPEND = "suspend"
+_SUSPEND_FROM = ("mission", "returning")
 
 
 def _pad_done(trigger: str, source: str) -> tuple[TransitionSpec, ...]:
@@ -187,12 +206,25 @@ TRANSITIONS: tuple[TransitionSpec, ...] = (
     *(TransitionSpec(Reaction.HOLD.value, s, "stopped") for s in _HOLD_FROM),
     *(TransitionSpec(Reaction.RETURN_AND_LAND.value, s, "returning") for s in _RETURN_FROM),
     *(TransitionSpec(Reaction.LAND_NOW.value, s, "landing_now") for s in _LAND_NOW_FROM),
+    # a transient cause holds; resume (when clear: to the state held in, see
+    # mission_machine) or the permanent reaction (above) follows
+    *(TransitionSpec(SUSPEND, s, "held", label="[transient cause]") for s in _SUSPEND_FROM),
+    TransitionSpec("landed", "held", "landed", label="(the FCU's failsafe landed it)"),
 )
 
 #: The mission states a PAUSE can be resumed into: each one restarts its action.
 RESUMABLE: tuple[str, ...] = ("mission.takeoff", "mission.explore", "mission.report_robot",
                               "mission.await_sequence", "mission.pad.navigate",
                               "mission.pad.land", "mission.pad.search", "mission.pad.takeoff")
+
+#: The states a transient cause holds in and resumes into (:data:`RESUMABLE`, and the way
+#: home). Each restarts its action from where the vehicle is.
+RECOVERABLE: tuple[str, ...] = (*RESUMABLE, "returning.navigate", "returning.land")
+
+#: The states that begin on the ground: held there with the vehicle landed, they still
+#: resume (a take-off from where the vehicle stands); any other state held with the
+#: vehicle landed by the FCU ends in ``landed``.
+TAKEOFFS: tuple[str, ...] = ("mission.takeoff", "mission.pad.takeoff")
 
 
 #: The states that read the down camera's markers: the modules' checks before the start,
@@ -221,7 +253,7 @@ class Phase(Enum):
     LANDING_SEQUENCE = 6
     RETURN_HOME = 7
     COMPLETED = 8
-    PAUSED = 9
+    PAUSED = 9  # holding: the operator's PAUSE, or a transient error (held)
     ABORTED = 10  # stopped on an error or the operator's ABORT
 
 
@@ -229,7 +261,7 @@ _PHASE_OF_PREFIX: tuple[tuple[str, Phase], ...] = (
     ("idle", Phase.IDLE), ("preflight", Phase.PREFLIGHT), ("mission.takeoff", Phase.TAKEOFF),
     ("mission.explore", Phase.EXPLORE), ("mission.report_robot", Phase.REPORT_ROBOT),
     ("mission.await_sequence", Phase.AWAIT_SEQUENCE), ("mission.pad", Phase.LANDING_SEQUENCE),
-    ("paused", Phase.PAUSED), ("returning", Phase.RETURN_HOME),
+    ("paused", Phase.PAUSED), ("held", Phase.PAUSED), ("returning", Phase.RETURN_HOME),
     ("landing_now", Phase.ABORTED), ("completed", Phase.COMPLETED),
     ("stopped", Phase.ABORTED), ("landed", Phase.ABORTED),
 )
@@ -275,6 +307,7 @@ def to_transitions_states(states: tuple[StateSpec, ...] = STATES) -> list[Any]:
     return out
 
 
-__all__ = ["ERROR_POLICY", "INITIAL", "RESUMABLE", "SEPARATOR", "STATES", "TRANSITIONS",
+__all__ = ["ERROR_POLICY", "INITIAL", "RECOVERABLE", "RESUMABLE", "SEPARATOR", "STATES",
+           "SUSPEND", "TAKEOFFS", "TRANSITIONS",
            "ErrorCause", "Phase", "Policy", "Reaction", "StateSpec", "TransitionSpec", "leaves",
            "phase_of", "terminal_states", "to_transitions_states", "walk"]

@@ -85,6 +85,17 @@ class MissionParams:
         unit="s", range=(0.0, 10.0),
         description="an action that fails while the FCU's failsafe flies waits this long "
                     "for the failsafe's cause before it counts as a flight error")
+    status_timeout_s: float = param(unit="s", range=(0.2, 60.0),
+                                    description="in the air, no /fcu/status this long = the "
+                                                "FCU link lost (offboard_lost)")
+    recovery_settle_s: float = param(unit="s", range=(0.0, 60.0),
+                                     description="a transient cause clear this long: resume")
+    recovery_deadline_s: float = param(unit="s", range=(0.1, 3600.0),
+                                       description="a transient cause not clear after this "
+                                                   "long held: the permanent reaction")
+    max_resumes: int = param(range=(0, 100),
+                             description="resumes after transient errors per mission; 0: "
+                                         "every error takes its permanent reaction at once")
     state_rate_hz: float = param(unit="Hz", range=(0.1, 100.0),
                                  description="/mission/state publish rate (and on change)")
     watchdog_rate_hz: float = param(unit="Hz", range=(1.0, 100.0),
@@ -98,6 +109,10 @@ class MissionParams:
         if self.battery_low_warning > self.battery_critical_warning:
             raise ParameterError("mission.battery_low_warning is above "
                                  "battery_critical_warning")
+        if self.recovery_settle_s >= self.recovery_deadline_s:
+            raise ParameterError(f"mission.recovery_settle_s {self.recovery_settle_s} s is not "
+                                 f"below recovery_deadline_s {self.recovery_deadline_s} s: "
+                                 "nothing could ever resume")
 
 
 @dataclass(frozen=True)

@@ -36,10 +36,9 @@ class FoxgloveBridgeNode(Node):
         try:
             self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
                                 discovery_period_s=self.params.discovery_period_s,
-                                topics=self.params.topics,
                                 on_new_topic=self._on_new_topic, on_sample=self._on_sample)
         except BaseException:
-            self.server.stop()  # a refused topics entry does not keep the port bound
+            self.server.stop()  # a refused pattern does not keep the port bound
             raise
         self.get_logger().info("Foxglove: open connection %s", self.url)
 

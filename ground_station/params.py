@@ -11,8 +11,6 @@ from runtime import param
 class RecorderParams:
     folder: str = param(description="the bag folder, when the node is started from a launch "
                         "file ('' = given by the app: --record writes OUT/bag)")
-    topics: tuple[str, ...] = param(description="'topic pkg/msg/Type' entries tapped even "
-                                    "when the transport cannot list its topics (DDS)")
     include: str = param(description="topics to record: a regular expression (fullmatch)")
     exclude: str = param(description="topics not to record: a regular expression, or ''")
     discovery_period_s: float = param(unit="s", range=(0.01, 10.0),
@@ -25,8 +23,6 @@ class RecorderParams:
 class FoxgloveBridgeParams:
     host: str = param(description="address the WebSocket server binds to")
     port: int = param(range=(0, 65535), description="TCP port; 0 picks a free one")
-    topics: tuple[str, ...] = param(description="'topic pkg/msg/Type' entries tapped even "
-                                    "when the transport cannot list its topics (DDS)")
     include: str = param(description="topics to serve: a regular expression (fullmatch)")
     exclude: str = param(description="topics not to serve: a regular expression, or ''")
     discovery_period_s: float = param(unit="s", range=(0.01, 10.0),

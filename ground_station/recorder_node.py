@@ -36,10 +36,9 @@ class BagRecorderNode(Node):
         try:
             self.tap = TopicTap(self, include=self.params.include, exclude=self.params.exclude,
                                 discovery_period_s=self.params.discovery_period_s,
-                                topics=self.params.topics,
                                 on_new_topic=self._on_new_topic, on_sample=self.bag.write)
         except BaseException:
-            self.bag.close()  # a refused topics entry leaves a closed, empty bag
+            self.bag.close()  # a refused pattern leaves a closed, empty bag
             raise
 
     def _on_new_topic(self, topic: str, msgtype: str) -> int:

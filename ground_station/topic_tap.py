@@ -2,11 +2,10 @@
 Foxglove bridge do. Samples are passed on as CDR bytes, never decoded (a message handed
 over in-process is serialized first).
 
-Discovery asks the transport for ``topic_names_and_types()`` (the in-process and the
-ROS 2 transports offer it) every ``discovery_period_s`` of node time; the ``topics`` given as
-``"name pkg/msg/Type"`` are tapped from the start, for a transport that cannot list its
-topics (give them in the node's YAML). Readers are BEST_EFFORT and VOLATILE, so
-they match every writer (QoS request/offer rules) and never slow one down.
+Discovery asks the transport for ``topic_names_and_types()`` when the tap starts and every
+``discovery_period_s`` of node time; ``include`` and ``exclude`` choose among the topics
+found. Readers are BEST_EFFORT and VOLATILE, so they match every writer (QoS
+request/offer rules) and never slow one down.
 """
 
 from __future__ import annotations
@@ -15,7 +14,6 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-import interfaces
 from ground_station.errors import GroundStationError
 from interfaces.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from runtime import Endpoint, Node
@@ -24,7 +22,7 @@ from runtime.transport import Reader
 
 
 class TopicTapError(GroundStationError):
-    """A topics entry that is not '/topic pkg/msg/Type'."""
+    """An ``include`` or ``exclude`` that is not a regular expression."""
 
 
 #: What a tap requests: matches any writer.
@@ -41,21 +39,14 @@ class TopicTap:
     ``exclude`` (regular expressions, ``re.fullmatch``)."""
 
     def __init__(self, node: Node, *, include: str, exclude: str, discovery_period_s: float,
-                 on_new_topic: NewTopic, on_sample: Sample,
-                 topics: tuple[str, ...] = ()) -> None:
+                 on_new_topic: NewTopic, on_sample: Sample) -> None:
         self._node = node
-        self._include = re.compile(include)
-        self._exclude = re.compile(exclude) if exclude else None
+        self._include = _pattern("include", include)
+        self._exclude = _pattern("exclude", exclude) if exclude else None
         self._on_new_topic = on_new_topic
         self._on_sample = on_sample
         self._readers: dict[str, Reader] = {}
         self.topics: dict[str, str] = {}
-        for entry in topics:
-            name, _, msgtype = entry.strip().partition(" ")
-            if not name.startswith("/") or not msgtype.strip():
-                raise TopicTapError(f"topics entry {entry!r}: expected '/topic pkg/msg/Type'")
-            interfaces.get_message(msgtype.strip())  # an unknown type is named here
-            self._tap(name, msgtype.strip())
         self.discover()
         node.create_timer(discovery_period_s, self.discover)
 
@@ -66,10 +57,7 @@ class TopicTap:
 
     def discover(self) -> None:
         """Tap the topics that appeared since the last call."""
-        listing = getattr(self._node.context.transport, "topic_names_and_types", None)
-        if listing is None:
-            return
-        for name, msgtype in listing():
+        for name, msgtype in self._node.context.transport.topic_names_and_types():
             if name not in self._readers and self._wanted(name):
                 self._tap(name, msgtype)
 
@@ -91,6 +79,13 @@ class TopicTap:
         for reader in self._readers.values():
             reader.close()
         self._readers.clear()
+
+
+def _pattern(key: str, text: str) -> re.Pattern[str]:
+    try:
+        return re.compile(text)
+    except re.error as e:
+        raise TopicTapError(f"{key} {text!r}: not a regular expression ({e})") from None
 
 
 __all__ = ["TAP_QOS", "TopicTap", "TopicTapError"]

@@ -13,7 +13,10 @@ matches every writer. An action's internal topics and services are named after i
 ROS 2 does (:meth:`Action.internal`). Each entry's ``interface()`` is its type's class
 (a message class, a :class:`~interfaces.api.ServiceType`, an
 :class:`~interfaces.api.ActionType`). Each module's health is ``/<module>/health``
-(:data:`HEALTH`), and the mission watches all of them.
+(:data:`HEALTH`), and the mission watches all of them. A topic made once per instance of
+something (a launch's lockstep report, one per node process) is a :class:`TopicPattern`:
+its name and its ends' node names hold a ``{field}`` that :meth:`TopicPattern.name_for`
+fills.
 
 Nodes are named by their node names (``fcu_bridge``, ``navigator``...); names ending in
 ``_pilot`` or ``_status`` are the scenarios' mission scripts.
@@ -22,6 +25,7 @@ Nodes are named by their node names (``fcu_bridge``, ``navigator``...); names en
 from __future__ import annotations
 
 import builtins
+import string
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -65,6 +69,7 @@ __all__ = [
     "FLIGHT_CONTROL_ACTIONS",
     "HEALTH",
     "LAND",
+    "LAUNCH_CLOCK_REPORT",
     "MAP_POINTS",
     "MISSION_COMMAND",
     "MISSION_EVENTS",
@@ -93,6 +98,7 @@ __all__ = [
     "Row",
     "Service",
     "Topic",
+    "TopicPattern",
     "describe_qos",
     "health",
     "markdown",
@@ -141,6 +147,30 @@ class Topic:
     def interface(self) -> builtins.type:  # the field ``type`` shadows the builtin here
         """The message class of :attr:`type`."""
         return get_message(self.type)
+
+
+@dataclass(frozen=True)
+class TopicPattern(Topic):
+    """Topics made once per instance of something: ``name`` (and node names at its ends)
+    hold one ``{field}``, e.g. ``/launch/{process}/clock``; :meth:`name_for` gives one
+    instance's name."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        fields = {f for _, f, _, _ in string.Formatter().parse(self.name) if f}
+        if len(fields) != 1:
+            raise ValueError(f"topic pattern {self.name}: expected one {{field}}, "
+                             f"found {sorted(fields)}")
+
+    @property
+    def field(self) -> str:
+        """The name of the pattern's one field (``process``)."""
+        return next(f for _, f, _, _ in string.Formatter().parse(self.name) if f)
+
+    def name_for(self, value: str) -> str:
+        """The topic of one instance: ``name_for("companion")`` is
+        ``/launch/companion/clock``."""
+        return self.name.format_map({self.field: value})
 
 
 @dataclass(frozen=True)
@@ -229,10 +259,11 @@ def _topic(name: str, type_name: str, qos: QoSProfile, publishers: tuple[str, ..
 _GCS = ("ground_station",)
 
 # -- the simulator's sensors (a real vehicle's drivers and VIO stand here) -------------------
-CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_WRITER_QOS, ("sim_sensors",),
-               subscriber_qos=CLOCK_QOS,
+CLOCK = _topic("/clock", "rosgraph_msgs/msg/Clock", CLOCK_WRITER_QOS,
+               ("sim_sensors", "simulator_clock"), subscriber_qos=CLOCK_QOS,
                note="read by every process's time source under use_sim_time "
-                    "(runtime.processes.executor)")
+                    "(runtime.processes.executor); simulator_clock is a process launch's "
+                    "lockstep (runtime.processes.child)")
 CAMERA_DOWN_RAW = _topic("/camera/down/image_raw", "sensor_msgs/msg/Image", _SENSOR,
                          ("sim_sensors",), ("aruco_scanner", "frame_grabber"), _GCS,
                          note="rendered only while it has subscribers")
@@ -245,10 +276,18 @@ SIM_VISION_POSE = _topic("/sim/vision/pose", "geometry_msgs/msg/PoseWithCovarian
                          ("vio", "latency_test", "offboard_harness"),
                          note="the visual odometry, map frame, sample time in the stamp")
 
+# -- a launch over processes ----------------------------------------------------------------
+LAUNCH_CLOCK_REPORT = TopicPattern(
+    "/launch/{process}/clock", CLOCK.type, CLOCK_WRITER_QOS, CLOCK_WRITER_QOS,
+    ("launch_{process}_clock",), ("simulator_clock",),
+    note="the lockstep: each node process reports the simulated time it has reached; the "
+         "simulator never runs more than max_lead_s ahead of the slowest "
+         "(runtime.processes.child)")
+
 # -- the bridge: the FCU on the companion's frames and clock ---------------------------------
 FCU_ODOMETRY = _topic("/fcu/odometry", "nav_msgs/msg/Odometry", _SENSOR, ("fcu_bridge",),
                       ("flight_control", "aruco_scanner", "precision_land", "navigator",
-                       "mission", "navigate_pilot"), _GCS)
+                       "mission", "navigate_pilot", "square_pilot"), _GCS)
 FCU_IMU = _topic("/fcu/imu", "sensor_msgs/msg/Imu", _SENSOR, ("fcu_bridge",),
                  note="built only while it has subscribers")
 FCU_BATTERY = _topic("/fcu/battery", "sensor_msgs/msg/BatteryState", _DEFAULT, ("fcu_bridge",))
@@ -303,7 +342,7 @@ SCANNER_ENABLE = Service("/aruco_scanner/enable", "std_srvs/srv/SetBool", ("aruc
 MAP_POINTS = _topic("/map/points", "sensor_msgs/msg/PointCloud2", _DEFAULT, ("mapping",),
                     ("path_finder",), _GCS)
 PLAN_PATH = Service("/navigation/plan_path", f"{QM}/srv/PlanPath", ("path_finder",),
-                    ("navigator", "operator", "navigate_pilot"))
+                    ("navigator", "precision_land", "operator", "navigate_pilot"))
 NAVIGATE = Action("/navigation/navigate", f"{QM}/action/Navigate", ("navigator",),
                   ("mission", "navigate_pilot"),
                   note="the ground station reads its feedback topic (the planned path)")
@@ -361,11 +400,11 @@ def _by_name(entries: tuple[Entry, ...]) -> Mapping[str, Entry]:
 
 
 TOPICS: tuple[Topic, ...] = (
-    CLOCK, CAMERA_DOWN_RAW, CAMERA_DOWN_INFO, CAMERA_DEPTH_POINTS, SIM_VISION_POSE,
-    FCU_ODOMETRY, FCU_IMU, FCU_BATTERY, FCU_STATUS, FCU_COMMAND_ACK, FCU_TIMESYNC_STATUS,
-    FCU_SETPOINT, FCU_COMMAND, FCU_VISION, PERCEPTION_MARKERS, PERCEPTION_ROBOT_FOUND,
-    SCANNER_ANNOTATED, MAP_POINTS, NAVIGATION_PATH, MISSION_STATE, MISSION_EVENTS,
-    MISSION_COMMAND, MISSION_ROBOT, SEQUENCE_PROPOSAL, *HEALTH.values())
+    CLOCK, LAUNCH_CLOCK_REPORT, CAMERA_DOWN_RAW, CAMERA_DOWN_INFO, CAMERA_DEPTH_POINTS,
+    SIM_VISION_POSE, FCU_ODOMETRY, FCU_IMU, FCU_BATTERY, FCU_STATUS, FCU_COMMAND_ACK,
+    FCU_TIMESYNC_STATUS, FCU_SETPOINT, FCU_COMMAND, FCU_VISION, PERCEPTION_MARKERS,
+    PERCEPTION_ROBOT_FOUND, SCANNER_ANNOTATED, MAP_POINTS, NAVIGATION_PATH, MISSION_STATE,
+    MISSION_EVENTS, MISSION_COMMAND, MISSION_ROBOT, SEQUENCE_PROPOSAL, *HEALTH.values())
 SERVICES: tuple[Service, ...] = (POSE_AT, ARM, DISARM, SCANNER_ENABLE, PLAN_PATH)
 ACTIONS: tuple[Action, ...] = (TAKEOFF, LAND, REACH, TURN, NAVIGATE, EXPLORE,
                                NAVIGATION_TAKEOFF, PRECISION_LAND)

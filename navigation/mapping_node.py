@@ -26,8 +26,6 @@ from navigation.params import MappingParams
 from runtime import Node, Time
 
 NODE_NAME = "mapping"
-DEPTH_TOPIC = graph.CAMERA_DEPTH_POINTS.name
-MAP_TOPIC = graph.MAP_POINTS.name
 POSE_AT = interfaces.get_service(graph.POSE_AT.type)
 MAP_FRAME = "map"
 POSE_ATTEMPTS = 5  # /fcu/pose_at requests per cloud
@@ -133,4 +131,4 @@ class MappingNode(Node):
              "last_drop": self.last_drop}, self.now().to_msg()))
 
 
-__all__ = ["DEPTH_TOPIC", "MAP_TOPIC", "MappingNode"]
+__all__ = ["MappingNode"]

@@ -171,6 +171,9 @@ class PrecisionLandParams:
     search_altitude: float = param(unit="m", range=(0.1, 10.0))
     search_spacing: float = param(unit="m", range=(0.05, 5.0))
     search_rings: int = param(range=(0, 10))
+    search_detour: float = param(unit="m", range=(0.0, 20.0),
+                                 description="a search point reached only by a way round "
+                                             "longer than the straight line by more is skipped")
     search_timeout_s: float = param(unit="s", range=(0.1, 600.0))
     lost_timeout_s: float = param(unit="s", range=(0.1, 60.0))
     retries: int = param(range=(0, 10))

@@ -50,7 +50,6 @@ from runtime import Node, ParameterError, Time
 
 NODE_NAME = "path_finder"
 PLAN_PATH = interfaces.get_service(graph.PLAN_PATH.type)
-PLAN_PATH_SERVICE = graph.PLAN_PATH.name
 MAP_FRAME = "map"
 _R: Any = PLAN_PATH.Response
 #: The one place where planning errors become result codes.
@@ -102,6 +101,9 @@ class PathFinderNode(Node):
         self.static_points = (load_map(self.params.map_file) if self.params.map_file
                               else np.empty((0, 3)))
         self.live_points = np.empty((0, 3))
+        #: what a mapping node that died had seen: the map only grows, so a smaller one is
+        #: a restarted mapping node's, which starts empty; its points are kept beside it
+        self.kept_points = np.empty((0, 3))
         self._graphs: dict[float, VoxelGraph] = {}  # by request clearance
         self._graph_version: dict[float, int] = {}  # the map version each graph is of
         self._counts: tuple[int, np.ndarray] | None = None  # (map version, points per cube)
@@ -118,18 +120,24 @@ class PathFinderNode(Node):
         if self.params.use_live_map:
             live = graph.MAP_POINTS
             self.create_subscription(live.type, live.name, self._on_map, live.subscriber_qos)
-        self.create_service(PLAN_PATH, PLAN_PATH_SERVICE, self._plan_path)
+        self.create_service(PLAN_PATH, graph.PLAN_PATH.name, self._plan_path)
         health = graph.HEALTH[NODE_NAME]
         self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
 
     def _on_map(self, msg: Any) -> None:
-        self.live_points = cloud_points(msg)
+        points = cloud_points(msg)
+        if len(points) < len(self.live_points):
+            self.get_logger().info(f"/map/points shrank from {len(self.live_points)} to "
+                                   f"{len(points)} points (mapping restarted): keeping the "
+                                   "old map's")
+            self.kept_points = np.vstack([self.kept_points, self.live_points])
+        self.live_points = points
         self.map_stamp = msg.header.stamp
         self.map_version += 1
 
     def map_points(self) -> np.ndarray:
-        return np.vstack([self.static_points, self.live_points])
+        return np.vstack([self.static_points, self.kept_points, self.live_points])
 
     def graph(self, clearance: float = 0.0) -> VoxelGraph | None:
         """The graph of the current map (None: no map yet). Raises GraphError."""
@@ -217,5 +225,4 @@ class PathFinderNode(Node):
             self.now().to_msg()))
 
 
-__all__ = ["PLAN_PATH", "PLAN_PATH_SERVICE", "RESULT_OF", "PathFinderNode", "path_msg",
-           "path_points"]
+__all__ = ["PLAN_PATH", "RESULT_OF", "PathFinderNode", "path_msg", "path_points"]

@@ -5,7 +5,9 @@ A goal names a pad (its marker ID) and where the pad should be. The node feeds e
 :class:`navigation.precision_land_policy.PrecisionLandPolicy` (the whole decision, pure,
 around the seed's step :class:`navigation.precision_landing.PrecisionLander`) and
 carries out what it returns, through the flight-control layer only:
-``/flight_control/reach`` to move, ``/flight_control/land`` for the final landing. With
+``/flight_control/reach`` to move, ``/flight_control/land`` for the final landing; each
+leg of the pad search is first checked on ``/navigation/plan_path`` (the navigator's
+request, so its clearance; without a path finder the search flies as it is). With
 the ``capture`` strategy each measurement is paired with the vehicle's pose at the
 image's capture time from ``/fcu/pose_at``; ``seed`` uses the latest ``/fcu/odometry``,
 as the paper does. It never reads simulator truth.
@@ -22,14 +24,20 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 import interfaces
 from flight_control.frames import quat_to_yaw_roll_pitch
 from flight_control.health import health_report
 from flight_control.policy import Finish, Outcome
 from interfaces import graph
+from navigation.navigator_messages import plan_request
 from navigation.params import PrecisionLandParams
+from navigation.path_finder_node import PLAN_PATH, path_points
 from navigation.precision_land_policy import (
+    CheckLeg,
     Move,
+    PlanAnswer,
     PrecisionLandPolicy,
     Touchdown,
     goal_problem,
@@ -47,7 +55,6 @@ from runtime import (
 )
 
 NODE_NAME = "precision_land"
-ACTION_NAME = graph.PRECISION_LAND.name
 
 PRECISION_LAND = graph.PRECISION_LAND.interface()
 REACH = graph.REACH.interface()
@@ -57,6 +64,10 @@ SET_BOOL = graph.SCANNER_ENABLE.interface()
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 RESULT: Any = PRECISION_LAND.Result
 REACH_RESULT: Any = REACH.Result
+_PLAN: Any = PLAN_PATH.Response
+#: Plan failures that say a search point is not to be flown to; any other says nothing.
+SEARCH_POINT_BLOCKED = (_PLAN.RESULT_GOAL_OCCUPIED, _PLAN.RESULT_NO_PATH,
+                         _PLAN.RESULT_OUT_OF_BOUNDS)
 #: How the policy ended (:data:`~navigation.precision_land_policy.PRECISION_LAND_OUTCOMES`)
 #: -> the PrecisionLand result code; ``success`` is :attr:`Finish.success`.
 PRECISION_LAND_CODES = {Outcome.SUCCEEDED: RESULT.RESULT_LANDED,
@@ -99,13 +110,14 @@ class PrecisionLandNode(Node):
         self.land = ActionClient(self, LAND, graph.LAND.name)
         self.pose_at = self.create_client(POSE_AT, graph.POSE_AT.name)
         self.scanner_enable = self.create_client(SET_BOOL, graph.SCANNER_ENABLE.name)
+        self.planner = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
         for topic, callback in ((graph.PERCEPTION_MARKERS, self._on_markers),
                                 (graph.FCU_ODOMETRY, self._on_odometry)):
             self.create_subscription(topic.type, topic.name, callback, topic.subscriber_qos)
         health = graph.HEALTH[NODE_NAME]
         self.health_pub = self.create_publisher(health.type, health.name, health.qos)
         self.create_timer(1.0 / self.params.health_rate_hz, self._publish_health)
-        self.server = ActionServer(self, PRECISION_LAND, ACTION_NAME, self._execute,
+        self.server = ActionServer(self, PRECISION_LAND, graph.PRECISION_LAND.name, self._execute,
                                    goal_callback=self._check_goal)
 
     # -- inputs ----------------------------------------------------------------------------
@@ -167,6 +179,17 @@ class PrecisionLandNode(Node):
             return None
         return _pose(response.odometry.pose.pose)
 
+    async def _plan_leg(self, check: CheckLeg) -> tuple[PlanAnswer, Any]:
+        """The path finder's answer to a search leg (UNKNOWN without a path finder)."""
+        if not self.planner.service_is_ready():
+            return PlanAnswer.UNKNOWN, None
+        r = await self.planner.call_async(plan_request(np.array(check.start),
+                                                       np.array(check.goal)))
+        if r.success:
+            return PlanAnswer.PATH, path_points(r.path)
+        return (PlanAnswer.BLOCKED if int(r.result) in SEARCH_POINT_BLOCKED
+                else PlanAnswer.UNKNOWN), None
+
     def _reach_goal(self, move: Move) -> Any:
         goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.params.reach_speed,
                               radius=self.params.reach_radius)
@@ -215,6 +238,11 @@ class PrecisionLandNode(Node):
                     continue  # no pose at its capture time: the frame says nothing
                 command = policy.frame(self.now().nanoseconds, frame.marker, pose,
                                        latest[0].position, latest[1], frame.stamp_ns)
+                while isinstance(command, CheckLeg):
+                    command = policy.leg_planned(command, *(await self._plan_leg(command)),
+                                                 self.now().nanoseconds)
+                    if policy.leg_note:
+                        self.get_logger().info(f"precision_land: {policy.leg_note}")
                 self._feedback(handle, policy, frame.marker is not None)
                 if isinstance(command, Finish):
                     return self._result(handle, command, policy)
@@ -260,4 +288,4 @@ class PrecisionLandNode(Node):
                                               now.to_msg()))
 
 
-__all__ = ["ACTION_NAME", "NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]
+__all__ = ["NODE_NAME", "PrecisionLandNode", "PrecisionLandParams"]

@@ -8,7 +8,12 @@ decides more, gathered here so a test can walk it without flying:
 - whether a goal is accepted (:func:`goal_problem`): a finite pad position, within
   ``max_pad_distance`` of the vehicle, the vehicle high enough above it;
 - which detection is the pad's (:func:`pad_marker`);
-- the search spiral sized to the goal's ``search_radius`` (:func:`search_rings`);
+- the search spiral sized to the goal's ``search_radius`` (:func:`search_rings`), each
+  of its legs checked against the map before it is flown (:class:`CheckLeg`: the node asks
+  the path finder, with the navigator's clearance, and answers
+  :meth:`~PrecisionLandPolicy.leg_planned`): a search point in an obstacle's clearance is
+  skipped, a leg that is not clear is flown round along the planned path
+  (:mod:`navigation.search_legs`);
 - which pose goes with a frame: with CAPTURE the pose at the capture stamp for a frame
   showing the marker, else the latest (:meth:`PrecisionLandPolicy.needs_capture_pose`);
 - the landing's timeout while no frames come at all (is the scanner running?);
@@ -19,11 +24,12 @@ decides more, gathered here so a test can walk it without flying:
 
 The node feeds :class:`PrecisionLandPolicy`: :meth:`~PrecisionLandPolicy.poll` at each
 poll (are frames waiting?), :meth:`~PrecisionLandPolicy.frame` per frame,
+:meth:`~PrecisionLandPolicy.leg_planned` for a :class:`CheckLeg`,
 :meth:`~PrecisionLandPolicy.reach_ended` or :meth:`~PrecisionLandPolicy.reach_rejected`
 for a move, :meth:`~PrecisionLandPolicy.land_ended` for the final landing,
 :meth:`~PrecisionLandPolicy.cancel`; and it carries out what each returns: :class:`Move`
-(a reach, heading held), :class:`Touchdown` (the flight controller's landing),
-:class:`Finish` (the goal's result), or :class:`Wait`.
+(a reach, heading held), :class:`CheckLeg` (ask the path finder), :class:`Touchdown` (the
+flight controller's landing), :class:`Finish` (the goal's result), or :class:`Wait`.
 """
 
 from __future__ import annotations
@@ -48,6 +54,7 @@ from navigation.precision_landing import (
     ReachTo,
     Wait,
 )
+from navigation.search_legs import CheckLeg, Leg, LegKind, PlanAnswer, judge_leg
 
 TAKEOFF_MARGIN = 0.2  # m: a goal is refused below min_altitude minus this above the pad
 
@@ -76,7 +83,7 @@ class Touchdown:
     """Hand the final landing to the flight controller."""
 
 
-FrameCommand = Move | Touchdown | Finish | Wait
+FrameCommand = Move | CheckLeg | Touchdown | Finish | Wait
 
 
 def goal_problem(pad_id: int, pad_position: tuple[float, float, float],
@@ -127,6 +134,9 @@ class PrecisionLandPolicy:
         self.pad_id = pad_id
         self.hold_yaw = start.yaw  # the heading every move keeps
         self.moving = False  # a Move was sent and has not ended
+        self.last_leg: Leg | None = None  # the last search leg judged against the map
+        self._leg_goal: tuple[float, float, float] | None = None  # search point being reached
+        self._skips = 0  # search points skipped since the last move
         self.lander = PrecisionLander(params, pad_position, strategy, start_s=now_ns / 1e9)
         self.lander.start(start.position)
 
@@ -139,6 +149,14 @@ class PrecisionLandPolicy:
     def reference_altitude(self) -> float:
         """m above the pad."""
         return self.lander.reference_altitude
+
+    @property
+    def leg_note(self) -> str:
+        """What the last search leg check changed, for the log ("" when nothing)."""
+        leg = self.last_leg
+        if leg is None or leg.kind not in (LegKind.SKIP, LegKind.VIA):
+            return ""
+        return f"search point {leg.kind.value}: {leg.why}"
 
     @property
     def lateral_error(self) -> float:
@@ -166,19 +184,55 @@ class PrecisionLandPolicy:
         """One frame the scanner looked at: ``marker`` the pad's (None: not in it),
         ``pose`` the vehicle's for it, ``position`` [m] and horizontal ``speed`` [m/s]
         the latest, ``captured_ns`` the image's exposure stamp (None: ``now_ns``)."""
+        # a search leg flown round is one move for the lander, in several reaches
         command = self.lander.on_frame(now_ns / 1e9, marker, pose, position, speed,
-                                       busy=self.moving,
+                                       busy=self.moving or self._leg_goal is not None,
                                        captured_s=None if captured_ns is None
                                        else captured_ns / 1e9)
+        if self.lander.phase is not Phase.SEARCH:
+            self._leg_goal = None  # the marker is in view: the search is over
+        elif self._leg_goal is not None and not self.moving and isinstance(command, Wait):
+            return CheckLeg(position, self._leg_goal)  # on round: ask again from here
+        return self._command(command, position)
+
+    def _command(self, command: Fail | ReachTo | LandNow | Wait,
+                 position: tuple[float, float, float]) -> FrameCommand:
         if isinstance(command, Fail):
             return Finish(_FAILURE_OUTCOME[command.failure],
                           f"pad {self.pad_id}: {command.failure.value}: {command.message}")
+        if isinstance(command, ReachTo) and self.lander.phase is Phase.SEARCH:
+            self._leg_goal = command.position  # a search leg: checked on the map first
+            return CheckLeg(position, command.position)
         if isinstance(command, ReachTo):
             self.moving = True
             return Move(command.position, self.hold_yaw)
         if isinstance(command, LandNow):
             return Touchdown()
         return command
+
+    def leg_planned(self, check: CheckLeg, answer: PlanAnswer,
+                    path: np.ndarray | None = None, now_ns: int = 0) -> FrameCommand:
+        """The path finder's ``answer`` (and ``path`` [m], (N, 3)) to ``check`` at
+        ``now_ns``: the search leg flown straight or round (:class:`Move`), or its point
+        skipped and the next one checked (:class:`CheckLeg`); :class:`Wait` when every
+        point was skipped since the last move (the next frame tries again, the map may
+        have changed), :class:`Finish` at the search's timeout."""
+        leg = judge_leg(check.start, check.goal, answer, path,
+                        max_detour=self.params.search_detour)
+        self.last_leg = leg
+        if leg.kind is LegKind.SKIP:
+            self._leg_goal = None
+            self._skips += 1
+            rings = self.params.search_rings if self.lander.capture else 0
+            if self._skips > 1 + 8 * rings:  # the whole spiral: none is clear from here
+                return Wait("no search point is clear from here")
+            return self._command(self.lander.skip_search_point(now_ns / 1e9), check.start)
+        assert leg.target is not None
+        self._skips = 0
+        if leg.kind is not LegKind.VIA:
+            self._leg_goal = None
+        self.moving = True
+        return Move(leg.target, self.hold_yaw)
 
     def reach_ended(self, success: bool, timed_out: bool, message: str,
                     now_ns: int | None = None) -> Finish | Wait:
@@ -211,8 +265,11 @@ class PrecisionLandPolicy:
 __all__ = [
     "PRECISION_LAND_OUTCOMES",
     "TAKEOFF_MARGIN",
+    "CheckLeg",
     "FrameCommand",
+    "LegKind",
     "Move",
+    "PlanAnswer",
     "PrecisionLandPolicy",
     "Touchdown",
     "goal_problem",

@@ -25,7 +25,9 @@ On top of the seed, selectable (:class:`LandingStrategy`) so the two can be comp
   and the error is taken from the latest position to it. ``SEED`` adds the error to the
   latest pose and filters the error itself, as the paper does;
 - phases after PX4's precision landing: SEARCH (a square spiral around the pad's known
-  position while the marker is not in view, with a timeout), ALIGN, DESCEND, FINAL_LAND,
+  position while the marker is not in view, with a timeout; the policy checks each leg on
+  the map, :mod:`navigation.search_legs`, and may skip a point:
+  :meth:`PrecisionLander.skip_search_point`), ALIGN, DESCEND, FINAL_LAND,
   and a retry count when the marker is lost during the descent (climb back, search);
 - outlier rejection: a pad estimate that jumps more than ``outlier_distance`` from the
   filtered one, or a PnP height that disagrees with the vehicle's, is dropped (a flipped
@@ -102,6 +104,7 @@ class LandingParams:
     search_altitude: float = 1.5  # m above the pad, while searching
     search_spacing: float = 0.8  # m between the legs of the search spiral
     search_rings: int = 2  # squares of the spiral around the pad's position
+    search_detour: float = 2.0  # m, a search point reached only by a longer way round is skipped
     search_timeout_s: float = 30.0  # s without seeing the marker in SEARCH
     lost_timeout_s: float = 2.0  # s without the marker while aligning or descending
     retries: int = 2  # searches after a loss (CAPTURE)
@@ -125,6 +128,7 @@ class LandingParams:
             "search_altitude": self.search_altitude >= self.min_altitude,
             "search_spacing": self.search_spacing > 0.0,
             "search_rings": self.search_rings >= 0,
+            "search_detour": self.search_detour >= 0.0,
             "search_timeout_s": self.search_timeout_s > 0.0,
             "lost_timeout_s": self.lost_timeout_s > 0.0,
             "retries": self.retries >= 0,
@@ -333,6 +337,11 @@ class PrecisionLander:
         self._search_index += 1
         self.reference_altitude = max(self.reference_altitude, p.search_altitude)
         return ReachTo((float(x), float(y), self.pad_position[2] + self.reference_altitude))
+
+    def skip_search_point(self, now_s: float) -> Command:
+        """The search point just returned will not be flown to (the map says it is not
+        clear): the search's next command, as if that point had been reached."""
+        return self._search_step(now_s, busy=False)
 
     def _lost(self, now_s: float, busy: bool) -> Command:
         p = self.params

@@ -47,9 +47,6 @@ from runtime.parameters import SetParametersResult
 
 NODE_NAME = "aruco_scanner"
 IMAGE, INFO = graph.CAMERA_DOWN_RAW, graph.CAMERA_DOWN_INFO
-IMAGE_TOPIC, INFO_TOPIC = IMAGE.name, INFO.name
-MARKERS_TOPIC = graph.PERCEPTION_MARKERS.name
-ROBOT_FOUND_TOPIC = graph.PERCEPTION_ROBOT_FOUND.name
 POSE_AT_RETRIES = 5  # a frame is processed when captured; the odometry of that instant
 POSE_AT_RETRY_S = 0.02  # s, comes over the link a few ms later: ask again this often
 MAP_FRAME = "map"
@@ -57,8 +54,8 @@ MAP_FRAME = "map"
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
 SET_BOOL = interfaces.get_service(graph.SCANNER_ENABLE.type)
 POSE_AT = interfaces.get_service(graph.POSE_AT.type)
-_PROBLEM_TEXT = {Problem.IMAGE_STALE: f"no image on {IMAGE_TOPIC}",
-                 Problem.NO_CAMERA_INFO: f"no {INFO_TOPIC}"}
+_PROBLEM_TEXT = {Problem.IMAGE_STALE: f"no image on {IMAGE.name}",
+                 Problem.NO_CAMERA_INFO: f"no {INFO.name}"}
 
 
 class ArucoScannerNode(Node):
@@ -144,7 +141,7 @@ class ArucoScannerNode(Node):
         if not self.policy.image(now_ns, camera is not None) or camera is None:
             return  # (camera None: never scanned; the second test is for the type checker)
         if msg.encoding != "rgb8":
-            self.get_logger().warn(f"{IMAGE_TOPIC}: expected rgb8, got {msg.encoding!r}")
+            self.get_logger().warn(f"{IMAGE.name}: expected rgb8, got {msg.encoding!r}")
             return
         if self._scanning:  # still on the last frame: this one waits (the newest only)
             self.frames_dropped += self._waiting is not None
@@ -244,4 +241,4 @@ class ArucoScannerNode(Node):
         self.health_pub.publish(health_report(NODE_NAME, level, message, values, now.to_msg()))
 
 
-__all__ = ["MARKERS_TOPIC", "NODE_NAME", "ROBOT_FOUND_TOPIC", "ArucoScannerNode", "ScannerParams"]
+__all__ = ["NODE_NAME", "ArucoScannerNode", "ScannerParams"]

@@ -200,8 +200,8 @@ def _refuse_ignored_services(args: argparse.Namespace, has_simulator: bool) -> N
         raise OptionsError(
             f"{' '.join(asked)}: not available with a launch file with a simulator, in "
             "process; add the nodes to the launch "
-            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder' and "
-            "its 'topics', ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
+            "file instead (ground_station.recorder_node:BagRecorderNode with a 'folder', "
+            "ground_station.foxglove_bridge_node:FoxgloveBridgeNode, "
             "ground_station.gcs_server_node:GroundStationServerNode)")
 
 
@@ -235,6 +235,10 @@ def _launch_faults(args: argparse.Namespace, description: Any) -> tuple[Any, lis
                                f"{' over ros2' if processes else ''}; quadmission sim "
                                "--scenario mission plays it")
         if processes and f.kind is FaultKind.NODE_STOP:
+            if f.duration_s is not None:
+                raise OptionsError(f"--fault {f.spec()}: over ros2 a killed process comes back "
+                                   "by its launch file's respawn (respawn: true, "
+                                   "respawn_delay: S), not a duration")
             name = f.text("name")
             named = {n.name: n.process_name() for n in description.nodes if n.name}
             groups = sorted({n.process_name() for n in description.nodes})

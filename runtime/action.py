@@ -411,7 +411,9 @@ class ActionClient:
 
     def _new_goal_id(self) -> bytes:
         self._goal_count += 1
-        seed = f"{self._node.get_fully_qualified_name()}|{self.action_name}|{self._goal_count}"
+        node = self._node
+        seed = (f"{node.get_fully_qualified_name()}{getattr(node, 'instance_tag', '')}|"
+                f"{self.action_name}|{self._goal_count}")
         return hashlib.blake2b(seed.encode(), digest_size=16).digest()
 
     def server_is_ready(self) -> bool:

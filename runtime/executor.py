@@ -162,6 +162,25 @@ class DeterministicExecutor:
             raise ValueError(f"no node {name!r} to stop (nodes: {', '.join(names)})")
         self._stopped = self._stopped | {name}
 
+    def restart_node(self, name: str) -> Node:
+        """Start the stopped node ``name`` again, as its process respawned: the dead
+        instance is destroyed (its endpoints leave the graph, its callbacks still due are
+        dropped) and a fresh one (:meth:`Node.respawn`) is made now and added. The fresh
+        node has its parameters and nothing else; what it knew comes from the topics."""
+        if name not in self._stopped:
+            raise ValueError(f"node {name!r} is not stopped (stopped: "
+                             f"{', '.join(sorted(self._stopped)) or 'none'})")
+        old = next(n for n in self.context.nodes if n.get_name() == name)
+        for _, _, handle in self._heap:  # the dead one's: never run, even once restarted
+            if handle.label[0] == name:
+                handle.cancel()
+        old.destroy_node()
+        self.remove_node(old)
+        self._stopped = self._stopped - {name}
+        node = old.respawn()
+        self.add_node(node)
+        return node
+
     @property
     def stopped_nodes(self) -> frozenset[str]:
         return self._stopped

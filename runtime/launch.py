@@ -94,6 +94,12 @@ class NodeSpec:
     parameters: Mapping[str, Any] = field(default_factory=dict)
     remappings: Mapping[str, str] = field(default_factory=dict)
     process: str | None = None  # the process group over ROS 2 (default: its own)
+    #: over ROS 2: start the node's process again when it dies (ROS 2 launch's ``respawn``),
+    #: ``respawn_delay`` seconds later, at most ``respawn_max`` times (None: the default,
+    #: :data:`runtime.processes.respawn.DEFAULT_RESPAWN_MAX`); in process they are ignored
+    respawn: bool = False
+    respawn_delay: float = 0.0
+    respawn_max: int | None = None
 
     def process_name(self) -> str:
         """The group this node runs in over ROS 2: ``process``, else its own name."""
@@ -119,8 +125,9 @@ class LaunchDescription:
 
     @classmethod
     def from_yaml(cls, path: Path) -> LaunchDescription:
-        """Read ``nodes: [{factory, name, namespace, parameters, remappings, process}, ...]``
-        and an optional ``simulator: {factory, parameters}``."""
+        """Read ``nodes: [{factory, name, namespace, parameters, remappings, process,
+        respawn, respawn_delay, respawn_max}, ...]`` and an optional ``simulator:
+        {factory, parameters}``."""
         try:
             doc = load_yaml(Path(path).read_text(encoding="utf-8")) or {}
         except OSError as exc:
@@ -138,7 +145,8 @@ class LaunchDescription:
                     "factory", "parameters"}:
                 raise LaunchError(f"{path}: simulator: expected {{factory, parameters}}")
             simulator = SimulatorSpec(str(sim["factory"]), dict(sim.get("parameters") or {}))
-        allowed = {"factory", "name", "namespace", "parameters", "remappings", "process"}
+        allowed = {"factory", "name", "namespace", "parameters", "remappings", "process",
+                   "respawn", "respawn_delay", "respawn_max"}
         specs = []
         for i, entry in enumerate(doc["nodes"] or []):
             if not isinstance(entry, Mapping):
@@ -148,8 +156,25 @@ class LaunchDescription:
                 raise LaunchError(f"{path}: nodes[{i}]: unknown key {unknown[0]!r}")
             if "factory" not in entry:
                 raise LaunchError(f"{path}: nodes[{i}]: missing 'factory'")
+            problem = _respawn_problem(entry)
+            if problem:
+                raise LaunchError(f"{path}: nodes[{i}]: {problem}")
             specs.append(NodeSpec(**entry))
         return cls(tuple(specs), simulator)
+
+
+def _respawn_problem(entry: Mapping[str, Any]) -> str:
+    """What is wrong with a node entry's respawn keys, or ''."""
+    if not isinstance(entry.get("respawn", False), bool):
+        return f"respawn: expected true or false, got {entry['respawn']!r}"
+    delay = entry.get("respawn_delay", 0.0)
+    if isinstance(delay, bool) or not isinstance(delay, int | float) or not 0 <= delay <= 3600:
+        return f"respawn_delay: expected 0 to 3600 (s), got {delay!r}"
+    count = entry.get("respawn_max")
+    if count is not None and (isinstance(count, bool) or not isinstance(count, int)
+                              or not 1 <= count <= 1000):
+        return f"respawn_max: expected a count from 1 to 1000, got {count!r}"
+    return ""
 
 
 def launch(description: LaunchDescription, executor: DeterministicExecutor) -> list[Node]:

@@ -65,6 +65,10 @@ class Node:
         self._remappings = remappings
         self.context = context
         self._guid_counter = 0
+        born_ns = context.loop.clock.now().nanoseconds
+        #: "" for a node made at the start; a node made later (a restart of a dead one)
+        #: gets its own identifiers: the same name would give the dead one's again
+        self.instance_tag = "" if born_ns == 0 else f"@{born_ns}"
         self._entities: list[Any] = []
         self._tasks: list[Task[Any]] = []
         self._sleeps: set[Handle] = set()  # pending sleeps, cancelled on destroy_node
@@ -106,7 +110,8 @@ class Node:
 
     def next_guid(self, kind: str, name: str) -> int:
         self._guid_counter += 1
-        return stable_guid(self.get_fully_qualified_name(), kind, name, str(self._guid_counter))
+        return stable_guid(self.get_fully_qualified_name() + self.instance_tag, kind, name,
+                           str(self._guid_counter))
 
     # entities ----------------------------------------------------------------------------
     def _keep(self, entity: T) -> T:
@@ -243,6 +248,15 @@ class Node:
         if self in self.context.nodes:
             self.context.nodes.remove(self)
 
+    def respawn(self) -> Node:
+        """A fresh instance of this node in its context, as a restarted process makes it:
+        the same class, name, namespace, parameter overrides and remappings, and nothing
+        else of this one (its state comes back from topics and parameters). A subclass
+        whose constructor takes more than those overrides this."""
+        remappings = dict(self._remappings) | {"__node": self._name}
+        return type(self)(context=self.context, namespace=self._namespace,  # type: ignore[call-arg]
+                          parameter_overrides=dict(self._overrides), remappings=remappings)
+
     # parameters --------------------------------------------------------------------------
     def _where(self, name: str) -> str:
         return f"{self._name}.{name}"
@@ -254,7 +268,8 @@ class Node:
         descriptor: ParameterDescriptor | None = None,
     ) -> Parameter:
         """Declare a parameter; its value is the launch override, else the node's YAML,
-        else ``value``. Type comes from the descriptor or the default."""
+        else ``value``. Type comes from the descriptor or the default. The post-set
+        callbacks hear it (rclpy's do)."""
         if name in self._parameters:
             raise ParameterError("declared twice", key=self._where(name))
         descriptor = descriptor or ParameterDescriptor()
@@ -281,6 +296,8 @@ class Node:
         param = Parameter(name, kind, coerced)
         self._parameters[name] = param
         self._descriptors[name] = descriptor
+        for post in self._post_set_callbacks:
+            post([param])
         return param
 
     def declare_parameters(
@@ -345,8 +362,9 @@ class Node:
     def add_post_set_parameters_callback(
         self, callback: Callable[[list[Parameter]], None]
     ) -> None:
-        """Call ``callback([parameter])`` after each parameter is set, with its new value
-        (rclpy's): whoever set it, the node itself or a tool through the transport."""
+        """Call ``callback([parameter])`` after each parameter is declared or set, with its
+        new value (rclpy's): whoever set it, the node itself or a tool through the
+        transport."""
         self._post_set_callbacks.append(callback)
 
     def set_parameters(self, parameters: Sequence[Parameter]) -> list[SetParametersResult]:

@@ -81,11 +81,13 @@ class Reader(Protocol):
 
 
 class Transport(Protocol):
-    """Creates writers and readers for endpoints."""
+    """Creates writers and readers for endpoints, and lists the graph's topics."""
 
     def create_writer(self, endpoint: Endpoint) -> Writer: ...
 
     def create_reader(self, endpoint: Endpoint, on_sample: SampleCallback) -> Reader: ...
+
+    def topic_names_and_types(self) -> list[tuple[str, str]]: ...
 
 
 @dataclass(frozen=True)
@@ -239,6 +241,15 @@ class InProcessTransport:
             key = (channel.name, channel.type_name)
             counts[key] = counts.get(key, 0) + sum(w.samples_written for w in channel.writers)
         return counts
+
+    def writer_endpoints(self) -> list[Endpoint]:
+        """Every open writer's endpoint, services' halves included (as ``ros2 topic info
+        -v`` lists publishers: name, type, QoS, node)."""
+        return [w.endpoint for c in self._channels.values() for w in c.writers]
+
+    def reader_endpoints(self) -> list[Endpoint]:
+        """Every open reader's endpoint, services' halves included."""
+        return [r.endpoint for c in self._channels.values() for r in c.readers]
 
     def topic_names_and_types(self) -> list[tuple[str, str]]:
         """Like ``ros2 topic list -t``: every topic with its type, sorted."""

@@ -17,6 +17,7 @@ the operator's (outside the companion under test) in the app. Pure module: PyYAM
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from enum import Enum
@@ -134,10 +135,11 @@ KINDS: dict[FaultKind, KindSpec] = {
             "mission's target)"),), "no robot carries the marker any more"),
     FaultKind.OPERATOR_SILENT: KindSpec(Duration.NONE, (), "the operator answers nothing "
                                         "from then on (no landing sequence)"),
-    FaultKind.NODE_STOP: KindSpec(Duration.NONE, (
+    FaultKind.NODE_STOP: KindSpec(Duration.OPTIONAL, (
         Key("name", math.nan, "", 0.0, 0.0, "the node's name", required=True, text=True),),
         "a companion node stops (in process: no longer executed; under --transport ros2: "
-        "its process killed)"),
+        "its process killed); in process, DURATION s later a fresh instance of it starts "
+        "(its process restarted; under ros2 the launch file's respawn says it)"),
     FaultKind.ROBOT_ACROSS: KindSpec(Duration.NONE, (
         Key("robot", math.nan, "", 1.0, 1000.0, "the robot's marker (default: the robot "
             "nearest the crossing point)"),
@@ -198,8 +200,8 @@ class Fault:
             k = known[key]
             if not (k.lo <= value <= k.hi) and not (math.isnan(value) and math.isnan(k.default)
                                                      and not k.required):
-                raise FaultSpecError(f"fault {name!r}: {key}={value:g} is outside "
-                                     f"[{k.lo:g}, {k.hi:g}] {k.unit}".rstrip())
+                raise FaultSpecError(f"fault {name!r}: {key}={_number(value)} is outside "
+                                     f"[{_number(k.lo)}, {_number(k.hi)}] {k.unit}".rstrip())
 
     @classmethod
     def of(cls, kind: FaultKind, at_s: float, duration_s: float | None = None,
@@ -209,8 +211,9 @@ class Fault:
         names = sorted(k.name for k in spec.keys)
         unknown = sorted(set(values) - set(names))
         if unknown:
-            raise FaultSpecError(f"fault {kind.value}@{at_s:g}: unknown key {unknown[0]!r} for "
-                                 f"{kind.value} (known: {', '.join(names) or 'none'})")
+            raise FaultSpecError(f"fault {kind.value}@{_number(at_s)}: unknown key "
+                                 f"{unknown[0]!r} for {kind.value} "
+                                 f"(known: {', '.join(names) or 'none'})")
         filled, texts = [], []
         for k in spec.keys:
             v = values.get(k.name, k.default)
@@ -221,8 +224,8 @@ class Fault:
             try:
                 filled.append((k.name, float(v)))
             except ValueError:
-                raise FaultSpecError(f"fault {kind.value}@{at_s:g}: {k.name}={v!r} is not a "
-                                     "number") from None
+                raise FaultSpecError(f"fault {kind.value}@{_number(at_s)}: {k.name}={v!r} is "
+                                     "not a number") from None
         return cls(kind, float(at_s), None if duration_s is None else float(duration_s),
                    tuple(filled), tuple(texts))
 
@@ -247,16 +250,28 @@ class Fault:
 
     def spec(self) -> str:
         """The fault written back as a spec string (replays it)."""
-        out = f"{self.kind.value}@{self.at_s:g}"
+        out = f"{self.kind.value}@{_number(self.at_s)}"
         if self.duration_s is not None:
-            out += f":{self.duration_s:g}"
-        given = [f"{k}={v:g}" for k, v in self.values if not math.isnan(v)]
+            out += f":{_number(self.duration_s)}"
+        given = [f"{k}={_number(v)}" for k, v in self.values if not math.isnan(v)]
         given += [f"{k}={v}" for k, v in self.texts]
         return ",".join([out, *given])
 
     def to_json(self) -> dict[str, Any]:
         return {"kind": self.kind.value, "at_s": self.at_s, "duration_s": self.duration_s,
                 **{k: v for k, v in self.values if not math.isnan(v)}, **dict(self.texts)}
+
+
+def _number(value: float) -> str:
+    """``value`` short (``50``, ``0.5``) when that reads back as the same float, else in
+    full: ``50.00000000000001`` is not written ``50``, which is in a range it is outside,
+    and a spec written back replays the very value."""
+    short = f"{value:g}"
+    return short if float(short) == value else repr(value)
+
+
+#: the head of a fault's error: ``fault 'SPEC': `` or ``fault KIND@T: ``
+_ERROR_HEAD = re.compile(r"^fault (?:'[^']*'|\S+): ")
 
 
 def _kind(name: str, where: str) -> FaultKind:
@@ -303,7 +318,8 @@ def parse_fault(text: str) -> Fault:
     try:
         return Fault.of(kind, at_s, duration_s, **values)
     except FaultSpecError as exc:
-        raise FaultSpecError(str(exc).replace(f"{kind.value}@{at_s:g}", text, 1)) from None
+        # the spec as written, not as rebuilt from its parts, names the fault
+        raise FaultSpecError(_ERROR_HEAD.sub(f"fault {text!r}: ", str(exc), count=1)) from None
 
 
 def parse_faults(texts: Iterable[str]) -> tuple[Fault, ...]:

@@ -34,10 +34,6 @@ from sim.render import CameraIntrinsics, DepthPointCloud, Image, Points, SceneRe
 from sim.scene import quad_state
 from sim.world import Scene, divides
 
-DOWN_IMAGE_TOPIC = graph.CAMERA_DOWN_RAW.name
-DOWN_INFO_TOPIC = graph.CAMERA_DOWN_INFO.name
-DEPTH_POINTS_TOPIC = graph.CAMERA_DEPTH_POINTS.name
-CLOCK_TOPIC = graph.CLOCK.name
 DOWN_FRAME = "down_camera"
 DEPTH_FRAME = "depth_camera"
 
@@ -210,7 +206,7 @@ class DownCamera:
         frame = self.renderer.render_later(scene.data, DOWN_CAMERA, finish)
         self.node.context.loop.call_at(
             t_ns + seconds_to_ns(self.latency_s), lambda: self._deliver(frame, stamp),
-            (self.node.get_name(), "camera", DOWN_IMAGE_TOPIC))
+            (self.node.get_name(), "camera", graph.CAMERA_DOWN_RAW.name))
 
     def _deliver(self, frame: Future[Image], stamp: Time) -> None:
         if self.node in self.node.context.nodes:  # not destroyed while the frame was drawn
@@ -252,7 +248,7 @@ class DepthCamera:
         cloud = self.cloud.points_later(scene.data)
         self.node.context.loop.call_at(
             t_ns + seconds_to_ns(self.latency_s), lambda: self._deliver(cloud, stamp),
-            (self.node.get_name(), "camera", DEPTH_POINTS_TOPIC))
+            (self.node.get_name(), "camera", graph.CAMERA_DEPTH_POINTS.name))
 
     def _deliver(self, cloud: Future[Points], stamp: Time) -> None:
         if self.node in self.node.context.nodes:  # not destroyed while it was made

@@ -24,7 +24,6 @@ from runtime.clock import seconds_to_ns
 from runtime.parameters import param, validate_parameters
 from sim.world import Scene
 
-VISION_POSE_TOPIC = graph.SIM_VISION_POSE.name
 MAP_FRAME = "map"
 _BLOCK = 256  # updates whose standard normals are drawn at once
 
@@ -147,5 +146,5 @@ class VisionPose:
         )
         publish_at = t_ns + seconds_to_ns(n.latency_s + self.extra_latency_s)
         self.node.context.loop.call_at(publish_at, lambda: self.node.pose.publish(msg),
-                                       (self.node.get_name(), "vision", VISION_POSE_TOPIC))
+                                       (self.node.get_name(), "vision", graph.SIM_VISION_POSE.name))
         self.published += 1

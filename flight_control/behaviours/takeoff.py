@@ -1,9 +1,12 @@
 """Takeoff: take offboard control if the FCU is not in it, then climb straight up.
 
 The climb is a :class:`~flight_control.behaviours.reach.Reach` from where the vehicle is
-to ``altitude`` above the take-off point. Before it, when the vehicle is armed but not in
-offboard, the behaviour asks for offboard mode; a refusal, or the mode not showing in
-/fcu/status within ``mode_wait_s`` of the acceptance, ends it with FCU_REJECTED.
+to ``altitude`` above the take-off point, above that point, or above ``over`` when given:
+a vehicle already in the air (a mission resumed after the FCU's failsafe flew) takes
+offboard back and climbs or sinks to the altitude where it is. Before the climb, when the
+vehicle is armed but not in offboard, the behaviour asks for offboard mode; a refusal, or
+the mode not showing in /fcu/status within ``mode_wait_s`` of the acceptance, ends it with
+FCU_REJECTED.
 """
 
 from __future__ import annotations
@@ -29,9 +32,11 @@ class Takeoff:
 
     def __init__(self, start: Setpoint, position: FloatArray, home: FloatArray, *,
                  altitude: float, speed: float, radius: float, tuning: ReachTuning,
-                 mode_wait_s: float) -> None:
+                 mode_wait_s: float, over: FloatArray | None = None) -> None:
         self.home = home.copy()
         self.target = self.home + np.array([0.0, 0.0, altitude])
+        if over is not None:
+            self.target[:2] = over[:2]
         self.start = start
         self.climb = Reach.toward(start, position, self.target, speed=speed, radius=radius,
                                   tuning=tuning)

@@ -12,18 +12,22 @@ that session exchange under :data:`XRCE_SESSION`, on names outside ``/fmu``.
 The simulated firmware's uXRCE-DDS agent publishes :data:`FMU_OUT` and subscribes to
 :data:`FMU_IN` with the PX4 side's QoS; the companion bridge does the opposite with
 :data:`COMPANION_PUBLISHER_QOS` and :data:`COMPANION_SUBSCRIBER_QOS` (seed 000's list:
-best effort, keep last; PX4's publishers are transient local).
+best effort, keep last; PX4's publishers are transient local). The nodes that keep a
+different profile on the /fmu side have it here too, each saying why:
+:data:`FCU_BRIDGE_QOS` (and its lazy and ack variants), :data:`LATENCY_TEST_PUBLISHER_QOS`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 
 import interfaces
 from interfaces.qos import (
+    DurabilityPolicy,
     QoSProfile,
+    ReliabilityPolicy,
     qos_profile_px4_in,
     qos_profile_px4_out,
     qos_profile_px4_subscriber,
@@ -32,8 +36,12 @@ from interfaces.qos import (
 __all__ = [
     "COMPANION_PUBLISHER_QOS",
     "COMPANION_SUBSCRIBER_QOS",
+    "FCU_BRIDGE_ACK_QOS",
+    "FCU_BRIDGE_LAZY_QOS",
+    "FCU_BRIDGE_QOS",
     "FMU_IN",
     "FMU_OUT",
+    "LATENCY_TEST_PUBLISHER_QOS",
     "XRCE_SESSION",
     "XRCE_TIMESYNC_BYTES",
     "FmuTopic",
@@ -95,5 +103,25 @@ XRCE_SESSION: Mapping[str, FmuTopic] = MappingProxyType({
 COMPANION_PUBLISHER_QOS = qos_profile_px4_in
 #: What a companion node reads /fmu/out with (PX4's guide: sensor data, depth 5).
 COMPANION_SUBSCRIBER_QOS = qos_profile_px4_subscriber
+#: The FCU bridge's /fmu QoS, both directions (and the session's time sync): seed 000's
+#: measured setting (section 3.1): best effort, transient local, keep last 1. Unlike the
+#: companion default it queues only the newest sample (a control loop wants nothing
+#: older), and a late subscriber still gets the last one. It matches PX4's uXRCE-DDS
+#: publishers and subscribers.
+FCU_BRIDGE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+                            durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: The bridge's lazy subscription (/fmu/out/sensor_combined while /fcu/imu has readers):
+#: as :data:`FCU_BRIDGE_QOS`, volatile: a sample the agent kept from an earlier reader
+#: would be stale.
+FCU_BRIDGE_LAZY_QOS = replace(FCU_BRIDGE_QOS, durability=DurabilityPolicy.VOLATILE)
+#: The bridge's /fmu/out/vehicle_command_ack reader: as :data:`FCU_BRIDGE_QOS`, keep last
+#: 10: acks are events, not state, and two in one instant must both arrive.
+FCU_BRIDGE_ACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
+                                durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: Seed 000's latency test's writers (/fmu/in/vehicle_visual_odometry, the session's
+#: time-sync request): best effort, volatile, keep last 1, as the paper measured (section
+#: 3.1: one message in the queue); the companion default's 5 would let a sample wait
+#: behind older ones and add that wait to the measured latency.
+LATENCY_TEST_PUBLISHER_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 #: CDR size of the XRCE time-sync request/reply the agent answers (header + 3 stamps) [bytes].
 XRCE_TIMESYNC_BYTES = 32

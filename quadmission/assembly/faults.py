@@ -3,8 +3,10 @@
 The simulator's kinds act through :func:`sim.faults.install_faults`; the rest act outside
 the companion under test, here: the operator (``operator_abort``: ABORT pressed;
 ``operator_silent``: the operator stops answering) and the processes (``node_stop``: the
-deterministic executor stops executing the node, as if its process had died; under the
-``ros2`` transport the launcher kills the process, :mod:`runtime.processes.launcher`).
+deterministic executor stops executing the node, as if its process had died, and with a
+duration starts a fresh instance of it that much later, as a respawned process; under the
+``ros2`` transport the launcher kills the process and the launch file's ``respawn`` says
+whether it comes back, :mod:`runtime.processes.launcher`).
 
 A scenario takes a kind when the kind acts on something it flies and the expected
 reaction (:mod:`quadmission.evaluation.faults`) can happen in it: the mission's policy
@@ -114,7 +116,7 @@ def resolve_faults(faults: Sequence[Fault], arena: ArenaSpec, target_robot: int 
 @dataclass
 class AppFaults:
     """A world part that plays the app's faults at their times: ABORT pressed, the
-    operator silenced, a node stopped."""
+    operator silenced, a node stopped (and restarted at the end of its duration)."""
 
     executor: DeterministicExecutor
     faults: Sequence[Fault]
@@ -126,8 +128,14 @@ class AppFaults:
     def __post_init__(self) -> None:
         self._pending = sorted((f for f in self.faults if f.kind in APP_KINDS),
                                key=lambda f: f.at_s)
+        self._restarts: list[tuple[float, str]] = []  # (when [s], node) to start again
+        self.restarted: list[tuple[float, str]] = []  # (when [s], node) started again
 
     def update(self, t_ns: int, scene: Scene) -> None:
+        while self._restarts and round(self._restarts[0][0] * 1e9) <= t_ns:
+            _, name = self._restarts.pop(0)
+            self.executor.restart_node(name)
+            self.restarted.append((t_ns / 1e9, name))
         while self._pending and round(self._pending[0].at_s * 1e9) <= t_ns:
             fault = self._pending.pop(0)
             if fault.kind is FaultKind.OPERATOR_ABORT:
@@ -137,6 +145,8 @@ class AppFaults:
                 self.executor.stop_node("operator")
             else:
                 self.executor.stop_node(fault.text("name"))
+                if fault.duration_s is not None:
+                    self._restarts = sorted([*self._restarts, (fault.end_s, fault.text("name"))])
             self.played.append((t_ns / 1e9, fault))
 
 
@@ -146,4 +156,5 @@ def judge_flight(faults: Sequence[Fault], failsafes: FcuFailsafes, truth: Trajec
     """The report's ``faults`` of a flight without the mission (navigate, precision
     landing): the FCU's failsafes, the pads not landed on and the end state only."""
     ended = end_state(truth, arena, resting_height_m, crash)
-    return [judge_fault(f, [], failsafes.entered_s, ended, skipped) for f in faults]
+    return [judge_fault(f, [], failsafes.entered_s, ended, skipped, mission=False)
+            for f in faults]

@@ -38,8 +38,7 @@ from interfaces.px4 import (
     VehicleCmd,
 )
 from interfaces.px4.timesync import TimesyncExchange, ns_to_us
-from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
-from interfaces.qos import QoSProfile, ReliabilityPolicy
+from interfaces.px4.topics import COMPANION_PUBLISHER_QOS, FMU_IN, FMU_OUT, XRCE_SESSION
 from runtime import Node, Time, qos_profile_px4_subscriber
 from sim.fcu.firmware import FirmwareConfig
 from sim.fcu.sitl import Sitl, build_sitl
@@ -48,7 +47,6 @@ from sim.world import WorldResult
 TIMESYNC_MSG = "quadmission_interfaces/msg/Timesync"  # the modelled XRCE session sync
 
 FloatArray = npt.NDArray[np.float64]
-_PX4_IN = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 class HarnessPhase(Enum):
@@ -165,11 +163,12 @@ class OffboardHarness(Node):
         pose = graph.SIM_VISION_POSE
         self.create_subscription(pose.type, pose.name, self._on_vision, pose.subscriber_qos)
         self.mode_pub, self.setpoint_pub, self.command_pub, self.vision_pub = (
-            self.create_publisher(FMU_IN[short].type, FMU_IN[short].name, _PX4_IN)
+            self.create_publisher(FMU_IN[short].type, FMU_IN[short].name,
+                                  COMPANION_PUBLISHER_QOS)
             for short in ("offboard_control_mode", "trajectory_setpoint", "vehicle_command",
                           "vehicle_visual_odometry"))
         self.timesync_pub = self.create_publisher(TIMESYNC_MSG, XRCE_SESSION["request"].name,
-                                                  _PX4_IN)
+                                                  COMPANION_PUBLISHER_QOS)
         self.create_timer(0.02, self._send_timesync)  # 50 Hz: converged in ~2 s
         self.create_timer(1.0 / rate_hz, self._step)
 

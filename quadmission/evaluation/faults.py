@@ -7,6 +7,11 @@ offboard-loss failsafe: hold, then ``offboard_loss_action``); a gust is ridden o
 VIO lost for good is the mission's (HOLD) and then the FCU's: without a position it
 cannot hold, and its position-loss failsafe descends to the floor.
 
+A fault that ends (a duration) and shows as a transient cause (the policy's
+``transient``: the VIO, or the FCU link, lost for a while) expects "HOLD, then RESUME,
+then completed": handled when the mission completes with every landing inside, whatever
+it took (a gap too short for any cause needs no hold).
+
 What happened is read from what the mission published (its ``/mission/events``: an error
 event carries its cause and reaction) and from the FCU's modes; where the vehicle ended
 from ground truth (:func:`end_state`). Evaluation only: the app layer.
@@ -27,9 +32,9 @@ from sim.fault_spec import Fault, FaultKind
 from sim.fcu.firmware import Firmware
 from sim.world import Crash, Scene, Trajectory
 
-__all__ = ["EXPECTED", "FAULT_SETTLE_S", "NODE_STOP_EXPECTED", "EndState", "Expectation",
-           "FaultExpectationError", "FcuFailsafes", "Handler", "end_state", "expectation",
-           "judge_fault"]
+__all__ = ["EXPECTED", "FAULT_SETTLE_S", "NODE_STOP_EXPECTED", "RECOVERS", "EndState",
+           "Expectation", "FaultExpectationError", "FcuFailsafes", "Handler", "end_state",
+           "expectation", "judge_fault"]
 
 AT_REST_M_S = 0.15  # m/s: slower than this, the vehicle is at rest (landed or holding)
 ON_GROUND_M = 0.1  # m: the body this close to its resting height on the pad is down
@@ -54,10 +59,14 @@ class Expectation:
     """A fault that lasts to the end leaves the vehicle to the FCU's failsafe after the
     mission's reaction (VIO lost for good: HOLD, then the position-loss descent), and
     the run must end on the ground."""
+    recovers: bool = False
+    """The fault ends and its cause is transient: HOLD, then RESUME, then completed."""
 
     @property
     def reaction(self) -> str:
         """The expected reaction's name: the policy's for the cause, else the handler's."""
+        if self.recovers:
+            return RECOVERED
         if self.cause is not None:
             return ERROR_POLICY[self.cause].reaction.name
         return {Handler.FCU: "FAILSAFE", Handler.SKIP: "SEARCH, then SKIP"}.get(self.handler,
@@ -110,16 +119,30 @@ NODE_STOP_EXPECTED: dict[str, Expectation] = {
 module watches the mission (a policy the mission lacks), the operator is not on board."""
 
 
-def expectation(fault: Fault) -> Expectation:
-    """The expected reaction to ``fault`` (``node_stop``: by the node's name)."""
+RECOVERED = "HOLD, then RESUME, then completed"
+RECOVERS: dict[Handler, ErrorCause] = {Handler.FCU: ErrorCause.OFFBOARD_LOST}
+"""The transient cause a fault that ends shows as, by its handler when it has no cause of
+its own: the FCU's offboard-loss failsafe, ended, is the mission's ``offboard_lost``."""
+
+
+def expectation(fault: Fault, *, mission: bool = True) -> Expectation:
+    """The expected reaction to ``fault`` (``node_stop``: by the node's name); one that
+    ends, with a transient cause, recovers when the mission flies (``mission``; a flight
+    without it, the navigate or precision-landing scenario, has no one to resume)."""
     if fault.kind is FaultKind.NODE_STOP:
         name = fault.text("name")
         if name not in NODE_STOP_EXPECTED:
             raise FaultExpectationError(
                 f"{fault.spec()}: no expected reaction for node {name!r} (nodes: "
                 f"{', '.join(sorted(NODE_STOP_EXPECTED))})")
-        return NODE_STOP_EXPECTED[name]
-    return EXPECTED[fault.kind]
+        base = NODE_STOP_EXPECTED[name]
+    else:
+        base = EXPECTED[fault.kind]
+    cause = base.cause if base.cause is not None else RECOVERS.get(base.handler)
+    if mission and math.isfinite(fault.end_s) and cause is not None \
+            and ERROR_POLICY[cause].transient:
+        return Expectation(Handler.MISSION, cause, recovers=True)
+    return base
 
 
 class FaultExpectationError(ValueError):
@@ -224,17 +247,41 @@ def _search_then_skip(fault: Fault, events: Sequence[tuple[float, MissionEvent]]
                         t0 - fault.at_s, False, landed)
 
 
+def _recovered(fault: Fault, expected: Expectation,
+               events: Sequence[tuple[float, MissionEvent]],
+               completed: bool) -> tuple[str, float | None]:
+    """What the mission did about a fault that ended: its holds and resumes from the
+    fault on (``cause: HOLD, then RESUME``), and ``then completed``."""
+    assert expected.cause is not None
+    steps = [(t, c) for t, e in events if t >= fault.at_s and (c := _cause_of(e)) is not None]
+    hold = next((t for t, c in steps if c[1] == "HOLD"), None)
+    parts = []
+    if hold is not None:
+        held_on = next(c[0] for t, c in steps if t == hold and c[1] == "HOLD")
+        resumed = any(c[1] == "RESUME" and t >= hold for t, c in steps)
+        parts.append(f"{held_on}: HOLD" + (", then RESUME" if resumed else ""))
+    if completed:
+        parts.append("completed")
+    return (", then ".join(parts) or "none"), (None if hold is None else hold - fault.at_s)
+
+
 def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
                 fcu_failsafes: Sequence[float], end: EndState,
-                skipped: Sequence[tuple[float, int, str]] = ()) -> dict[str, Any]:
+                skipped: Sequence[tuple[float, int, str]] = (),
+                completed: bool = False, mission: bool = True) -> dict[str, Any]:
     """One fault's entry of the report: ``{kind, at_s, expected, observed, reaction_s,
     end_state, handled}``. ``events``: the mission's (time, event); ``fcu_failsafes``:
     the times the FCU entered a failsafe; ``skipped``: the pads the mission skipped
-    (time, pad, reason)."""
-    expected = expectation(fault)
+    (time, pad, reason); ``completed``: the mission completed with every landing inside
+    (what a fault that ends, with a transient cause, must still allow); ``mission``: the
+    mission flew (:func:`expectation`)."""
+    expected = expectation(fault, mission=mission)
     observed, reaction_s = "none", None
     handled = end is not EndState.CRASHED
-    if expected.handler is Handler.SKIP:
+    if expected.recovers:
+        observed, reaction_s = _recovered(fault, expected, events, completed)
+        handled = handled and completed
+    elif expected.handler is Handler.SKIP:
         pad = _search_then_skip(fault, events, skipped)
         observed, reaction_s = pad.observed, pad.reaction_s
         causes = [e for te, e in events if te >= fault.at_s and _cause_of(e) is not None]
@@ -252,7 +299,11 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
         errors = [(t, c) for t, e in events if fault.at_s <= t <= until
                   and (c := _cause_of(e)) is not None]
         want = expected.cause.value if expected.cause is not None else None
-        hit = next(((t, c) for t, c in errors if c[0] == want), errors[0] if errors else None)
+        final = None if expected.cause is None else ERROR_POLICY[expected.cause].reaction.name
+        # the permanent reaction when there is one (a transient cause first holds)
+        hit = next(((t, c) for t, c in errors if c == (want, final)),
+                   next(((t, c) for t, c in errors if c[0] == want),
+                        errors[0] if errors else None))
         if hit is not None:
             t, (cause, reaction) = hit
             observed, reaction_s = f"{cause}: {reaction}", t - fault.at_s

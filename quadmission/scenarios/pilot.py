@@ -16,16 +16,16 @@ from typing import Any
 
 from flight_control.clients import ARM_RETRY_S, arm, arm_client
 from flight_control.goal_checks import NO_POSITION_MESSAGE
+from flight_control.health import MODULE_HEALTH
 from interfaces import graph
 from runtime import ActionClient, Node
 
-HEALTH_OK = 0  # ModuleHealth.LEVEL_OK
 READY_POLL_S = 0.1  # s between looks at the health report while waiting for ready
 
 
 @dataclass(frozen=True)
 class GoalReply:
-    """How a goal ended: accepted or not, its result's success, message and message."""
+    """How a goal ended: accepted or not, and its result (success and message)."""
 
     accepted: bool
     result: Any  # the action's Result
@@ -53,6 +53,8 @@ class Pilot(Node):
                  **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         self.health_level: int | None = None  # flight control's, None before any report
+        #: flight control's last report's values (``armed``, ``streaming``... as text)
+        self.health_values: dict[str, str] = {}
         self.arm_client = arm_client(self)
         self.clients: dict[str, Any] = {
             entry.name: (ActionClient(self, entry.type, entry.name)
@@ -65,11 +67,19 @@ class Pilot(Node):
 
     def _on_health(self, msg: Any) -> None:
         self.health_level = int(msg.level)
+        self.health_values = {kv.key: kv.value for m in msg.modules for kv in m.values}
+
+    @property
+    def flying(self) -> bool:
+        """Flight control reports the vehicle armed and its setpoint stream on: a flight
+        is under way (a restarted script takes it over instead of taking off again)."""
+        v = self.health_values
+        return v.get("armed") == "true" and v.get("streaming") == "true"
 
     async def wait_ready(self, timeout_s: float) -> bool:
         """Until flight control reports OK (True) or ``timeout_s`` has passed (False)."""
         waited = 0.0
-        while self.health_level != HEALTH_OK:
+        while self.health_level != MODULE_HEALTH.LEVEL_OK:
             if waited >= timeout_s:
                 return False
             await self.sleep(READY_POLL_S)
@@ -101,4 +111,4 @@ class Pilot(Node):
         return reply
 
 
-__all__ = ["HEALTH_OK", "GoalReply", "Pilot"]
+__all__ = ["GoalReply", "Pilot"]

@@ -28,12 +28,19 @@ node process answers such a repeat with its report at once: its reports are time
 simulated time, which advances at most one /clock step while the simulator waits, and
 the first ones can be lost while discovery matches the report's reader; without that
 answer the launch would wait for a report that never comes.
+
+A node process that died and is to be restarted (``respawn`` in the launch file) leaves
+the lockstep: the launcher writes ``left NAME`` on the simulator's stdin
+(``control_stdin``) and the simulator waits for it no more; the restarted process
+(``rejoin``) makes its nodes at the simulated time it finds on ``/clock``, and its first
+report, newer than any of the dead one's, takes it back.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import os
 import signal
 import sys
 import time
@@ -44,18 +51,12 @@ from typing import Any
 
 import interfaces
 from interfaces import graph
-from interfaces.qos import QoSProfile
 from runtime.clock import Time
 from runtime.executor import DeterministicExecutor
 from runtime.launch import LaunchDescription, NodeSpec, SimulatorSpec, finished, launch
 from runtime.node import Node
-from runtime.processes.executor import (
-    CLOCK_TOPIC,
-    CLOCK_TYPE,
-    ClockedExecutor,
-    ParameterMirror,
-    ProcessTransport,
-)
+from runtime.processes.executor import ClockedExecutor, ParameterMirror, ProcessTransport
+from runtime.processes.respawn import DEFAULT_RESPAWN_MAX, RespawnPolicy
 
 __all__ = ["TRANSPORTS", "ProcessSpec", "main"]
 
@@ -64,14 +65,8 @@ EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 EXIT_STALLED = 5  # a node process sent no report for stall_timeout_s while it was waited for
 _TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
-_ACK_QOS = QoSProfile(depth=1)  # the lockstep reports: reliable, volatile, keep last 1
 _WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
 _CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
-
-
-def ack_topic(process: str) -> str:
-    """Where node process ``process`` reports the simulated time it has reached."""
-    return f"/launch/{process}/clock"
 
 
 @dataclass(frozen=True)
@@ -95,6 +90,10 @@ class ProcessSpec:
     startup_timeout_s: float = 120.0
     stall_timeout_s: float = 120.0  # simulator: gives up on a node process silent this long [s]
     log_level: str = "INFO"
+    respawn_delay_s: float | None = None  # node process: started again when it dies (None: not)
+    respawn_max: int = DEFAULT_RESPAWN_MAX  # ... at most this many times over the launch
+    rejoin: bool = False  # node process: a restart, joining a running launch (below)
+    control_stdin: bool = False  # simulator: the launcher's lines come on stdin (_ControlPipe)
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
@@ -114,6 +113,12 @@ class ProcessSpec:
         raw["nodes"] = tuple(raw.get("nodes") or ())
         raw["followers"] = tuple(raw.get("followers") or ())
         return cls(**raw)
+
+    def respawn_policy(self) -> RespawnPolicy | None:
+        """When this process is started again after it dies, or None."""
+        if self.respawn_delay_s is None:
+            return None
+        return RespawnPolicy(self.respawn_delay_s, self.respawn_max)
 
     def make_transport(self) -> ProcessTransport:
         return TRANSPORTS[self.transport](self)
@@ -143,36 +148,55 @@ def _config_dir(spec: ProcessSpec) -> Any:
     return Path(spec.config_dir) if spec.config_dir else DEFAULT_CONFIG_DIR
 
 
-def run_nodes(spec: ProcessSpec) -> int:
-    """A node group: follow /clock, spin until a node finishes or a signal comes."""
-    transport = spec.make_transport()
-    ex = ClockedExecutor(transport, use_sim_time=spec.use_sim_time,
-                         config_dir=_config_dir(spec))
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: ex.stop())
+def _start_nodes(spec: ProcessSpec, ex: ClockedExecutor,
+                 transport: ProcessTransport) -> list[Node]:
+    """Create the group's nodes, and its lockstep reporter under ``use_sim_time``."""
     description = LaunchDescription(tuple(NodeSpec(**dict(n)) for n in spec.nodes))
-    nodes = launch(description, ex)  # at time 0; the simulator waits for us
+    nodes = launch(description, ex)
     if isinstance(transport, ParameterMirror):  # declared on the transport's nodes too
         for node in nodes:
             transport.mirror_parameters(node)
     if spec.use_sim_time:
         reporter = Node(f"launch_{_node_name(spec.name)}_clock", context=ex.context)
-        ack = reporter.create_publisher(CLOCK_TYPE, ack_topic(spec.name), _ACK_QOS)
+        reports = graph.LAUNCH_CLOCK_REPORT
+        ack = reporter.create_publisher(reports.type, reports.name_for(spec.name), reports.qos)
 
         def report() -> None:
-            ack.publish(interfaces.new(CLOCK_TYPE, clock=reporter.now().to_msg()))
+            ack.publish(interfaces.new(reports.type, clock=reporter.now().to_msg()))
 
         reporter.create_timer(spec.ack_period_s, report)
         # a /clock sent again is the simulator waiting for us: report at once. The timer
         # alone, on a simulated time that no longer moves, would never report again, and a
         # report written before the simulator's reader matched is lost (volatile)
         ex.on_clock_repeat = report
+    return nodes
+
+
+def run_nodes(spec: ProcessSpec) -> int:
+    """A node group: follow /clock, spin until a node finishes or a signal comes.
+
+    At the launch's start the nodes are made at time 0 (the simulator waits for every
+    group's /clock subscription). A restart (``rejoin``) joins a launch whose clock runs:
+    it waits for /clock first and makes its nodes at that time (made at 0, their timers
+    would catch up on every period since), fresh, with their parameters; what they knew
+    comes back from the topics. Its first report brings it back into the lockstep."""
+    transport = spec.make_transport()
+    ex = ClockedExecutor(transport, use_sim_time=spec.use_sim_time,
+                         config_dir=_config_dir(spec))
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: ex.stop())
+    rejoin = spec.rejoin and spec.use_sim_time
+    nodes = [] if rejoin else _start_nodes(spec, ex, transport)  # at 0: the simulator waits
     if not ex.wait_for_clock(spec.startup_timeout_s):
         if ex.stopping:
             return 0
-        _say(spec.name, f"no {CLOCK_TOPIC} after {spec.startup_timeout_s:g} s; is the "
+        _say(spec.name, f"no {graph.CLOCK.name} after {spec.startup_timeout_s:g} s; is the "
                         "simulator running on this domain?")
         return EXIT_NO_CLOCK
+    if rejoin:
+        nodes = _start_nodes(spec, ex, transport)
+        _say(spec.name, f"restarted: nodes made at {ex.now().nanoseconds / 1e9:.3f} s "
+                        "simulated")
     try:
         ex.spin(until=lambda: finished(nodes) is not None)
     finally:  # what a node holds outside the graph is let go: a bag's index, a server
@@ -184,6 +208,28 @@ def run_nodes(spec: ProcessSpec) -> int:
     assert done.exit_code is not None
     _say(spec.name, done.exit_reason)
     return done.exit_code
+
+
+class _ControlPipe:
+    """Lines from the launcher on a file descriptor (the simulator's stdin), read without
+    blocking."""
+
+    def __init__(self, fd: int) -> None:
+        self.fd, self._buffer, self._open = fd, b"", True
+        os.set_blocking(fd, False)
+
+    def lines(self) -> list[str]:
+        if not self._open:
+            return []
+        try:
+            chunk = os.read(self.fd, 4096)
+        except BlockingIOError:
+            return []
+        if not chunk:  # the launcher is gone
+            self._open = False
+            return []
+        *whole, self._buffer = (self._buffer + chunk).split(b"\n")
+        return [line.decode(errors="replace").strip() for line in whole]
 
 
 def run_simulator(spec: ProcessSpec) -> int:
@@ -205,24 +251,44 @@ def run_simulator(spec: ProcessSpec) -> int:
         for node in list(ex.context.nodes):
             transport.mirror_parameters(node)
     clock_node = Node("simulator_clock", context=ex.context)
-    clock_pub = clock_node.create_publisher(CLOCK_TYPE, CLOCK_TOPIC, graph.CLOCK.qos)
+    clock_pub = clock_node.create_publisher(graph.CLOCK.type, graph.CLOCK.name, graph.CLOCK.qos)
     reached = dict.fromkeys(spec.followers, 0)
+    left: dict[str, int] = {}  # followers whose process died (to be restarted): last report
+    control = _ControlPipe(sys.stdin.fileno()) if spec.control_stdin else None
 
     def on_ack(who: str) -> Callable[[Any], None]:
         def note(msg: Any) -> None:
-            reached[who] = max(reached[who], Time.from_msg(msg.clock).nanoseconds)
+            t = Time.from_msg(msg.clock).nanoseconds
+            if who in left:  # its replacement's first report, newer than any of the dead's
+                if t <= left[who]:
+                    return
+                del left[who]
+                _say(spec.name, f"{who} rejoined the lockstep at {t / 1e9:.3f} s simulated")
+            reached[who] = max(reached.get(who, 0), t)
         return note
 
+    def take_control() -> None:
+        """The launcher's lines: ``left NAME`` when a follower's process died and is to be
+        started again: not waited for until its replacement reports."""
+        assert control is not None
+        for line in control.lines():
+            verb, _, who = line.partition(" ")
+            if verb == "left" and who in reached:
+                left[who] = reached.pop(who)
+                _say(spec.name, f"{who} left the lockstep at {ex.now().nanoseconds / 1e9:.3f} "
+                                "s simulated (its process died); waiting for it no more")
+
+    reports = graph.LAUNCH_CLOCK_REPORT
     for follower in spec.followers:
-        clock_node.create_subscription(CLOCK_TYPE, ack_topic(follower), on_ack(follower),
-                                       _ACK_QOS)
+        clock_node.create_subscription(reports.type, reports.name_for(follower),
+                                       on_ack(follower), reports.subscriber_qos)
     max_lead_ns = round(spec.max_lead_s * 1e9)
     deadline = time.monotonic() + spec.startup_timeout_s
     while clock_pub.get_subscription_count() < spec.clock_subscribers and not stop["now"]:
         if time.monotonic() > deadline:
             _say(spec.name, f"only {clock_pub.get_subscription_count()} of "
                             f"{spec.clock_subscribers} node processes subscribed to "
-                            f"{CLOCK_TOPIC} after {spec.startup_timeout_s:g} s")
+                            f"{graph.CLOCK.name} after {spec.startup_timeout_s:g} s")
             return EXIT_NO_PEERS
         transport.wait(0.05)
         transport.dispatch()
@@ -234,7 +300,7 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     def tick(t_ns: int) -> None:
         sec, nsec = divmod(t_ns, 1_000_000_000)
-        clock = interfaces.new(CLOCK_TYPE, clock=interfaces.new(
+        clock = interfaces.new(graph.CLOCK.type, clock=interfaces.new(
             "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec))
         clock_pub.publish(clock)
         transport.dispatch()
@@ -244,6 +310,8 @@ def run_simulator(spec: ProcessSpec) -> int:
             transport.wait(_WAIT_S)  # a node process lags: let it catch up
             transport.dispatch()
             ex.spin_until(ex.now().nanoseconds)  # its reports, taken at this time
+            if control is not None:  # or it died, and the launcher said so
+                take_control()
             now = time.monotonic()
             if now >= repeat_at:  # /clock is best effort: a process that
                 clock_pub.publish(clock)  # lost the last samples would wait forever

@@ -26,11 +26,8 @@ from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
 from runtime.node import Node
 from runtime.transport import Endpoint, Reader, RequestId, Transport
 
-__all__ = ["CLOCK_QOS", "CLOCK_TOPIC", "CLOCK_TYPE", "ClockedExecutor", "ParameterMirror",
-           "ProcessTransport", "TimeFollower"]
+__all__ = ["ClockedExecutor", "ParameterMirror", "ProcessTransport", "TimeFollower"]
 
-#: /clock as the graph contract names it; its readers' QoS is rclcpp TimeSource's.
-CLOCK_TOPIC, CLOCK_TYPE, CLOCK_QOS = graph.CLOCK.name, graph.CLOCK.type, graph.CLOCK.subscriber_qos
 _POLL_S = 0.05  # longest wait before looking at the stop condition again [s]
 
 
@@ -57,7 +54,8 @@ class TimeFollower(Protocol):
 
 @runtime_checkable
 class ParameterMirror(Protocol):
-    """A transport whose nodes show our nodes' parameters to foreign tools."""
+    """A transport whose nodes show our nodes' parameters to foreign tools (those declared
+    later too); mirroring a node a second time changes nothing."""
 
     def mirror_parameters(self, node: Node) -> None: ...
 
@@ -90,10 +88,11 @@ class ClockedExecutor(DeterministicExecutor):
         exist: no simulated time passes while it boots."""
         if self.use_sim_time and self._clock_reader is None:
             self._clock_reader = self.process_transport.create_reader(
-                Endpoint(CLOCK_TOPIC, CLOCK_TYPE, CLOCK_QOS), self._on_clock)
+                Endpoint(graph.CLOCK.name, graph.CLOCK.type, graph.CLOCK.subscriber_qos),
+                self._on_clock)
 
     def _on_clock(self, data: bytes, _request_id: RequestId | None) -> None:
-        t_ns = Time.from_msg(interfaces.deserialize(data, CLOCK_TYPE).clock).nanoseconds
+        t_ns = Time.from_msg(interfaces.deserialize(data, graph.CLOCK.type).clock).nanoseconds
         wall_ns = time.monotonic_ns()
         if self._clock_ns is None:
             self._clock_ns, self._clock_wall_ns = t_ns, wall_ns

@@ -2,24 +2,26 @@
 
 The node of ours stays the owner, and the two copies stay in step both ways:
 
+- a parameter our node declares, before or after it is mirrored (a node may declare one
+  late, while it runs), is declared on the rcl node too: our node's post-set callbacks hear
+  declarations as rclpy's do;
 - a value set from outside (``ros2 param set``, an rclpy parameter client) is validated by
   our node's ``set_parameters`` (ranges, read-only, on-set callbacks), and the rcl node
   takes it only if ours did;
 - a value our node sets itself (a switch it flips, a setting it adapts) is written to the
   rcl node, so an outside client reads the value our node holds.
 
-Either way the rcl node stores the value through rclpy's own ``set_parameters``, which
-publishes the change on ``/parameter_events`` (rcl_interfaces/msg/ParameterEvent: the
-node's name, the new, changed and deleted parameters, a stamp), once per change, as every
-rclpy node does.
+Either way the rcl node stores the value through rclpy's own ``declare_parameter`` or
+``set_parameters``, which publishes it on ``/parameter_events``
+(rcl_interfaces/msg/ParameterEvent: the node's name, the new, changed and deleted
+parameters, a stamp), once per declaration or change, as every rclpy node does.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 from rcl_interfaces.msg import ParameterDescriptor as RclDescriptor
 from rcl_interfaces.msg import SetParametersResult as RclResult
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node as RclNode
 from rclpy.parameter import Parameter as RclParameter
 
@@ -40,14 +42,8 @@ _RCL_TYPE = {
 }
 
 
-def _rcl_value(param: Parameter) -> Any:
-    value = param.value
-    if isinstance(value, tuple | list):
-        return list(value) if value else _RCL_TYPE[param.type]  # empty: typed, unset
-    return value
-
-
 def _rcl_parameter(param: Parameter) -> RclParameter:
+    """``param`` as rclpy's Parameter of the same type (an array as a list)."""
     value = param.value
     return RclParameter(param.name, _RCL_TYPE[param.type],
                         list(value) if isinstance(value, tuple | list) else value)
@@ -81,31 +77,43 @@ class _Mirror:
         return RclResult(successful=True)
 
     def on_our_set(self, params: list[Parameter]) -> None:
-        """Our node set ``params``: write those it set itself to the rcl node (one from
-        outside is stored there by the rclpy set that brought it)."""
-        own = [p for p in params if p.name not in self._from_outside]
-        if not own:
-            return
-        self._writing_back = True
+        """Our node declared or set ``params``: declare on the rcl node those it lacks, and
+        write there those our node set itself (one from outside is stored there by the
+        rclpy set that brought it)."""
+        for p in params:
+            if p.name in self._from_outside:
+                continue
+            refused = self._write_back(p)
+            if refused is not None:
+                self._node.get_logger().error(
+                    f"parameter {p.name} = {p.value!r} not shown to ROS 2 tools: {refused}")
+
+    def _write_back(self, param: Parameter) -> str | None:
+        """Declare or set ``param`` on the rcl node; why it was refused, or None."""
+        rcl = _rcl_parameter(param)
+        self._writing_back = True  # rclpy's declare runs the on-set callbacks too
         try:
-            results = self._rcl_node.set_parameters([_rcl_parameter(p) for p in own])
+            if self._rcl_node.has_parameter(rcl.name):
+                (result,) = self._rcl_node.set_parameters([rcl])
+                return None if result.successful else str(result.reason)
+            # rclpy takes a declared type from the default, and an empty list has none:
+            # an empty array is declared by its type alone (typed, unset)
+            default = rcl.type_ if rcl.value == [] else rcl.value
+            self._rcl_node.declare_parameter(rcl.name, default, RclDescriptor(
+                type=rcl.type_.value, description=param.type.value))
+            return None
+        except ParameterException as e:
+            return str(e)
         finally:
             self._writing_back = False
-        for p, result in zip(own, results, strict=True):
-            if not result.successful:
-                self._node.get_logger().error(
-                    f"parameter {p.name} = {p.value!r} not shown to ROS 2 tools: {result.reason}")
 
 
 def mirror_parameters(node: Node, rcl_node: RclNode) -> None:
-    """Declare every parameter of ``node`` on ``rcl_node``, and keep them in step both ways."""
-    ours = node.get_parameters_by_prefix("")
-    for name, param in sorted(ours.items()):
-        if rcl_node.has_parameter(name):
-            continue
-        rcl_node.declare_parameter(
-            name, _rcl_value(param),
-            RclDescriptor(type=_RCL_TYPE[param.type].value, description=f"{param.type.value}"))
+    """Declare every parameter of ``node`` on ``rcl_node``, those it declares later too, and
+    keep them in step both ways. Once per node: a second call would mirror every change
+    twice (:meth:`runtime.ros2.transport.Ros2Transport.mirror_parameters` calls it once)."""
     mirror = _Mirror(node, rcl_node)
+    mirror.on_our_set([p for _, p in sorted(node.get_parameters_by_prefix("").items())
+                       if not rcl_node.has_parameter(p.name)])
     rcl_node.add_on_set_parameters_callback(mirror.on_rcl_set)
     node.add_post_set_parameters_callback(mirror.on_our_set)

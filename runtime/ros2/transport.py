@@ -26,6 +26,7 @@ from __future__ import annotations
 import itertools
 import logging
 import re
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -198,6 +199,7 @@ class Ros2Transport:
         rclpy.init(context=self.context, domain_id=self.config.domain_id,
                    signal_handler_options=SignalHandlerOptions.NO)
         self._nodes: dict[str, RclNode] = {}
+        self._mirrored: weakref.WeakSet[Node] = weakref.WeakSet()  # parameters mirrored
         self._process_node = _process_node_name(name)
         self._guard = _rclpy.GuardCondition(self.context.handle)
         # what the wait set holds; entity -> how to take from it
@@ -238,8 +240,12 @@ class Ros2Transport:
         return node
 
     def mirror_parameters(self, node: Node) -> None:
-        """Declare ``node``'s parameters on its rcl node (:mod:`runtime.ros2.parameters`)."""
+        """Declare ``node``'s parameters on its rcl node, and those it declares later
+        (:mod:`runtime.ros2.parameters`); a node already mirrored is left as it is."""
+        if node in self._mirrored:
+            return
         mirror_parameters(node, self.rcl_node(node.get_fully_qualified_name()))
+        self._mirrored.add(node)
 
     def set_time(self, t_ns: int) -> None:
         """Move every rcl node's ROS clock to simulated time ``t_ns`` (``use_sim_time``)."""

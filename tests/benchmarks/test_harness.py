@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -53,7 +54,30 @@ def test_a_nan_is_kept_and_named_on_stderr(tmp_path: Path,
     out = tmp_path / "r.json"
     write_result(out, {"ratio": math.nan})
     assert "NaN" in out.read_text(encoding="utf-8")
-    assert "NaN" in capsys.readouterr().err
+    assert "result['ratio']: NaN" in capsys.readouterr().err
+
+
+def test_a_strict_result_refuses_a_nan_naming_it_and_keeps_the_last_file(
+        tmp_path: Path) -> None:
+    out = tmp_path / "r.json"
+    write_result(out, {"runs": [{"rtf": 2.0}]}, allow_nan=False)
+    with pytest.raises(ValueError, match=r"result\['runs'\]\[1\]\['rtf'\]: NaN"):
+        write_result(out, {"runs": [{"rtf": 2.0}, {"rtf": math.nan}]}, allow_nan=False)
+    with pytest.raises(ValueError, match=r"result\['limit'\]: NaN or infinity"):
+        write_result(None, {"limit": math.inf}, allow_nan=False)
+    assert json.loads(out.read_text(encoding="utf-8")) == {"runs": [{"rtf": 2.0}]}
+
+
+#: the scripts whose results were strict JSON before the harness (json.dumps(...,
+#: allow_nan=False)); the others wrote NaN as Python does, and still do, with a warning
+STRICT = ("bench_campaign", "bench_mission", "bench_navigate_seeds", "bench_square_seeds")
+
+
+@pytest.mark.parametrize("name", STRICT)
+def test_the_scripts_with_strict_results_refuse_nan(name: str) -> None:
+    text = (BENCHMARKS / f"{name}.py").read_text(encoding="utf-8")
+    calls = re.findall(r"write_result\((.*)\)\n", text)
+    assert calls and all(c.endswith("allow_nan=False") for c in calls), calls
 
 
 def test_the_host_names_python_machine_cpus_and_the_loads_the_script_took() -> None:

@@ -20,8 +20,14 @@ import numpy as np
 import pytest
 
 import interfaces
-from flight_control.bridge_node import ACK_QOS, BRIDGE_QOS, FcuBridgeNode
-from interfaces.px4.topics import FMU_IN, FMU_OUT, XRCE_SESSION
+from flight_control.bridge_node import FcuBridgeNode
+from interfaces.px4.topics import (
+    FCU_BRIDGE_ACK_QOS,
+    FCU_BRIDGE_QOS,
+    FMU_IN,
+    FMU_OUT,
+    XRCE_SESSION,
+)
 from runtime import (
     DeterministicExecutor,
     Node,
@@ -78,16 +84,16 @@ def _loop() -> Loop:
     for short in ("timesync_status", "vehicle_odometry"):
         topic = FMU_OUT[short]
         loop.fcu_publishers[topic.name] = fcu.create_publisher(topic.type, topic.name,
-                                                               BRIDGE_QOS)
+                                                               FCU_BRIDGE_QOS)
     ack = FMU_OUT["vehicle_command_ack"]
-    loop.fcu_publishers[ack.name] = fcu.create_publisher(ack.type, ack.name, ACK_QOS)
+    loop.fcu_publishers[ack.name] = fcu.create_publisher(ack.type, ack.name, FCU_BRIDGE_ACK_QOS)
     reader = Node("reader", context=ex.context)
     reader.create_subscription("nav_msgs/msg/Odometry", "/fcu/odometry", loop.odometry.append,
                                qos_profile_sensor_data)
     reader.create_subscription("quadmission_interfaces/msg/FcuCommandAck", "/fcu/command_ack",
                                loop.acks.append, qos_profile_default)
     setpoint = FMU_IN["trajectory_setpoint"]
-    fcu.create_subscription(setpoint.type, setpoint.name, loop.setpoints.append, BRIDGE_QOS)
+    fcu.create_subscription(setpoint.type, setpoint.name, loop.setpoints.append, FCU_BRIDGE_QOS)
     for node in (bridge, fcu, reader):
         ex.add_node(node)
     ex.spin_for(START_S)
@@ -210,14 +216,14 @@ def test_the_bridge_says_when_its_time_sync_restarts_after_the_offset_steps(
     bridge = FcuBridgeNode(context=ex.context)
     fcu = Node("scripted_fcu_side", context=ex.context)
     request, reply = XRCE_SESSION["request"], XRCE_SESSION["reply"]
-    replies = fcu.create_publisher(reply.type, reply.name, BRIDGE_QOS)
+    replies = fcu.create_publisher(reply.type, reply.name, FCU_BRIDGE_QOS)
     fcu_minus_companion_ns = [25_000_000_000]
 
     def answer(msg: Any) -> None:
         replies.publish(interfaces.new(reply.type, seq=msg.seq, ts1=msg.ts1,
                                        tc1=int(msg.ts1) + fcu_minus_companion_ns[0]))
 
-    fcu.create_subscription(request.type, request.name, answer, BRIDGE_QOS)
+    fcu.create_subscription(request.type, request.name, answer, FCU_BRIDGE_QOS)
     for node in (bridge, fcu):
         ex.add_node(node)
     with caplog.at_level(logging.INFO, logger="quadmission.fcu_bridge"):

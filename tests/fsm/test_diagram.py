@@ -30,5 +30,8 @@ def test_the_diagram_has_one_edge_per_transition_and_a_row_per_cause() -> None:
     triggers = sorted(t.trigger for t in TRANSITIONS)
     assert sorted(e[2] for e in edges if e[2] != "resume") == triggers
     assert any(e[:3] == ("paused", "mission", "resume") for e in edges)
+    assert any(e[:3] == ("held", "mission", "resume") for e in edges)
+    assert any(e[:3] == ("held", "returning", "resume") for e in edges)
     for cause, policy in ERROR_POLICY.items():
-        assert f"| `{cause.value}` | {policy.reaction.name} |" in readme_block()
+        transient = "HOLD, then RESUME" if policy.transient else "-"
+        assert f"| `{cause.value}` | {policy.reaction.name} | {transient} |" in readme_block()

@@ -42,7 +42,6 @@ from fsm.mission_driver import (
     Probed,
     PublishEvent,
     PublishState,
-    ReachGoal,
     RobotSeen,
     SendGoal,
     SendPictures,
@@ -62,7 +61,8 @@ PARAMS = DriverParams(
     cruise_altitude=1.5, explore_altitude=1.9, explore_budget_s=600.0, health_topics=TOPICS,
     preflight_timeout_s=0.5, silence_timeout_s=3.0, sequence_timeout_s=120.0,
     report_hover_s=1.0, picture_timeout_s=0.5, max_pictures=3, battery_low_warning=1,
-    battery_critical_warning=2, land_speed=0.4, arm_attempts=5, failsafe_cause_wait_s=1.5)
+    battery_critical_warning=2, land_speed=0.4, arm_attempts=5, failsafe_cause_wait_s=1.5,
+    status_timeout_s=1.0, recovery_settle_s=2.0, recovery_deadline_s=30.0)
 PADS = {1: (1.5, 1.5), 2: (3.0, 7.5), 3: (7.0, 10.5)}
 CONFIG = MissionConfig(target_robot=19, start_pad=1, pads=PADS, search_radius_near=0.5,
                        search_radius_wide=2.0)
@@ -74,9 +74,10 @@ FLYING = replace(ON_GROUND, armed=True, landed=False)
 class Rig:
     """The driver and a clock; remembers the last step's commands and the job in hand."""
 
-    def __init__(self, params: DriverParams = PARAMS, start_ns: int = 0) -> None:
+    def __init__(self, params: DriverParams = PARAMS, start_ns: int = 0,
+                 config: MissionConfig = CONFIG) -> None:
         self.t_ns = start_ns
-        self.driver = Driver(CONFIG, params, start_ns)
+        self.driver = Driver(config, params, start_ns)
         self.out: list[Command] = []
         self.job: Any = None  # the latest job command
 
@@ -107,9 +108,20 @@ class Rig:
             self.feed(Health(topic, ok, error, message))
 
     def tick(self, after_s: float = 0.1) -> list[Command]:
-        """The watchdog, ``after_s`` later, every module having just reported OK."""
+        """The watchdog, ``after_s`` later, every module having just reported OK and the
+        FCU its latest status again (the link up)."""
         self.t_ns += round(after_s * 1e9)
         self.report_health()
+        if self.driver.status is not None:
+            self.feed(self.driver.status)
+        return self.feed(Tick())
+
+    def watchdog(self, after_s: float) -> list[Command]:
+        """The watchdog alone, ``after_s`` later, the FCU's status just refreshed (the
+        link up) but no module's health."""
+        self.t_ns += round(after_s * 1e9)
+        if self.driver.status is not None:
+            self.feed(self.driver.status)
         return self.feed(Tick())
 
     def events(self, kind: EventKind | None = None) -> list[Any]:
@@ -133,8 +145,8 @@ def started(rig: Rig | None = None) -> Rig:
     return rig
 
 
-def exploring() -> Rig:
-    rig = started()
+def exploring(rig: Rig | None = None) -> Rig:
+    rig = started(rig)
     rig.feed(Probed(rig.job.job, ()))
     rig.feed(ArmDone(rig.job.job, None))
     rig.feed(FLYING)
@@ -143,8 +155,8 @@ def exploring() -> Rig:
     return rig
 
 
-def awaiting_sequence() -> Rig:
-    rig = exploring()
+def awaiting_sequence(rig: Rig | None = None) -> Rig:
+    rig = exploring(rig)
     rig.feed(RobotSeen(19, "picture"))
     rig.done(Outcome.MARKER_FOUND)
     rig.woke()
@@ -152,8 +164,9 @@ def awaiting_sequence() -> Rig:
     return rig
 
 
-def flying_pads(pads: tuple[int, ...] = (2, 3), points: tuple[int, ...] = (10, 20)) -> Rig:
-    rig = awaiting_sequence()
+def flying_pads(pads: tuple[int, ...] = (2, 3), points: tuple[int, ...] = (10, 20),
+                rig: Rig | None = None) -> Rig:
+    rig = awaiting_sequence(rig)
     rig.feed(OperatorCommand(Order.SEQUENCE, pads=pads, points=points), 5.0)
     assert rig.state == "mission.pad.navigate"
     return rig
@@ -350,7 +363,9 @@ def test_a_takeoff_resumed_in_the_air_climbs_where_the_vehicle_is() -> None:
     rig.feed(OperatorCommand(Order.PAUSE))  # halfway up
     out = rig.feed(OperatorCommand(Order.RESUME))
     assert rig.state == "mission.takeoff"
-    assert of(out, SendGoal) == [SendGoal(rig.job.job, Action.REACH, ReachGoal((1.4, 1.6, 1.5)))]
+    # flight control's take-off (not the navigator's survey, which needs the ground): in
+    # the air it climbs where the vehicle is, and takes offboard back if the FCU left it
+    assert of(out, SendGoal) == [SendGoal(rig.job.job, Action.TAKEOFF, TakeoffGoal(1.5))]
     rig.done()
     assert rig.state == "mission.explore"
 
@@ -440,7 +455,9 @@ def test_a_failure_under_the_failsafe_with_a_known_cause_acts_on_the_cause_at_on
     assert rig.state == "landing_now"
 
 
-def test_a_failure_under_the_failsafe_without_a_cause_holds_after_the_wait() -> None:
+def test_a_failure_under_the_failsafe_without_a_cause_is_offboard_lost_after_the_wait() -> None:
+    """No other cause: the FCU's failsafe took the vehicle for a reason of its own (its
+    offboard-loss failsafe); with no resumes allowed, its permanent reaction at once."""
     rig = exploring()
     rig.feed(FAILSAFE)
     rig.done(Outcome.FAILED, "no way on")
@@ -449,8 +466,8 @@ def test_a_failure_under_the_failsafe_without_a_cause_holds_after_the_wait() -> 
     rig.tick(0.2)
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None
-    assert stop.cause is ErrorCause.FLIGHT_ERROR and stop.detail.startswith("explore: no way on")
-    assert "failsafe" in stop.detail
+    assert stop.cause is ErrorCause.OFFBOARD_LOST
+    assert stop.detail.startswith("explore: no way on") and "failsafe" in stop.detail
 
 
 def test_pictures_are_those_of_the_target_since_the_exploration_the_latest_kept() -> None:
@@ -624,7 +641,7 @@ def test_an_alert_goes_through_the_error_policy(status: VehicleStatus, cause: Er
 def test_a_module_reporting_an_error_holds() -> None:
     rig = exploring()
     rig.feed(Health(TOPICS[0], False, True, "offboard lost"))
-    rig.feed(Tick(), 0.1)
+    rig.watchdog(0.1)
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None
     assert (stop.cause, stop.detail) == (ErrorCause.MODULE_ERROR,
@@ -634,16 +651,16 @@ def test_a_module_reporting_an_error_holds() -> None:
 def test_a_module_reporting_a_warning_is_no_alert() -> None:
     rig = exploring()
     rig.report_health(ok=False, error=False, message="slow")
-    rig.feed(Tick(), 0.1)
+    rig.watchdog(0.1)
     assert rig.state == "mission.explore"
 
 
 def test_a_module_silent_past_its_timeout_holds() -> None:
     rig = exploring()
     rig.report_health()
-    rig.feed(Tick(), PARAMS.silence_timeout_s)  # at the timeout: still alive
+    rig.watchdog(PARAMS.silence_timeout_s)  # at the timeout: still alive
     assert rig.state == "mission.explore"
-    rig.feed(Tick(), 2e-9)  # from the first nanoseconds past it
+    rig.watchdog(2e-9)  # from the first nanoseconds past it
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None
     assert (stop.cause, stop.detail) == (ErrorCause.MODULE_SILENT,
@@ -664,7 +681,7 @@ def test_alerts_come_gravest_first_and_the_first_stop_ends_the_checks() -> None:
     rig.feed(replace(FLYING, position_valid=False, battery_warning=1, battery_remaining=0.3))
     assert [c for c, _ in rig.driver.alerts()] == [
         ErrorCause.LOCALISATION_LOST, ErrorCause.MODULE_ERROR, ErrorCause.BATTERY_LOW]
-    rig.feed(Tick(), 0.1)
+    rig.watchdog(0.1)
     stop = rig.driver.mission.stop
     assert stop is not None and stop.cause is ErrorCause.LOCALISATION_LOST
     assert len(rig.events(EventKind.MODULE_FAULT)) == 0  # never applied: already stopped
@@ -674,7 +691,7 @@ def test_a_module_error_acts_before_a_low_battery() -> None:
     rig = exploring()
     rig.feed(replace(FLYING, battery_warning=1, battery_remaining=0.3))
     rig.feed(Health(TOPICS[1], False, True, "planner crashed"))
-    rig.feed(Tick(), 0.1)
+    rig.watchdog(0.1)
     assert rig.state == "stopped"
     assert rig.driver.mission.stop is not None
     assert rig.driver.mission.stop.cause is ErrorCause.MODULE_ERROR
@@ -683,10 +700,10 @@ def test_a_module_error_acts_before_a_low_battery() -> None:
 def test_no_alert_is_acted_on_before_the_flight_or_after_the_end() -> None:
     rig = Rig()
     rig.feed(replace(ON_GROUND, position_valid=False))
-    rig.feed(Tick(), 10.0)  # idle: every module silent, no position
+    rig.watchdog(10.0)  # idle: every module silent, no position
     assert rig.state == "idle"
     rig.feed(OperatorCommand(Order.START))
-    rig.feed(Tick(), 10.0)
+    rig.watchdog(10.0)
     assert rig.state == "preflight"
     rig = flying_pads(pads=(2,), points=(10,))
     rig.done()

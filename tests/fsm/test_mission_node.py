@@ -169,13 +169,12 @@ def test_the_mission_switches_the_scanner_with_its_states() -> None:
     """The real scanner: off (and off its image topic) while the mission takes off or flies
     between pads, on where it explores or lands on a pad. Each state change asks."""
     from perception.aruco_scanner_node import ArucoScannerNode
-    from sim.sensors import DOWN_IMAGE_TOPIC
 
     ex = DeterministicExecutor()
     mission = MissionNode(context=ex.context, parameter_overrides=PADS)
     scanner = ArucoScannerNode(context=ex.context)
     camera = Node("camera", context=ex.context)
-    image = camera.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
+    image = camera.create_publisher("sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name,
                                     qos_profile_default)
     for node in (mission, scanner, camera):
         ex.add_node(node)

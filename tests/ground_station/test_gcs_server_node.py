@@ -1,6 +1,6 @@
 """ground_station/gcs_server_node.py: the ground station as a launch-file node (the way a
-DDS launch starts it): its page answers, it draws the field from the layout file, and an
-authenticated command reaches /mission/command."""
+launch over ROS 2 processes starts it): its page answers, it draws the field from the
+layout file, and an authenticated command reaches /mission/command."""
 
 from __future__ import annotations
 

@@ -12,7 +12,7 @@ from ground_station.bag import bag_info
 from ground_station.recorder_node import BagRecorderNode
 from ground_station.topic_tap import TopicTapError
 from quadmission.examples import Listener, Talker
-from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
+from runtime import DeterministicExecutor, Node, ParameterError, qos_profile_sensor_data
 
 
 class _Odometry(Node):
@@ -53,14 +53,14 @@ def test_recorder_finds_topics_and_records_every_sample(tmp_path: Path) -> None:
     assert odometry.sent - round(discovery_s / 0.01) <= counts["/fcu/odometry"] <= odometry.sent
 
 
-def test_topics_given_by_name_and_type_are_recorded_without_discovery(tmp_path: Path) -> None:
-    """What a DDS process does: its transport cannot list topics, so they are named."""
+def test_include_chooses_the_topics_recorded(tmp_path: Path) -> None:
     ex = DeterministicExecutor()
     talker = Talker(context=ex.context)
-    recorder = BagRecorderNode(tmp_path / "bag", context=ex.context, parameter_overrides={
-        "include": "", "topics": ["/chatter std_msgs/msg/String"]})  # discovery finds nothing
+    recorder = BagRecorderNode(tmp_path / "bag", context=ex.context,
+                               parameter_overrides={"include": "/chatter"})
     ex.add_node(talker)
     ex.add_node(recorder)
+    _Odometry(context=ex.context)  # found by discovery, not included
     ex.spin_for(1.0)
     recorder.close()
     with AnyReader([tmp_path / "bag"], default_typestore=interfaces.typestore()) as reader:
@@ -68,12 +68,23 @@ def test_topics_given_by_name_and_type_are_recorded_without_discovery(tmp_path: 
     assert texts == [f"hello {i}" for i in range(1, talker.count + 1)]
 
 
-def test_a_malformed_topics_entry_is_named(tmp_path: Path) -> None:
+def test_a_pattern_that_is_not_a_regular_expression_is_named(tmp_path: Path) -> None:
     ex = DeterministicExecutor()
-    with pytest.raises(TopicTapError, match="'chatter': expected '/topic pkg/msg/Type'"):
+    with pytest.raises(TopicTapError, match=r"include '/\(': not a regular expression"):
         BagRecorderNode(tmp_path / "bag", context=ex.context,
-                        parameter_overrides={"topics": ["chatter"]})
+                        parameter_overrides={"include": "/("})
     assert bag_info(tmp_path / "bag").indexed, "the refused recorder left its bag open"
+
+
+def test_a_yaml_that_still_names_topics_is_refused_naming_the_key(tmp_path: Path) -> None:
+    """``topics`` (topics named by hand, for a transport that could not list them) is gone:
+    both transports list their topics, and ``include``/``exclude`` choose among them."""
+    ex = DeterministicExecutor()
+    recorder = BagRecorderNode(tmp_path / "bag", context=ex.context, parameter_overrides={
+        "topics": ["/chatter std_msgs/msg/String"]})
+    with pytest.raises(ParameterError, match="unknown parameter 'topics' for node bag_recorder"):
+        ex.add_node(recorder)
+    recorder.destroy_node()
 
 
 def test_a_launched_recorder_writes_where_its_parameter_says(tmp_path: Path) -> None:

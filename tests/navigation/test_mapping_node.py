@@ -9,8 +9,9 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
-from navigation.mapping_node import DEPTH_TOPIC, MAP_TOPIC, POSE_AT, MappingNode
+from navigation.mapping_node import POSE_AT, MappingNode
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default
 
 WALL = np.array([(2.0, y, z) for y in np.arange(-1.0, 1.0, 0.1)
@@ -24,11 +25,11 @@ class Fcu(Node):
         super().__init__("fcu_side", **kwargs)
         self.status = self.create_publisher("quadmission_interfaces/msg/FcuStatus",
                                             "/fcu/status", qos_profile_default)
-        self.depth = self.create_publisher("sensor_msgs/msg/PointCloud2", DEPTH_TOPIC,
-                                           qos_profile_default)
+        self.depth = self.create_publisher("sensor_msgs/msg/PointCloud2",
+                                           graph.CAMERA_DEPTH_POINTS.name, qos_profile_default)
         self.maps: list[Any] = []
-        self.create_subscription("sensor_msgs/msg/PointCloud2", MAP_TOPIC, self.maps.append,
-                                 qos_profile_default)
+        self.create_subscription("sensor_msgs/msg/PointCloud2", graph.MAP_POINTS.name,
+                                 self.maps.append, qos_profile_default)
         self.create_service(POSE_AT, "/fcu/pose_at", self._pose_at)
         self.create_timer(0.1, self._status)
 

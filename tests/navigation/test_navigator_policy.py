@@ -895,6 +895,29 @@ def test_a_lane_point_is_passed_at_speed_only_with_room_to_stop_past_it(
                for c in world.of(Plan))
 
 
+@pytest.mark.parametrize("speed", [0.5, 1.5, 2.5])
+@pytest.mark.parametrize(("margin", "passed"), [
+    (-0.05, False),  # the wall 5 cm short of the room to stop from that speed
+    (0.05, True),  # 5 cm beyond it
+])
+def test_the_room_to_stop_past_a_lane_point_grows_with_the_speed(
+        speed: float, margin: float, passed: bool) -> None:
+    """At a cruise speed other than 1 m/s the room asked for past (4, 1) is speed *
+    pass_stop_s (0.25, 0.75, 1.25 m at 0.5 s): a wall just inside it makes the point a
+    stop, one just beyond lets the vehicle pass it at speed."""
+    follow = FollowTuning(**{**FOLLOW.__dict__, "cruise_speed": speed})
+    room = speed * follow.pass_stop_s
+    world = World(explore(area=ONE_LANE, follow=follow),
+                  wall_across_the_lane(4.0 + room + margin), here=np.array([1.0, 1.0, Z]))
+    world.run()
+    at_x4 = [r for r in world.of(SendReach) if np.allclose(r.target, [4.0, 1.0, Z])]
+    assert len(at_x4) == 1 and at_x4[0].speed == speed
+    assert at_x4[0].stop_at_target is not passed, (
+        f"at {speed} m/s with the wall {room + margin:.2f} m past the point")
+    assert any(np.allclose(c.start, [4.0, 1.0, Z]) and np.allclose(c.goal, [4.0 + room, 1, Z])
+               for c in world.of(Plan)), "the way on was not planned for the speed's room"
+
+
 def test_a_wall_mapped_past_a_lane_point_on_the_way_to_it_turns_the_pass_into_a_stop() -> None:
     """The check is asked again at each re-plan: a newer reach brakes to the point."""
     world = World(explore(area=ONE_LANE), wall_across_the_lane(4.45, seen_at_s=5.0),

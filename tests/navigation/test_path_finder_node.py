@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 import interfaces
+from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
-from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
+from navigation.path_finder_node import PLAN_PATH, PathFinderNode, path_points
 from runtime import DeterministicExecutor, Node, ParameterError, Time, qos_profile_default
 
 R = PLAN_PATH.Response
@@ -24,7 +25,7 @@ class Client(Node):
         super().__init__("test_client", **kwargs)
         self.map_pub = self.create_publisher("sensor_msgs/msg/PointCloud2", "/map/points",
                                              qos_profile_default)
-        self.plan = self.create_client(PLAN_PATH, PLAN_PATH_SERVICE)
+        self.plan = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
         self.health: Any = None
         self.create_subscription("quadmission_interfaces/msg/HealthReport",
                                  "/path_finder/health", self._on_health, qos_profile_default)
@@ -144,3 +145,19 @@ def test_a_new_map_updates_the_graph_and_the_path_carries_its_stamp(rig) -> None
     assert after.success and path_points(after.path)[:, 1].max() > 3.3  # round the new end
     assert Time.from_msg(after.path.header.stamp) == Time(4_000_000_000)
     assert (finder.graph_builds, finder.graph_updates) == (1, 1)
+
+
+def test_a_restarted_mapping_nodes_smaller_map_does_not_erase_the_wall(
+        rig: tuple[DeterministicExecutor, Client, PathFinderNode]) -> None:
+    # mapping died and came back empty: its first maps hold a corner of the field only.
+    # The map only grows, so the path finder keeps the wall the dead one had seen.
+    ex, client, finder = rig
+    client.map_pub.publish(cloud_msg(WALL, Time(1).to_msg(), "map"))
+    ex.spin_for(0.1)
+    corner = np.array([(0.55, 3.55, 0.55)])
+    client.map_pub.publish(cloud_msg(corner, Time(2).to_msg(), "map"))
+    ex.spin_for(0.1)
+    assert len(finder.map_points()) == len(WALL) + 1
+    response = ask(ex, client, (1.0, 1.0, 1.0), (5.0, 1.0, 1.0))
+    assert response.success
+    assert max(p[1] for p in path_points(response.path)) > 2.9  # round the wall, north

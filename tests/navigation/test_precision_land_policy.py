@@ -6,14 +6,18 @@ offset, height above it)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import pytest
 
 from flight_control.policy import Finish, Outcome
 from navigation.precision_land_policy import (
     TAKEOFF_MARGIN,
+    CheckLeg,
     Move,
+    PlanAnswer,
     PrecisionLandPolicy,
     Touchdown,
     goal_problem,
@@ -36,14 +40,25 @@ FRAME_NS = 83_333_333  # 12 Hz camera
 S = 1_000_000_000
 
 
+Planner = Callable[[CheckLeg], tuple[PlanAnswer, np.ndarray | None]]
+
+
+def no_path_finder(check: CheckLeg) -> tuple[PlanAnswer, np.ndarray | None]:
+    """No path finder on the graph: the map says nothing of any leg."""
+    return PlanAnswer.UNKNOWN, None
+
+
 @dataclass
 class _World:
-    """The vehicle (position, yaw) and the pad; ``visible`` False hides the marker."""
+    """The vehicle (position, yaw) and the pad; ``visible`` False hides the marker;
+    ``planner`` answers the search's leg checks, as the node does."""
 
     position: tuple[float, float, float]
     yaw: float = 0.5
     visible: bool = True
     now_ns: int = 0
+    planner: Planner = no_path_finder
+    checks: int = 0  # leg checks answered
 
     def marker(self) -> Measurement | None:
         if not self.visible:
@@ -57,7 +72,11 @@ class _World:
 
     def frame(self, policy: PrecisionLandPolicy, dt_ns: int = FRAME_NS):
         self.now_ns += dt_ns
-        return policy.frame(self.now_ns, self.marker(), self.pose(), self.position, 0.0)
+        command = policy.frame(self.now_ns, self.marker(), self.pose(), self.position, 0.0)
+        while isinstance(command, CheckLeg):
+            self.checks += 1
+            command = policy.leg_planned(command, *self.planner(command), self.now_ns)
+        return command
 
     def fly(self, policy: PrecisionLandPolicy, move: Move) -> None:
         """The move is flown and ends well."""

@@ -238,6 +238,7 @@ _BAD_AND_GOOD = {
     "min_altitude": ([0.0], [1e-9]),
     "search_spacing": ([0.0], [1e-9]),
     "search_rings": ([-1], [0]),
+    "search_detour": ([-1e-9], [0.0]),
     "search_timeout_s": ([0.0], [1e-9]),
     "lost_timeout_s": ([0.0], [1e-9]),
     "retries": ([-1], [0]),

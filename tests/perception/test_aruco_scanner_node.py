@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 import interfaces
+from interfaces import graph
 from perception.aruco import ScanMode
-from perception.aruco_scanner_node import MARKERS_TOPIC, ArucoScannerNode
+from perception.aruco_scanner_node import ArucoScannerNode
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default, qos_profile_sensor_data
-from sim.sensors import DOWN_FRAME, DOWN_IMAGE_TOPIC, DOWN_INFO_TOPIC, camera_info_msg, image_msg
+from sim.sensors import DOWN_FRAME, camera_info_msg, image_msg
 
 MARKER: Any = interfaces.get_message("quadmission_interfaces/msg/MarkerDetection")
 
@@ -23,14 +24,15 @@ class _Camera(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("test_camera", **kwargs)
-        self.image = self.create_publisher("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC,
+        self.image = self.create_publisher("sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name,
                                            qos_profile_sensor_data)
-        self.info = self.create_publisher("sensor_msgs/msg/CameraInfo", DOWN_INFO_TOPIC,
+        self.info = self.create_publisher("sensor_msgs/msg/CameraInfo", graph.CAMERA_DOWN_INFO.name,
                                           qos_profile_sensor_data)
         self.markers: list[Any] = []
         self.health: list[Any] = []
         self.create_subscription("quadmission_interfaces/msg/MarkerDetectionArray",
-                                 MARKERS_TOPIC, self.markers.append, qos_profile_default)
+                                 graph.PERCEPTION_MARKERS.name, self.markers.append,
+                                 qos_profile_default)
         self.create_subscription("quadmission_interfaces/msg/HealthReport",
                                  "/aruco_scanner/health", self.health.append,
                                  qos_profile_default)
@@ -230,7 +232,6 @@ def _decode_jpeg(picture: Any) -> np.ndarray:
 
 def test_a_robot_marker_yields_robot_found_with_its_map_position_and_pictures(frames):
     from perception.aruco import ArucoScanner, ScanMode
-    from perception.aruco_scanner_node import ROBOT_FOUND_TOPIC
 
     ex, camera, _ = _rig(mode="robots")
     stamp_ns = 2_500_000_000
@@ -238,8 +239,9 @@ def test_a_robot_marker_yields_robot_found_with_its_map_position_and_pictures(fr
     fcu = _Fcu({stamp_ns: (rx, ry, 1.6)}, context=ex.context)
     ex.add_node(fcu)
     found: list[Any] = []
-    camera.create_subscription("quadmission_interfaces/msg/RobotFound", ROBOT_FOUND_TOPIC,
-                               found.append, qos_profile_default)
+    camera.create_subscription("quadmission_interfaces/msg/RobotFound",
+                               graph.PERCEPTION_ROBOT_FOUND.name, found.append,
+                               qos_profile_default)
     ex.spin_for(0.05)
     camera.send(frames["pad"], frames["intrinsics"], stamp_ns - 100_000_000)  # no robot
     camera.send(frames["robot"], frames["intrinsics"], stamp_ns)

@@ -298,6 +298,8 @@ def test_launch_names_a_transport_it_does_not_have(
       "operator_abort@3"], "operator_abort@3: not in a launch over ros2"),
     (["launch", "config/launch/mission.yaml", "--transport", "ros2", "--fault",
       "node_stop@3,name=nope"], "a process of the launch file (companion, mission, "),
+    (["launch", "config/launch/mission.yaml", "--transport", "ros2", "--fault",
+      "node_stop@3:5,name=navigator"], "comes back by its launch file's respawn"),
 ])
 def test_a_fault_the_run_cannot_take_is_refused_naming_it(
         argv: list[str], said: str, capsys: pytest.CaptureFixture[str]) -> None:

@@ -159,6 +159,19 @@ def test_post_set_callbacks_hear_each_change_made_and_none_refused(
     assert [r.successful for r in results] == [True, False, False, True]
     assert heard == [("gain", 0.25, 0.25), ("gain", 1.0, 1.0)]
 
+
+def test_post_set_callbacks_hear_a_declaration_as_rclpy_s_do(ex: DeterministicExecutor) -> None:
+    """A parameter declared after the callback was added is heard, with its value (what
+    mirrors it to ROS 2 tools relies on); a refused declaration is not."""
+    node = Node("n", context=ex.context, parameter_overrides={"late": 7})
+    heard: list[tuple[str, object]] = []
+    node.add_post_set_parameters_callback(lambda ps: heard.extend((p.name, p.value) for p in ps))
+    node.declare_parameter("late", 1)
+    with pytest.raises(ParameterError):
+        node.declare_parameter("bad", 2.0, ParameterDescriptor(range=(0.0, 1.0)))
+    assert heard == [("late", 7)]
+
+
 # -- the generic loader: a ROS 2 parameter file into a frozen dataclass ----------------------
 
 

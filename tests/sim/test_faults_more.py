@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from interfaces import graph
 from runtime import Node, Time, qos_profile_sensor_data
 from sim.arena import ROBOT_SIZE, Lighting, default_arena, robot_pose
 from sim.fault_spec import parse_fault, parse_faults
@@ -21,13 +22,10 @@ from sim.fcu.sitl import Sitl, build_sitl
 from sim.mjcf import LIGHTING_PRESETS, pad_geom_name, robot_body_name
 from sim.scene import quad_state
 from sim.sensors import (
-    DEPTH_POINTS_TOPIC,
-    DOWN_IMAGE_TOPIC,
     SimSensorsNode,
     image_msg,
     point_cloud_msg,
 )
-from sim.vision import VISION_POSE_TOPIC
 
 
 @pytest.fixture
@@ -45,7 +43,7 @@ class Listener(Node):
 
 
 def _poses(sitl: Sitl) -> Listener:
-    return Listener(VISION_POSE_TOPIC, "geometry_msgs/msg/PoseWithCovarianceStamped",
+    return Listener(graph.SIM_VISION_POSE.name, "geometry_msgs/msg/PoseWithCovarianceStamped",
                     context=sitl.executor.context)
 
 
@@ -171,8 +169,9 @@ def test_dark_cameras_need_the_sensors_and_publish_black_then_normal(sitl: Sitl)
     with pytest.raises(FaultInstallError, match="camera_dark: this run has no cameras"):
         install_faults(sitl, parse_faults(["camera_dark@0:1"]))
     sensors = SimSensorsNode(context=sitl.executor.context)
-    images = Listener(DOWN_IMAGE_TOPIC, "sensor_msgs/msg/Image", context=sitl.executor.context)
-    clouds = Listener(DEPTH_POINTS_TOPIC, "sensor_msgs/msg/PointCloud2",
+    images = Listener(graph.CAMERA_DOWN_RAW.name, "sensor_msgs/msg/Image",
+                      context=sitl.executor.context)
+    clouds = Listener(graph.CAMERA_DEPTH_POINTS.name, "sensor_msgs/msg/PointCloud2",
                       context=sitl.executor.context)
     install_faults(sitl, parse_faults(["camera_dark@0:1", "depth_dark@0"]), sensors=sensors)
     sitl.run(0.01)

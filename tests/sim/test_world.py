@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from interfaces import graph
 from runtime import DeterministicExecutor, Node, qos_profile_sensor_data
 from runtime.clock import seconds_to_ns
 from runtime.errors import ParameterError
@@ -22,8 +23,6 @@ from sim.quadrotor import MotorModel
 from sim.render import SceneRenderer
 from sim.scene import place_quadrotor
 from sim.sensors import (
-    DEPTH_POINTS_TOPIC,
-    DOWN_IMAGE_TOPIC,
     DownCamera,
     SimSensorsNode,
     image_from_msg,
@@ -148,7 +147,7 @@ def _recorded_run(contest: ArenaSpec, seed: int) -> tuple[Any, list[bytes], Any]
     node = SimSensorsNode(context=ex.context)
     listener = Node("listener", context=ex.context)
     clouds: list[bytes] = []
-    listener.create_subscription("sensor_msgs/msg/PointCloud2", DEPTH_POINTS_TOPIC,
+    listener.create_subscription("sensor_msgs/msg/PointCloud2", graph.CAMERA_DEPTH_POINTS.name,
                                  lambda m: clouds.append(points_from_msg(m).tobytes()),
                                  qos_profile_sensor_data)
     with SceneRenderer(scene.model) as renderer:
@@ -192,7 +191,7 @@ def test_cameras_publish_at_their_rate_only_while_subscribed(contest: ArenaSpec)
             # stamped at its exposure, seen the configured latency later
             assert ex.now().nanoseconds - stamp_ns == seconds_to_ns(camera.latency_s)
 
-        listener.create_subscription("sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, on_image,
+        listener.create_subscription("sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name, on_image,
                                      qos_profile_sensor_data)
         run_world(scene, ex, duration_s=1.0, parts=[*_hover_parts(scene), *parts])
     assert len(frames) == 12
@@ -215,7 +214,7 @@ def _down_frames(contest: ArenaSpec, latency_s: float) -> list[tuple[int, int, b
         frames.append((ex.now().nanoseconds, stamp_ns, image_from_msg(msg).tobytes()))
 
     Node("listener", context=ex.context).create_subscription(
-        "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, on_image, qos_profile_sensor_data)
+        "sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name, on_image, qos_profile_sensor_data)
     with SceneRenderer(scene.model) as renderer:
         camera = sensor_parts(node, renderer, scene, seed=5)[0]
         assert isinstance(camera, DownCamera)
@@ -248,7 +247,7 @@ def test_a_frame_in_flight_is_dropped_when_the_sensors_node_is_destroyed(
     node = SimSensorsNode(context=ex.context)
     seen: list[Any] = []
     Node("listener", context=ex.context).create_subscription(
-        "sensor_msgs/msg/Image", DOWN_IMAGE_TOPIC, seen.append, qos_profile_sensor_data)
+        "sensor_msgs/msg/Image", graph.CAMERA_DOWN_RAW.name, seen.append, qos_profile_sensor_data)
     with SceneRenderer(scene.model) as renderer:
         camera = sensor_parts(node, renderer, scene)[0]
         assert isinstance(camera, DownCamera)

@@ -396,7 +396,8 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         ended = end_state(truth, arena, sitl.scene.quad.leg_height, crash)
         skips = [(t, e.marker_id, e.message) for t, e in mission.events
                  if e.kind is EventKind.PAD_SKIPPED]
-        report["faults"] = [judge_fault(f, mission.events, failsafes.entered_s, ended, skips)
+        report["faults"] = [judge_fault(f, mission.events, failsafes.entered_s, ended, skips,
+                                        completed=completed and inside == len(landings))
                             for f in faults]
     write_report(options.out, report)
     return report

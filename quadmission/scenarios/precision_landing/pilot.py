@@ -31,14 +31,17 @@ class EpisodeOutcome:
 
 class LandingPilot(Pilot):
     """Arm, take off to ``altitude`` [m], then land precisely on ``pad_id`` expected at
-    ``pad_position`` (map frame [m])."""
+    ``pad_position`` (map frame [m]), searching ``search_radius`` [m] around it when its
+    marker is not in view (0: the node's default)."""
 
     def __init__(self, pad_id: int, pad_position: tuple[float, float, float], *,
-                 altitude: float, ready_timeout_s: float = 20.0, **kwargs: Any) -> None:
+                 altitude: float, search_radius: float = 0.0, ready_timeout_s: float = 20.0,
+                 **kwargs: Any) -> None:
         super().__init__("landing_pilot", (graph.TAKEOFF, graph.PRECISION_LAND), **kwargs)
         self.pad_id = pad_id
         self.pad_position = pad_position
         self.altitude = altitude
+        self.search_radius = search_radius
         self.ready_timeout_s = ready_timeout_s
         self.step = "ready"
         self.outcome: EpisodeOutcome | None = None
@@ -67,7 +70,8 @@ class LandingPilot(Pilot):
         x, y, z = self.pad_position
         goal = interfaces.new(PRECISION_LAND.Goal, pad_id=self.pad_id,
                               pad_position=interfaces.new("geometry_msgs/msg/Point", x=x, y=y,
-                                                          z=z))
+                                                          z=z),
+                              search_radius=self.search_radius)
         reply = await self.goal(graph.PRECISION_LAND, goal)
         self.outcome = EpisodeOutcome(reply.success, self.step, reply.message,
                                       int(reply.result.result), started, self.now().nanoseconds)

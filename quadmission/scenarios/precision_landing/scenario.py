@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,9 +27,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from navigation.mapping_node import MappingNode
+from navigation.path_finder_node import PathFinderNode
 from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
-from quadmission.assembly.companion import start_companion
+from quadmission.assembly.companion import planning_bounds, start_companion
 from quadmission.assembly.faults import check_faults, judge_flight
 from quadmission.evaluation.faults import FcuFailsafes
 from quadmission.reports.report import write_report
@@ -50,7 +52,7 @@ from sim.geometry import segment_distance
 from sim.render import SceneRenderer
 from sim.scene import place_quadrotor, quad_state
 from sim.sensors import SimSensorsNode, sensor_parts
-from sim.world import StopWhen
+from sim.world import StopWhen, Trajectory
 
 if TYPE_CHECKING:
     from quadmission.scenarios.options import ScenarioOptions
@@ -95,13 +97,17 @@ class _Episode:
     result_code: int | None
     duration_s: float | None
     faults: list[dict[str, Any]] | None = None
+    trajectory: Trajectory | None = None  # ground truth, for evaluation
 
 
 def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, seed: int,
                 landing_overrides: dict[str, Any] | None = None,
-                faults: Sequence[Fault] = ()) -> _Episode:
+                faults: Sequence[Fault] = (), mapped: bool = False,
+                search_radius: float = 0.0) -> _Episode:
     """One precision landing on ``pad`` from ``start_xy`` through the companion stack,
-    with ``faults`` (times from the episode's start)."""
+    with ``faults`` (times from the episode's start). ``mapped``: the mapping node and the
+    path finder fly too (the depth camera on), so the pad search checks its legs on the
+    live map, as in a mission; ``search_radius`` [m]: the goal's (0: the node's)."""
     sitl = build_sitl(arena, seed=seed)
     scene = sitl.scene
     z = PAD_THICKNESS + scene.quad.leg_height
@@ -112,12 +118,19 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
     scanner = ArucoScannerNode(context=context, parameter_overrides={"mode": "pads"})
     lander = PrecisionLandNode(context=context, parameter_overrides=landing_overrides or {})
     pilot = LandingPilot(pad.id, (pad.center[0], pad.center[1], 0.0), altitude=SEARCH_ALTITUDE,
-                         context=context)
-    for node in (sensors, scanner, lander, pilot):
-        sitl.executor.add_node(node)
+                         search_radius=search_radius, context=context)
+    mapping = MappingNode(context=context) if mapped else None
+    finder = (PathFinderNode(context=context, parameter_overrides=planning_bounds(arena))
+              if mapped else None)
+    for node in (sensors, scanner, lander, pilot, mapping, finder):
+        if node is not None:
+            sitl.executor.add_node(node)
     with SceneRenderer(scene.model) as renderer:
-        parts = [p for p in sensor_parts(sensors, renderer, scene, seed=seed)
-                 if p.name == "down_camera"]
+        cameras = ("down_camera", "depth_camera") if mapped else ("down_camera",)
+        # the depth camera renders only as often as the mapping node fuses clouds
+        depth_hz = None if mapping is None else mapping.params.process_rate_hz
+        parts = [p for p in sensor_parts(sensors, renderer, scene, seed=seed, depth_hz=depth_hz)
+                 if p.name in cameras]
         sitl.extra_parts.extend(parts)
         failsafes = FcuFailsafes(sitl.firmware)
         if faults:  # an episode without faults keeps the parts it had
@@ -125,9 +138,14 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
             sitl.extra_parts.append(failsafes)
         result = sitl.run(EPISODE_LIMIT_S, stop=StopWhen(lambda: pilot.done))
         crash = result.crash
+        flights = [result.trajectory]
         if result.crash is None and pilot.done:
             result = sitl.run(SETTLE_S)
             crash = result.crash
+            flights.append(result.trajectory)
+    # the whole episode's truth: each run records its own
+    truth = Trajectory(*(np.concatenate([getattr(t, f.name) for t in flights])
+                         for f in fields(Trajectory)))
     state = quad_state(scene.data, scene.index)
     outcome = pilot.outcome
     landed = crash is None and outcome is not None and outcome.success
@@ -143,12 +161,12 @@ def fly_episode(arena: ArenaSpec, pad: Pad, start_xy: tuple[float, float], *, se
         ended_s = result.sim_time_s if outcome is None or outcome.land_ended_ns is None \
             else outcome.land_ended_ns / 1e9
         skipped = [] if landed else [(ended_s, pad.id, message)]
-        judged = judge_flight(faults, failsafes, result.trajectory, arena,
+        judged = judge_flight(faults, failsafes, truth, arena,
                               scene.quad.leg_height, crash, skipped)
     return _Episode(pad, start_xy,
                     (float(state.position[0]), float(state.position[1])) if landed else None,
                     None if crash is None else crash.reason, landed, message,
-                    None if outcome is None else outcome.result_code, duration, judged)
+                    None if outcome is None else outcome.result_code, duration, judged, truth)
 
 
 def _r(value: float | None, digits: int = 4) -> float | None:

@@ -215,7 +215,7 @@ def fly_square(options: ScenarioOptions, arena: ArenaSpec, plan: SquarePlan, *,
     }
     if options.faults:  # no mission here: the FCU's failsafes and riding it out
         ended = end_state(truth, arena, sitl.scene.quad.leg_height, crash)
-        report["faults"] = [judge_fault(f, (), failsafes.entered_s, ended)
+        report["faults"] = [judge_fault(f, (), failsafes.entered_s, ended, mission=False)
                             for f in options.faults]
     write_report(options.out, report)
     return report

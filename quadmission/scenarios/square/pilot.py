@@ -7,6 +7,12 @@ the vehicle is ready, calls ``/flight_control/arm``, then sends the goals in tur
 to the first corner, and ``land`` with disarm. It never reads the simulator: where the
 vehicle really went is the scenario's business (:mod:`quadmission.evaluation.tracking`).
 
+A pilot started while the vehicle flies (its process respawned: ``respawn`` in the launch
+file) keeps nothing of the one that died; it learns where the flight is from the topics:
+flight control's health says armed with its setpoint stream on, so it neither arms nor
+takes off, and ``/fcu/odometry`` says where the vehicle is, so it flies on from the
+corner nearest it (one end of the leg it was on), then lands.
+
 Map frame (ENU), metres, seconds.
 """
 
@@ -77,7 +83,22 @@ class SquarePilot(Pilot):
         self.phase_started_ns: dict[PilotPhase, int] = {PilotPhase.WAIT_READY: 0}
         self.corner_index = 0  # the corner being flown to (during SQUARE)
         self.outcome: PilotOutcome | None = None
+        self.position: FloatArray | None = None  # the vehicle's, from /fcu/odometry [m]
+        self.resumed_at: int | None = None  # the corner a restarted pilot flew on from
+        odometry = graph.FCU_ODOMETRY
+        self.create_subscription(odometry.type, odometry.name, self._on_odometry,
+                                 odometry.subscriber_qos)
         self.create_task(self._mission())
+
+    def _on_odometry(self, msg: Any) -> None:
+        p = msg.pose.pose.position
+        self.position = np.array([p.x, p.y, p.z], dtype=np.float64)
+
+    def nearest_corner(self) -> int:
+        """The corner nearest the vehicle (0 before any odometry)."""
+        if self.position is None:
+            return 0
+        return int(np.argmin(np.linalg.norm(self.corners - self.position, axis=1)))
 
     @property
     def done(self) -> bool:
@@ -97,19 +118,28 @@ class SquarePilot(Pilot):
         if not await self.wait_ready(self.ready_timeout_s):
             self._finish(False, f"flight control not ready after {self.ready_timeout_s:g} s")
             return
-        self._enter(PilotPhase.ARM)
-        refused = await self.arm_vehicle(self.arm_attempts)
-        if refused is not None:
-            self._finish(False, f"arm: {refused}")
-            return
-        self._enter(PilotPhase.TAKEOFF)
-        reply = await self.goal(graph.TAKEOFF, interfaces.new(TAKEOFF.Goal, altitude=self.altitude),
-                                self.goal_attempts)
-        if not reply.success:
-            self._finish(False, f"takeoff: {reply.text}")
-            return
+        first = 0
+        if self.flying:  # a restart in flight: take the flight over where it is
+            while self.position is None:  # odometry comes at 100 Hz
+                await self.sleep(0.05)
+            first = self.resumed_at = self.nearest_corner()
+            self.get_logger().info(f"square pilot: the vehicle is flying; on from corner "
+                                   f"{first + 1}/{len(self.corners)}")
+        else:
+            self._enter(PilotPhase.ARM)
+            refused = await self.arm_vehicle(self.arm_attempts)
+            if refused is not None:
+                self._finish(False, f"arm: {refused}")
+                return
+            self._enter(PilotPhase.TAKEOFF)
+            reply = await self.goal(graph.TAKEOFF, interfaces.new(
+                TAKEOFF.Goal, altitude=self.altitude), self.goal_attempts)
+            if not reply.success:
+                self._finish(False, f"takeoff: {reply.text}")
+                return
         self._enter(PilotPhase.SQUARE)
-        for i, corner in enumerate(self.corners):
+        for i in range(first, len(self.corners)):
+            corner = self.corners[i]
             self.corner_index = i
             goal = interfaces.new(REACH.Goal, stop_at_target=True, speed=self.speed)
             goal.target.position = interfaces.point(*corner)

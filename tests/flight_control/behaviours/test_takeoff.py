@@ -108,3 +108,25 @@ def test_losing_offboard_during_the_climb_ends_it() -> None:
     takeoff.step(observe(HOME), 0)
     step = takeoff.step(observe(HOME + [0, 0, 0.3], offboard=False), TICK_NS)
     assert step.outcome is Outcome.LOST_CONTROL
+
+
+def test_in_the_air_out_of_offboard_it_takes_offboard_back_and_climbs_where_it_is() -> None:
+    """A mission resumed after the FCU's failsafe flew (the link was lost): the vehicle is
+    3 m away from its take-off point; offboard is asked for, then the climb ends above
+    where the vehicle is, at the altitude above home, not back over the take-off point."""
+    here = HOME + [3.0, -2.0, 0.8]
+    takeoff = Takeoff(Setpoint.hold(here, 0.7), here, HOME, altitude=1.5, speed=0.8,
+                      radius=0.15, tuning=TUNING, mode_wait_s=MODE_WAIT_S, over=here)
+    first = takeoff.step(observe(here, offboard=False), 0)
+    assert first.command == OFFBOARD
+    takeoff.step(observe(here, offboard=False, reply=_accepted()), TICK_NS)
+    position = here.copy()
+    for k in range(2, 400):
+        step = takeoff.step(observe(position, reply=_accepted()), k * TICK_NS)
+        assert step.setpoint is not None
+        if step.outcome is not None:
+            break
+        position = step.setpoint.position.copy()
+    assert step.outcome is Outcome.SUCCEEDED
+    assert step.setpoint is not None
+    assert step.setpoint.position.tolist() == pytest.approx([4.0, 0.0, 1.6])

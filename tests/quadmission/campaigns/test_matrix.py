@@ -42,7 +42,13 @@ def test_the_faults_campaign_flies_every_fault_kind_on_three_seeds() -> None:
         kinds.setdefault(cell.faults[0].kind, set()).add(cell.seed)
     assert set(kinds) == set(FaultKind), "a fault kind is missing from faults.yaml"
     assert all(len(seeds) == 3 for seeds in kinds.values()), kinds
-    assert len(campaign.cells) == 3 * len(FaultKind)
+    # vio_stop and link_lost twice: for a while (the mission's recovery) and for good
+    twice = {FaultKind.VIO_STOP, FaultKind.LINK_LOST}
+    assert len(campaign.cells) == 3 * (len(FaultKind) + len(twice))
+    for kind in twice:
+        ends = {c.faults[0].duration_s is None for c in campaign.cells
+                if c.faults[0].kind is kind}
+        assert ends == {True, False}, kind
 
 
 def test_the_arenas_campaign_is_75_clean_missions_on_random_arenas() -> None:

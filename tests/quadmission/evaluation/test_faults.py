@@ -41,19 +41,41 @@ def test_vio_lost_for_good_is_hold_then_the_fcu_descent_ending_on_the_ground() -
     assert not crashed["handled"]
 
 
-def test_a_vio_gap_needs_only_the_mission_hold() -> None:
-    fault = parse_fault("vio_stop@25:2")
-    judged = judge_fault(fault, [(25.7, HOLD)], [], EndState.HOLDING)
-    assert judged["expected"] == "localisation_lost: HOLD" and judged["handled"]
-    wrong = judge_fault(fault, [(25.7, _error("module_error", "HOLD"))], [], EndState.HOLDING)
-    assert not wrong["handled"] and wrong["observed"] == "module_error: HOLD"
+RESUME = _error("localisation_lost", "RESUME")
 
 
-def test_an_fcu_fault_needs_its_failsafe_within_the_fault() -> None:
+def test_a_vio_gap_holds_resumes_and_must_let_the_mission_complete() -> None:
+    fault = parse_fault("vio_stop@25:3")
+    judged = judge_fault(fault, [(25.7, HOLD), (30.1, RESUME)], [], EndState.LANDED,
+                         completed=True)
+    assert judged["expected"] == "localisation_lost: HOLD, then RESUME, then completed"
+    assert judged["observed"] == judged["expected"] and judged["handled"]
+    assert judged["reaction_s"] == pytest.approx(0.7)
+    stopped = judge_fault(fault, [(25.7, HOLD), (55.7, _error("localisation_lost", "HOLD"))],
+                          [], EndState.HOLDING)
+    assert not stopped["handled"] and stopped["observed"] == "localisation_lost: HOLD"
+    # too short for the FCU to call its position invalid: nothing to hold, still handled
+    quiet = judge_fault(parse_fault("vio_stop@25:0.3"), [], [], EndState.LANDED,
+                        completed=True)
+    assert quiet["handled"] and quiet["observed"] == "completed"
+
+
+def test_a_link_loss_that_ends_is_the_missions_offboard_lost_then_completed() -> None:
     fault = parse_fault("link_lost@25:3")
+    hold, resume = _error("offboard_lost", "HOLD"), _error("offboard_lost", "RESUME")
+    judged = judge_fault(fault, [(26.1, hold), (31.0, resume)], [26.0], EndState.LANDED,
+                         completed=True)
+    assert judged["expected"] == "offboard_lost: HOLD, then RESUME, then completed"
+    assert judged["observed"] == judged["expected"] and judged["handled"]
+    assert not judge_fault(fault, [(26.1, hold)], [26.0], EndState.HOLDING)["handled"]
+
+
+def test_an_fcu_fault_for_good_needs_its_failsafe_within_the_fault() -> None:
+    fault = parse_fault("node_stop@25,name=fcu_bridge")
     assert judge_fault(fault, [], [26.0], EndState.HOLDING)["handled"]
-    late = judge_fault(fault, [], [29.0], EndState.HOLDING)
-    assert not late["handled"] and late["observed"] == "none"
+    for_good = parse_fault("link_lost@25")
+    assert judge_fault(for_good, [], [26.0], EndState.LANDED)["handled"]
+    assert not judge_fault(for_good, [], [], EndState.LANDED)["handled"]
 
 
 def test_a_ridden_out_fault_must_raise_no_error() -> None:
@@ -120,3 +142,11 @@ def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None
     assert mapping["expected"] == "module_silent: HOLD" and mapping["handled"]
     with pytest.raises(FaultExpectationError, match=r"node 'mission'.*flight_control"):
         expectation(parse_fault("node_stop@30,name=mission"))
+
+
+def test_without_the_mission_a_fault_that_ends_is_judged_as_before() -> None:
+    """navigate, precision landing, square: no one to resume, the FCU's failsafe alone."""
+    fault = parse_fault("link_lost@25:3")
+    assert expectation(fault, mission=False).reaction == "FAILSAFE"
+    judged = judge_fault(fault, [], [26.0], EndState.HOLDING, mission=False)
+    assert judged["expected"] == "FAILSAFE" and judged["handled"]

@@ -71,3 +71,20 @@ def test_the_flight_control_node_stopping_is_the_fcus_offboard_loss_failsafe() -
     loss = h.sitl.firmware.commander.params.offboard_loss_timeout_s
     assert loss <= hold - at <= loss + 0.3
     assert land > hold
+
+
+def test_a_flight_control_node_restarted_within_the_hold_takes_the_vehicle_back() -> None:
+    """With a duration the node comes back (its process respawned) as a fresh instance:
+    it sees the vehicle flying in offboard with nobody streaming and holds where it is, so
+    the FCU has its signal back within its failsafe hold and returns to OFFBOARD instead
+    of landing."""
+    h = hover(seed=34)
+    at = h.t() + 0.5
+    h.sitl.extra_parts.append(
+        AppFaults(h.sitl.executor, [parse_fault(f"node_stop@{at}:3,name=flight_control")]))
+    assert h.fly(12.0).crash is None
+    hold = h.modes.first(NavigationState.AUTO_LOITER, at)
+    assert hold is not None  # the loss was noticed ...
+    back = h.modes.first(NavigationState.OFFBOARD, hold)
+    assert back is not None and at + 3.0 <= back <= hold + 5.0  # ... and cleared
+    assert h.modes.first(NavigationState.AUTO_LAND, at) is None

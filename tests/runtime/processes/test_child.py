@@ -11,22 +11,21 @@ from collections.abc import Callable
 from pathlib import Path
 
 import interfaces
-from interfaces.qos import QoSProfile
+from interfaces import graph
 from runtime.clock import Time
 from runtime.launch import LaunchDescription, NodeSpec
-from runtime.processes.child import EXIT_STALLED, ProcessSpec, ack_topic
-from runtime.processes.executor import CLOCK_TOPIC, CLOCK_TYPE, ProcessTransport
+from runtime.processes.child import EXIT_STALLED, ProcessSpec
+from runtime.processes.executor import ProcessTransport
 from runtime.processes.launcher import process_specs
 from runtime.transport import Endpoint
 from tests.runtime.processes.conftest import make_transport
 
 ROOT = Path(__file__).resolve().parents[3]
-QOS = QoSProfile(depth=1)  # the simulator's /clock writer and the reports: reliable, volatile
 
 
 def _clock(t_ns: int) -> bytes:
-    return interfaces.serialize(interfaces.new(CLOCK_TYPE, clock=Time(t_ns).to_msg()),
-                                CLOCK_TYPE)
+    return interfaces.serialize(interfaces.new(graph.CLOCK.type, clock=Time(t_ns).to_msg()),
+                                graph.CLOCK.type)
 
 
 def _until(transport: ProcessTransport, done: Callable[[], bool], timeout_s: float) -> None:
@@ -47,7 +46,8 @@ def test_a_clock_sent_again_is_answered_with_a_report_when_the_first_ones_were_l
     (spec,) = process_specs(description, transport=transport_kind, domain_id=domain_id,
                             config_dir=None, startup_timeout_s=60.0)
     sim = make_transport(transport_kind, domain_id, "test_simulator")
-    clock = sim.create_writer(Endpoint(CLOCK_TOPIC, CLOCK_TYPE, QOS, node="/test_simulator"))
+    clock = sim.create_writer(Endpoint(graph.CLOCK.name, graph.CLOCK.type, graph.CLOCK.qos,
+                                       node="/test_simulator"))
     log = tmp_path / "follower.log"
     with log.open("w") as err:
         child = subprocess.Popen([sys.executable, "-m", "runtime.processes.child",
@@ -61,10 +61,12 @@ def test_a_clock_sent_again_is_answered_with_a_report_when_the_first_ones_were_l
             _until(sim, lambda: False, 0.05)
         _until(sim, lambda: False, 1.0)  # it has taken them
         reports: list[int] = []
+        topic = graph.LAUNCH_CLOCK_REPORT
         reader = sim.create_reader(
-            Endpoint(ack_topic("follower"), CLOCK_TYPE, QOS, node="/test_simulator"),
+            Endpoint(topic.name_for("follower"), topic.type, topic.subscriber_qos,
+                     node="/test_simulator"),
             lambda data, _id: reports.append(Time.from_msg(
-                interfaces.deserialize(data, CLOCK_TYPE).clock).nanoseconds))
+                interfaces.deserialize(data, graph.CLOCK.type).clock).nanoseconds))
         _until(sim, lambda: reader.matched_count() > 0, 30.0)
         assert reader.matched_count() > 0
         deadline = time.monotonic() + 20.0

@@ -12,7 +12,6 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -85,9 +84,7 @@ def _value(value: Any) -> Any:
 
 
 @pytest.fixture
-def graph(domain_id: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-          ) -> Iterator[tuple[Node, ClockedExecutor, Foreign]]:
-    monkeypatch.setenv("ROS_HOME", str(tmp_path / "ros_home"))  # rcl's logs, if it writes any
+def graph(domain_id: int) -> Iterator[tuple[Node, ClockedExecutor, Foreign]]:
     ex = ClockedExecutor(make_transport("ros2", domain_id, "tuned_process"),
                          use_sim_time=False, config_dir=None)
     node = Node("tuned", context=ex.context, namespace=f"/both_ways_{os.getpid()}")

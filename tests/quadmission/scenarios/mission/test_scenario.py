@@ -1,6 +1,7 @@
 """The mission through the real nodes over the SITL: pause and resume reach the running
-exploration, and cutting the visual odometry stops the mission by the seed's rule (stop at
-once, no automatic landing), with the reason in the report. One short flight, shared.
+exploration, and cutting the visual odometry for good holds the mission at once (no
+automatic landing of its own); without a position the FCU's failsafe descends, and the
+mission ends there, with the reason in the report. One short flight, shared.
 
 The complete contest (every pad of the sequence landed) is ``make sim``'s run and the
 benchmark's (``benchmarks/bench_mission.py``): minutes of simulated flight, too long here.
@@ -46,17 +47,20 @@ def test_pause_holds_and_resume_goes_back_to_the_exploration(
     assert states[4:6] == ["paused", "mission.explore"]
 
 
-def test_a_lost_visual_odometry_stops_the_mission_without_landing(
+def test_a_lost_visual_odometry_holds_the_mission_without_landing(
         flight: tuple[dict[str, Any], Path]) -> None:
     report, out = flight
     assert report["result"] == "stopped" and not report["ok"]
-    assert report["final_state"] == "stopped"
+    # held at once; lost for good, the FCU's position-loss descent lands the vehicle
+    # (the mission does not take off again from there)
+    assert _states(report)[-3:] == ["mission.explore", "held", "landed"]
     assert report["reason"].startswith("localisation_lost in mission.explore")
+    assert "landed the vehicle while held" in report["reason"]
     assert not any(s.startswith(("returning", "landing_now")) for s in _states(report))
     assert report["landings"] == [] and not report["crashed"]
     cut_s = report["script"][2]["t_s"]
-    stopped_s = report["states"][-1]["t_s"]
-    assert 0.0 < stopped_s - cut_s < 2.0  # at once: the FCU's vision timeout, then the stop
+    held_s = report["states"][-2]["t_s"]
+    assert 0.0 < held_s - cut_s < 2.0  # at once: the FCU's vision timeout, then the hold
     on_disk = json.loads((out / "report.json").read_text())
     assert on_disk["reason"] == report["reason"]
     for name in report["pictures"].values():

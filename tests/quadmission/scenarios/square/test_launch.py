@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -75,6 +77,58 @@ def test_square_launch_lands_over_ros2_processes_at_3x_on_a_starved_cpu() -> Non
     assert "[pilot] landed" in out.stderr
     for process in ("simulator", "bridge", "flight_control", "pilot"):
         assert f"started {process} (pid" in out.stderr
+
+
+@needs_ros2
+@pytest.mark.slow
+def test_a_killed_pilot_process_respawns_and_the_square_still_lands(tmp_path: Path) -> None:
+    # The pilot's process is killed with SIGKILL in the middle of the square. With
+    # respawn in the launch file it is started again; the fresh pilot keeps nothing of the
+    # dead one: flight control's health (armed, setpoint stream on) tells it the vehicle
+    # flies, the odometry where, and it flies on from the nearest corner and lands.
+    # Without the respawn nobody would land the vehicle: its death would end the launch.
+    # The simulator stops waiting for the dead process in the lockstep, and takes the new
+    # one back at its first report.
+    launch_file = tmp_path / "square.yaml"
+    launch_file.write_text(SQUARE.read_text().replace(
+        "    process: pilot\n",
+        "    process: pilot\n    respawn: true\n    respawn_delay: 1.0\n"))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "quadmission.cli", "launch", str(launch_file), "--transport",
+         "ros2", "--domain-id", str(ros_domain("square")), "--duration", "300", "--rtf", "3"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
+    assert proc.stderr is not None and proc.stdout is not None
+    lines: list[str] = []
+    pilot_pid = None
+    try:
+        for line in proc.stderr:
+            lines.append(line)
+            if line.startswith("launch: started pilot (pid "):
+                pilot_pid = int(line.rsplit("pid ", 1)[1].rstrip(")\n"))
+            if "square pilot: square" in line and pilot_pid is not None:
+                time.sleep(1.0)  # on the first leg, at 3x: about 3 s of simulated flight
+                os.kill(pilot_pid, signal.SIGKILL)
+                break
+        lines += proc.stderr.readlines()  # to the end of the launch
+        stdout = proc.stdout.read()
+        assert proc.wait(900) == 0, "".join(lines)[-4000:]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    said = "".join(lines)
+    assert pilot_pid is not None, said[-3000:]
+    assert f"launch: pilot (pid {pilot_pid}) died: killed by SIGKILL; restarting in 1.0 s " \
+        "(1 of 3)" in said, said[-3000:]
+    assert "launch: restarted pilot (pid " in said
+    assert "[simulator] pilot left the lockstep" in said
+    assert "[simulator] pilot rejoined the lockstep" in said
+    assert "the vehicle is flying; on from corner" in said  # taken over, not taken off again
+    assert "[pilot] landed" in said
+    reason = json.loads(stdout)["reason"]
+    assert reason.startswith("process 'pilot'") and reason.endswith("(finished)"), reason
+    assert f"(pid {pilot_pid})" not in reason  # the restarted pilot landed it
 
 
 def test_a_crash_fails_the_launch_with_its_reason() -> None:
