@@ -26,7 +26,7 @@ from navigation.params import MappingParams
 from runtime import Node, Time
 
 NODE_NAME = "mapping"
-POSE_AT = interfaces.get_service(graph.POSE_AT.type)
+POSE_AT = graph.POSE_AT.interface()
 MAP_FRAME = "map"
 POSE_ATTEMPTS = 5  # /fcu/pose_at requests per cloud
 POSE_RETRY_S = 0.05  # s between them (the odometry of the capture time is in flight)

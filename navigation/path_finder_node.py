@@ -49,7 +49,7 @@ from navigation.voxel_graph import (
 from runtime import Node, ParameterError, Time
 
 NODE_NAME = "path_finder"
-PLAN_PATH = interfaces.get_service(graph.PLAN_PATH.type)
+PLAN_PATH = graph.PLAN_PATH.interface()
 MAP_FRAME = "map"
 _R: Any = PLAN_PATH.Response
 #: The one place where planning errors become result codes.

@@ -52,8 +52,8 @@ POSE_AT_RETRY_S = 0.02  # s, comes over the link a few ms later: ask again this 
 MAP_FRAME = "map"
 
 HEALTH: Any = interfaces.get_message("quadmission_interfaces/msg/ModuleHealth")
-SET_BOOL = interfaces.get_service(graph.SCANNER_ENABLE.type)
-POSE_AT = interfaces.get_service(graph.POSE_AT.type)
+SET_BOOL = graph.SCANNER_ENABLE.interface()
+POSE_AT = graph.POSE_AT.interface()
 _PROBLEM_TEXT = {Problem.IMAGE_STALE: f"no image on {IMAGE.name}",
                  Problem.NO_CAMERA_INFO: f"no {INFO.name}"}
 
