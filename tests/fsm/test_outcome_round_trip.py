@@ -27,9 +27,6 @@ from fsm import mission_messages
 from fsm.mission_driver import (
     Action,
     ArmDone,
-    OperatorCommand,
-    Order,
-    Position,
     Probed,
     SendGoal,
     goal_outcome,
@@ -77,20 +74,13 @@ ROUND_TRIP: list[tuple[Action, Outcome, str, bool, Outcome, str]] = [
      "action_failed"),
     (Action.PRECISION_LAND, OC.TIMEOUT, "RESULT_TIMEOUT", False, FAILED, "action_failed"),
     (Action.PRECISION_LAND, OC.CANCELED, "RESULT_CANCELED", False, FAILED, "action_failed"),
-    # flight_control/takeoff (from a sequence pad): Takeoff.action
+    # flight_control/takeoff (from a sequence pad, or resumed in the air): Takeoff.action
     (Action.TAKEOFF, OC.SUCCEEDED, "RESULT_OK", True, OC.SUCCEEDED, "took_off"),
     (Action.TAKEOFF, OC.LOST_CONTROL, "RESULT_FCU_REJECTED", False, FAILED, "action_failed"),
     (Action.TAKEOFF, OC.FCU_REJECTED, "RESULT_FCU_REJECTED", False, FAILED, "action_failed"),
     (Action.TAKEOFF, OC.TIMEOUT, "RESULT_TIMEOUT", False, FAILED, "action_failed"),
     (Action.TAKEOFF, OC.CANCELED, "RESULT_CANCELED", False, FAILED, "action_failed"),
     (Action.TAKEOFF, OC.PREEMPTED, "RESULT_CANCELED", False, FAILED, "action_failed"),
-    # flight_control/reach (a take-off resumed in the air): Reach.action
-    (Action.REACH, OC.SUCCEEDED, "RESULT_OK", True, OC.SUCCEEDED, "took_off"),
-    (Action.REACH, OC.LOST_CONTROL, "RESULT_NOT_FLYING", False, FAILED, "action_failed"),
-    (Action.REACH, OC.FCU_REJECTED, "RESULT_NOT_FLYING", False, FAILED, "action_failed"),
-    (Action.REACH, OC.TIMEOUT, "RESULT_TIMEOUT", False, FAILED, "action_failed"),
-    (Action.REACH, OC.CANCELED, "RESULT_CANCELED", False, FAILED, "action_failed"),
-    (Action.REACH, OC.PREEMPTED, "RESULT_CANCELED", False, FAILED, "action_failed"),
     # flight_control/land (landing where the vehicle is): Land.action
     (Action.LAND, OC.SUCCEEDED, "RESULT_OK", True, OC.SUCCEEDED, "landed"),
     (Action.LAND, OC.LOST_CONTROL, "RESULT_FCU_REJECTED", False, FAILED, "action_failed"),
@@ -110,9 +100,11 @@ POLICIES: dict[Action, tuple[frozenset[Outcome], dict[Outcome, Any]]] = {
     Action.SURVEY_TAKEOFF: (SURVEY_OUTCOMES, TAKEOFF_CODES),
     Action.PRECISION_LAND: (PRECISION_LAND_OUTCOMES, PRECISION_LAND_CODES),
     Action.TAKEOFF: (BEHAVIOUR_OUTCOMES, dict(_FC["takeoff"].codes)),
-    Action.REACH: (BEHAVIOUR_OUTCOMES, dict(_FC["reach"].codes)),
     Action.LAND: (BEHAVIOUR_OUTCOMES, dict(_FC["land"].codes)),
 }
+#: The driver's actions it sends no goal to (a take-off resumed in the air is flight
+#: control's take-off, not a reach).
+UNSENT = {Action.REACH}
 #: The inputs the driver gives the mission machine when an action ends.
 MACHINE_INPUTS = ("took_off", "robot_found", "explore_ended", "arrived", "unreachable",
                   "landed", "marker_not_found", "action_failed")
@@ -155,14 +147,6 @@ def _running(action: Action) -> Rig:
         if action is Action.TAKEOFF:
             rig.feed(replace(FLYING, landed=True))
             rig.done(lateral_error=0.04)
-    elif action is Action.REACH:  # a take-off paused half-way up, resumed
-        rig = started()
-        rig.feed(Probed(rig.job.job, ()))
-        rig.feed(ArmDone(rig.job.job, None))
-        rig.feed(FLYING)
-        rig.feed(Position((1.4, 1.6, 0.8)))
-        rig.feed(OperatorCommand(Order.PAUSE))
-        rig.feed(OperatorCommand(Order.RESUME))
     else:  # LAND: the battery critical while exploring, land where it is
         rig = exploring()
         rig.feed(replace(FLYING, battery_warning=PARAMS.battery_critical_warning))
@@ -196,7 +180,11 @@ def test_a_policys_end_crosses_the_wire_to_the_mission_as_the_table_says(
     assert _decision(action, read) == decided
 
 
-@pytest.mark.parametrize("action", list(Action), ids=lambda a: a.name)
+def test_every_action_the_driver_sends_has_its_policy_here() -> None:
+    assert set(POLICIES) == set(Action) - UNSENT
+
+
+@pytest.mark.parametrize("action", list(POLICIES), ids=lambda a: a.name)
 def test_every_outcome_a_policy_ends_with_has_a_code_and_a_row(action: Action) -> None:
     ends, codes = POLICIES[action]
     assert not ends - set(codes), f"{action.name}: no result code for {ends - set(codes)}"
