@@ -72,7 +72,7 @@ def test_interfaces_graph_lists_each_name_with_its_kind_type_qos_and_ends(
         "  qos: best effort, volatile, keep last 5",
         "  publishers: fcu_bridge",
         "  subscribers: flight_control, aruco_scanner, precision_land, navigator, mission, "
-        "navigate_pilot, ground_station (monitor)"]
+        "navigate_pilot, square_pilot, ground_station (monitor)"]
     assert "/navigation/navigate  [action]  quadmission_interfaces/action/Navigate" in out
     assert "/fcu/pose_at  [service]  quadmission_interfaces/srv/PoseAt" in out
     assert main(["interfaces", "--graph", "px4_msgs/msg/VehicleOdometry"]) == 2

@@ -54,6 +54,15 @@ class Foreign:
             ParameterEvent, "/parameter_events", keep, qos_profile_parameter_events)
         self._also_spin = also_spin
 
+    def wait_matched(self, node: Node) -> None:
+        """Until the client sees ``node``'s parameter services and the listener has matched
+        its rcl node's event publisher (and the listener's own node's)."""
+        assert self.spin_until(self.client.services_are_ready)
+        assert self.spin_until(lambda: any(
+            (i.node_name, i.node_namespace) == (node.get_name(), node.get_namespace())
+            for i in self.node.get_publishers_info_by_topic("/parameter_events"))
+            and self.listener.get_publisher_count() >= 2)
+
     def spin_until(self, done: Callable[[], bool]) -> bool:
         deadline = time.monotonic() + _TIMEOUT_S
         while not done() and time.monotonic() < deadline:
@@ -96,12 +105,7 @@ def graph(domain_id: int) -> Iterator[tuple[Node, ClockedExecutor, Foreign]]:
     transport.mirror_parameters(node)
     foreign = Foreign(domain_id, node.get_fully_qualified_name(), ex.spin_once_realtime)
     try:
-        assert foreign.spin_until(foreign.client.services_are_ready)
-        # the listener has matched our rcl node's event publisher (and its own node's)
-        assert foreign.spin_until(lambda: any(
-            (i.node_name, i.node_namespace) == ("tuned", node.get_namespace())
-            for i in foreign.node.get_publishers_info_by_topic("/parameter_events"))
-            and foreign.listener.get_publisher_count() >= 2)
+        foreign.wait_matched(node)
         yield node, ex, foreign
     finally:
         foreign.close()

@@ -46,11 +46,7 @@ def graph(domain_id: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     transport.mirror_parameters(node)
     foreign = Foreign(domain_id, node.get_fully_qualified_name(), ex.spin_once_realtime)
     try:
-        assert foreign.spin_until(foreign.client.services_are_ready)
-        assert foreign.spin_until(lambda: any(
-            (i.node_name, i.node_namespace) == ("late", node.get_namespace())
-            for i in foreign.node.get_publishers_info_by_topic("/parameter_events"))
-            and foreign.listener.get_publisher_count() >= 2)
+        foreign.wait_matched(node)
         yield node, ex, foreign
     finally:
         foreign.close()
