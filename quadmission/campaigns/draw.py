@@ -24,9 +24,10 @@ the run (:func:`run_rng`: its seed and its block), so the same file always gives
 runs; it returns
 plain :class:`~sim.fault_spec.Fault` values, whose specs replay the run exactly. The faults
 of one run never overlap: a count is drawn, then the kinds and durations, then where the
-faults sit in the window, ``gap_s`` apart, every placement as likely (so each fault's start
-spans the whole window). Times and durations are on a 0.1 s grid, a number key's value on a
-power-of-ten grid of a hundredth to a thousandth of its range, so the specs read short.
+faults sit in the window, ``gap_s`` apart (the window's slack shared out by sorted uniform
+offsets, so each fault's start spans the whole window). Times and durations are on a 0.1 s
+grid, a number key's value on a power-of-ten grid of a hundredth to a thousandth of its
+range, so the specs read short.
 """
 
 from __future__ import annotations
@@ -163,7 +164,8 @@ def _on_grid(rng: random.Random, span: Span) -> int:
 
 
 def _number(rng: random.Random, span: Span) -> float:
-    """A key's value in ``span``, on a grid of about a hundredth of its width."""
+    """A key's value in ``span``, on a power-of-ten grid a hundredth to a thousandth of
+    its width (so a spec reads ``loss=0.367``, not 17 digits)."""
     if span.hi == span.lo:
         return span.lo
     step = 10.0 ** (math.floor(math.log10(span.hi - span.lo)) - 2)
