@@ -51,8 +51,7 @@ def fly(spec: str, ride_s: float) -> dict[str, object]:
     expected = expectation(fault)
     # ridden out and over (a duration): the mission must complete, so it flies whole
     rides = expected.handler is Handler.NOBODY and not expected.completes
-    limit = fault.end_s + ride_s if rides and math.isfinite(fault.end_s) else (
-        fault.at_s + ride_s if rides else MISSION_LIMIT_S)
+    limit = fault.at_s + ride_s if rides else MISSION_LIMIT_S
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
         report = fly_mission(ScenarioOptions(out=Path(out), seed=0, faults=(fault,)),
