@@ -172,7 +172,7 @@ def test_the_transient_campaign_is_60_unseen_arenas_light_and_dark_each_with_dra
         assert parse_faults(cell.fault_specs) == cell.faults
         for f in cell.faults:
             # transient: over within the mission, a reaction that lets it complete
-            assert f.duration_s is not None and f.end_s <= 450
+            assert f.duration_s is not None and f.end_s <= 600
             judged = expectation(f)
             assert judged.recovers or judged.completes, f.spec()
             kinds.add(f.kind)
@@ -183,9 +183,9 @@ def test_the_transient_campaign_is_60_unseen_arenas_light_and_dark_each_with_dra
     listed = yaml.safe_load(TRANSIENT.read_text())["matrix"][0]["draw_faults"]["kinds"]
     assert names == set(listed["node_stop"]["name"]), "every node listed is stopped once"
     assert not names & {"mission", "operator", "vio", "fcu_bridge"}
-    # the whole mission: some faults before the take-off's end, some near the last landings
+    # the whole mission: some faults before the take-off's end, many in the landings
     starts = sorted(f.at_s for c in cells for f in c.faults)
-    assert starts[0] < 30 and starts[-1] > 400
+    assert starts[0] < 30 and starts[-1] > 550 and sum(t > 300 for t in starts) > 20
 
 
 def test_a_drawn_run_replays_with_its_specs_on_the_command_line(tmp_path: Path) -> None:
