@@ -5,8 +5,10 @@ A kind that acts in flight is injected 25 s in (3 s into the exploration); a kin
 reaction comes at the end of a phase (a pad's marker gone, the robot absent, the
 operator silent, the down camera dark) from the start (the operator once it has sent
 START: silent from 0 s it never does, and the mission stays idle), and the run flies the
-whole mission. A ridden-out kind is flown ``--ride-s`` past its end (not to the end of the
-mission: 5 min of wall each), which is where its trouble would show.
+whole mission. A ridden-out kind that is a step (a jump, a robot across) is flown
+``--ride-s`` past it (not to the end of the mission: 5 min of wall each), which is where
+its trouble would show; one with a duration flies the whole mission, which it must let
+complete (``Expectation.completes``).
 
 Writes ``{"runs": [{"spec", "expected", "observed", "reaction_s", "end_state",
 "handled", "result", "reason", "sim_s", "wall_s"}], "handled", "total"}`` to ``--out``
@@ -46,9 +48,10 @@ SPECS = (
 
 def fly(spec: str, ride_s: float) -> dict[str, object]:
     fault = parse_fault(spec)
-    rides = expectation(fault).handler is Handler.NOBODY
-    limit = fault.end_s + ride_s if rides and math.isfinite(fault.end_s) else (
-        fault.at_s + ride_s if rides else MISSION_LIMIT_S)
+    expected = expectation(fault)
+    # ridden out and over (a duration): the mission must complete, so it flies whole
+    rides = expected.handler is Handler.NOBODY and not expected.completes
+    limit = fault.at_s + ride_s if rides else MISSION_LIMIT_S
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
         report = fly_mission(ScenarioOptions(out=Path(out), seed=0, faults=(fault,)),

@@ -14,6 +14,19 @@ scenarios x seeds x lighting x fault sets, in that order (the fault sets vary fa
         faults:                # one entry per run: a spec, a list of specs, [] clean
           - vio_stop@40:3
           - [battery_low@60, wind_gust@70:2,force=3]
+      - scenarios: mission
+        seeds: 200-229
+        draw_faults:           # instead of faults: each run's faults drawn from its seed
+          count: 1-2
+          window_s: [3, 450]
+          kinds: {vio_stop: {duration_s: [1, 5]}, link_lost: {duration_s: [0.5, 3]}}
+
+A block with ``draw_faults`` (:mod:`.draw`) gives each of its runs one fault set drawn
+from a generator seeded by the run: its ``draw_faults`` as written, arena, scenario, seed
+and lighting. The same file always gives the same runs (and a longer seed range the runs
+there were, so a campaign grows and resumes); another draw, arena or lighting other ones.
+The drawn faults are explicit specs in the cell, so its key, row and replay line carry
+them.
 
 A cell is one ``quadmission sim`` run: :meth:`Cell.sim_args` is its command line, and
 :meth:`Cell.replay_command` the one line a person types to fly it again (same seed, same
@@ -34,6 +47,7 @@ from typing import Any
 
 import yaml
 
+from quadmission.campaigns.draw import FaultDraw, parse_draw, run_rng
 from quadmission.errors import CampaignError
 from sim.arena import Lighting
 from sim.fault_spec import Fault, FaultKind, FaultSpecError, parse_fault
@@ -45,7 +59,7 @@ RANDOM_ARENA = "random"  # arena: a random arena generated from the seed
 ARENA_LIGHTING = "arena"  # lighting: the arena's own preset
 DEFAULT_TIMEOUT_S = 3600.0  # s of wall time a run may take before it is stopped
 TOP_KEYS = frozenset({"name", "timeout_s", "matrix"})
-BLOCK_KEYS = frozenset({"scenarios", "seeds", "arena", "lighting", "faults"})
+BLOCK_KEYS = frozenset({"scenarios", "seeds", "arena", "lighting", "faults", "draw_faults"})
 MAX_KEY_CHARS = 100  # a cell's folder name is cut (and a hash added) past this
 
 
@@ -196,7 +210,8 @@ def _check_keys(data: Any, keys: frozenset[str], where: str) -> None:
 
 
 def _block_cells(block: Any, where: str, *, scenarios: Collection[str],
-                 faulted: Mapping[str, Collection[FaultKind]], base: Path) -> list[Cell]:
+                 faulted: Mapping[str, Collection[FaultKind]], base: Path,
+                 node_names: Collection[str] | None = None) -> list[Cell]:
     _check_keys(block, BLOCK_KEYS, where)
     for required in ("scenarios", "seeds"):
         if required not in block:
@@ -211,27 +226,47 @@ def _block_cells(block: Any, where: str, *, scenarios: Collection[str],
     seeds = _seeds(block["seeds"], f"{where}.seeds")
     arena = _arena(block.get("arena", RANDOM_ARENA), f"{where}.arena", base)
     lighting = _lighting(block.get("lighting", ARENA_LIGHTING), f"{where}.lighting")
-    fault_sets = _fault_sets(block.get("faults", [[]]), f"{where}.faults")
+    draw: FaultDraw | None = None
+    if "draw_faults" in block:
+        if "faults" in block:
+            raise CampaignError(f"{where}: faults and draw_faults together (a block lists "
+                                "its faults or draws them, not both)")
+        draw = parse_draw(block["draw_faults"], f"{where}.draw_faults", node_names=node_names)
+        kinds = {k.kind for k in draw.kinds}
+        field = "draw_faults.kinds"
+    else:
+        fault_sets = _fault_sets(block.get("faults", [[]]), f"{where}.faults")
+        kinds = {f.kind for fs in fault_sets for f in fs}
+        field = "faults"
     for name in names:
         takes = faulted.get(name, ())
-        if not takes and any(fault_sets):
-            raise CampaignError(f"{where}.faults: scenario {name!r} takes no faults (those "
+        if not takes and kinds:
+            raise CampaignError(f"{where}.{field}: scenario {name!r} takes no faults (those "
                                 f"that do: {', '.join(sorted(faulted))})")
-        for fault in (f for fs in fault_sets for f in fs):
-            if fault.kind not in takes:
-                raise CampaignError(
-                    f"{where}.faults: scenario {name!r} cannot take {fault.kind.value} "
-                    f"(it takes: {', '.join(sorted(k.value for k in takes))})")
+        cannot = sorted(k.value for k in kinds - set(takes))
+        if cannot:
+            raise CampaignError(
+                f"{where}.{field}: scenario {name!r} cannot take {cannot[0]} "
+                f"(it takes: {', '.join(sorted(k.value for k in takes))})")
+    if draw is not None:
+        # seeded by what makes the run (the draw as written, the arena, scenario, seed and
+        # lighting): the same file, the same runs; more seeds keep the runs there were
+        return [Cell(name, seed, arena, light, draw.draw(run_rng(
+                    block["draw_faults"], block.get("arena", RANDOM_ARENA), name, seed,
+                    ARENA_LIGHTING if light is None else light.value)))
+                for name, seed, light in product(names, seeds, lighting)]
     return [Cell(name, seed, arena, light, faults)
             for name, seed, light, faults in product(names, seeds, lighting, fault_sets)]
 
 
 def parse_campaign(data: Any, where: str, *, scenarios: Collection[str],
                    faulted: Mapping[str, Collection[FaultKind]], base: Path = Path("."),
-                   default_name: str = "campaign") -> Campaign:
+                   default_name: str = "campaign",
+                   node_names: Collection[str] | None = None) -> Campaign:
     """A campaign from its parsed YAML. ``where`` prefixes every error (the file);
     ``scenarios``: the names that exist; ``faulted``: those that take faults, with the
-    kinds each takes; ``base``: the folder arena paths may be relative to."""
+    kinds each takes; ``base``: the folder arena paths may be relative to;
+    ``node_names``: the nodes a drawn ``node_stop`` may name (None: checked by the run)."""
     _check_keys(data, TOP_KEYS, where)
     name = data.get("name", default_name)
     if not isinstance(name, str) or not name.strip():
@@ -247,7 +282,7 @@ def parse_campaign(data: Any, where: str, *, scenarios: Collection[str],
     cells: list[Cell] = []
     for i, block in enumerate(blocks):
         cells += _block_cells(block, f"{where}: matrix[{i}]", scenarios=scenarios,
-                              faulted=faulted, base=base)
+                              faulted=faulted, base=base, node_names=node_names)
     _check_unique(cells, where)
     return Campaign(name.strip(), tuple(cells), float(timeout))
 
@@ -262,6 +297,7 @@ def _check_unique(cells: Iterable[Cell], where: str) -> None:
 
 def load_campaign(path: Path) -> Campaign:
     """The campaign of a YAML file, against the scenarios that exist."""
+    from quadmission.evaluation.faults import NODE_STOP_EXPECTED
     from quadmission.scenarios import FAULTED_SCENARIOS, SCENARIOS
 
     try:
@@ -269,4 +305,5 @@ def load_campaign(path: Path) -> Campaign:
     except (OSError, yaml.YAMLError) as exc:
         raise CampaignError(f"{path}: {exc}") from None
     return parse_campaign(data, str(path), scenarios=SCENARIOS, faulted=FAULTED_SCENARIOS,
-                          base=path.parent, default_name=path.stem)
+                          base=path.parent, default_name=path.stem,
+                          node_names=frozenset(NODE_STOP_EXPECTED))

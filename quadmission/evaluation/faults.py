@@ -10,7 +10,12 @@ cannot hold, and its position-loss failsafe descends to the floor.
 A fault that ends (a duration) and shows as a transient cause (the policy's
 ``transient``: the VIO, or the FCU link, lost for a while) expects "HOLD, then RESUME,
 then completed": handled when the mission completes with every landing inside, whatever
-it took (a gap too short for any cause needs no hold).
+it took (a gap too short for any cause needs no hold). One that ends and is ridden out or
+searched for (a packet burst, a gust, a camera blink) must still let the mission complete
+with every landing inside ("NONE, then completed"); a packet burst may lose the FCU's
+status for long enough to be the link lost for a while, and its HOLD and RESUME are then
+the mission's recovery, not an error. Each fault is judged on its own window (from its
+start to a few seconds past its end), so a run's faults, apart in time, are judged apart.
 
 What happened is read from what the mission published (its ``/mission/events``: an error
 event carries its cause and reaction) and from the FCU's modes; where the vehicle ended
@@ -21,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
@@ -40,6 +45,7 @@ AT_REST_M_S = 0.15  # m/s: slower than this, the vehicle is at rest (landed or h
 ON_GROUND_M = 0.1  # m: the body this close to its resting height on the pad is down
 FAULT_SETTLE_S = 10.0  # s flown on after a fault stopped a run: where the vehicle comes to rest
 SETTLE_WINDOW_S = 2.0  # s after a gust in which an error still counts as its doing
+RECOVERY_WINDOW_S = 10.0  # s after a fault that ended in which its HOLD may still come
 
 
 class Handler(Enum):
@@ -61,6 +67,13 @@ class Expectation:
     the run must end on the ground."""
     recovers: bool = False
     """The fault ends and its cause is transient: HOLD, then RESUME, then completed."""
+    completes: bool = False
+    """The fault ends and the mission flies: ridden out (or its pad searched for), the
+    mission must then complete with every landing inside."""
+    may_show_as: ErrorCause | None = None
+    """A transient cause a ridden-out fault may show as (a packet burst that loses the
+    FCU's status for ``status_timeout_s``: ``offboard_lost``): its HOLD and RESUME are the
+    mission's recovery, not an error."""
 
     @property
     def reaction(self) -> str:
@@ -69,6 +82,9 @@ class Expectation:
             return RECOVERED
         if self.cause is not None:
             return ERROR_POLICY[self.cause].reaction.name
+        if self.completes:
+            return {Handler.SKIP: "SEARCH, then landed or SKIP"}.get(
+                self.handler, "NONE") + ", then completed"
         return {Handler.FCU: "FAILSAFE", Handler.SKIP: "SEARCH, then SKIP"}.get(self.handler,
                                                                              "NONE")
 
@@ -90,7 +106,10 @@ EXPECTED: dict[FaultKind, Expectation] = {
     FaultKind.VIO_JUMP: Expectation(Handler.NOBODY),
     FaultKind.VIO_DELAY: Expectation(Handler.NOBODY),  # fused at its sample time (EKF buffer)
     FaultKind.LATENCY_SPIKE: Expectation(Handler.NOBODY),  # below COM_OF_LOSS_T: ride it out
-    FaultKind.PACKET_BURST: Expectation(Handler.NOBODY),  # enough heartbeats get through
+    # enough heartbeats get through; five /fcu/status lost in a row are the link lost
+    # for a while to the mission (status_timeout_s): a HOLD, then RESUME
+    FaultKind.PACKET_BURST: Expectation(Handler.NOBODY,
+                                        may_show_as=ErrorCause.OFFBOARD_LOST),
     FaultKind.CLOCK_JUMP: Expectation(Handler.NOBODY),  # the time sync resets and follows
     # no marker seen in the dark: a landing in the dark searches for its pad, which is
     # landed on if the camera comes back during the search, else skipped; no module
@@ -128,7 +147,8 @@ its own: the FCU's offboard-loss failsafe, ended, is the mission's ``offboard_lo
 def expectation(fault: Fault, *, mission: bool = True) -> Expectation:
     """The expected reaction to ``fault`` (``node_stop``: by the node's name); one that
     ends, with a transient cause, recovers when the mission flies (``mission``; a flight
-    without it, the navigate or precision-landing scenario, has no one to resume)."""
+    without it, the navigate or precision-landing scenario, has no one to resume); one
+    that ends and is ridden out or searched for lets the mission complete."""
     if fault.kind is FaultKind.NODE_STOP:
         name = fault.text("name")
         if name not in NODE_STOP_EXPECTED:
@@ -142,6 +162,9 @@ def expectation(fault: Fault, *, mission: bool = True) -> Expectation:
     if mission and math.isfinite(fault.end_s) and cause is not None \
             and ERROR_POLICY[cause].transient:
         return Expectation(Handler.MISSION, cause, recovers=True)
+    if mission and math.isfinite(fault.end_s) and base.handler in (Handler.NOBODY,
+                                                                    Handler.SKIP):
+        return replace(base, completes=True)
     return base
 
 
@@ -216,6 +239,7 @@ class _PadReaction:
     reaction_s: float | None
     skipped: bool  # the pad was skipped
     settled: bool  # a search ended in a landing or a skip (no search: nothing to settle)
+    settled_s: float | None = None  # when: the landing or the skip [s]
 
 
 def _search_then_skip(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
@@ -236,15 +260,15 @@ def _search_then_skip(fault: Fault, events: Sequence[tuple[float, MissionEvent]]
     skip_text = "" if skip is None else f"SKIP pad {skip[1]}: {skip[2]}"
     if search is None:
         return (_PadReaction("none", None, False, True) if skip is None
-                else _PadReaction(skip_text, skip[0] - fault.at_s, True, True))
+                else _PadReaction(skip_text, skip[0] - fault.at_s, True, True, skip[0]))
     t0, searched = search
     if skip is not None:
         return _PadReaction(f"SEARCH pad {searched}, then {skip_text}", t0 - fault.at_s,
-                            True, True)
-    landed = any(e.kind is EventKind.LANDED and e.marker_id == searched and t >= t0
-                 for t, e in events)
+                            True, True, skip[0])
+    landed = next((t for t, e in events
+                   if e.kind is EventKind.LANDED and e.marker_id == searched and t >= t0), None)
     return _PadReaction(f"SEARCH pad {searched}" + (", then landed on it" if landed else ""),
-                        t0 - fault.at_s, False, landed)
+                        t0 - fault.at_s, False, landed is not None, landed)
 
 
 def _recovered(fault: Fault, expected: Expectation,
@@ -254,7 +278,9 @@ def _recovered(fault: Fault, expected: Expectation,
     fault on (``cause: HOLD, then RESUME``), and ``then completed``."""
     assert expected.cause is not None
     steps = [(t, c) for t, e in events if t >= fault.at_s and (c := _cause_of(e)) is not None]
-    hold = next((t for t, c in steps if c[1] == "HOLD"), None)
+    # its own hold: not one of a later fault's (a module silent a few seconds into a stop)
+    hold = next((t for t, c in steps if c[1] == "HOLD"
+                 and t <= fault.end_s + RECOVERY_WINDOW_S), None)
     parts = []
     if hold is not None:
         held_on = next(c[0] for t, c in steps if t == hold and c[1] == "HOLD")
@@ -284,7 +310,10 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
     elif expected.handler is Handler.SKIP:
         pad = _search_then_skip(fault, events, skipped)
         observed, reaction_s = pad.observed, pad.reaction_s
-        causes = [e for te, e in events if te >= fault.at_s and _cause_of(e) is not None]
+        # an error from the fault's start to its end, or its pad's landing or skip
+        until = max(fault.end_s, pad.settled_s or fault.at_s) + SETTLE_WINDOW_S
+        causes = [e for te, e in events if fault.at_s <= te <= until
+                  and _cause_of(e) is not None]
         # a dark camera may cost no pad (back before a landing, or during its search); an
         # occluded pad must go
         must_skip = fault.kind is FaultKind.PAD_OCCLUDED
@@ -298,6 +327,13 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
         until = fault.end_s + SETTLE_WINDOW_S if expected.handler is Handler.NOBODY else math.inf
         errors = [(t, c) for t, e in events if fault.at_s <= t <= until
                   and (c := _cause_of(e)) is not None]
+        shown = expected.may_show_as
+        if shown is not None and any(c[0] == shown.value for _, c in errors):
+            # the transient cause it may show as: the mission's recovery, not an error
+            errors = [(t, c) for t, c in errors if c[0] != shown.value]
+            if not errors:
+                observed, reaction_s = _recovered(
+                    fault, replace(expected, cause=shown), events, completed=False)
         want = expected.cause.value if expected.cause is not None else None
         final = None if expected.cause is None else ERROR_POLICY[expected.cause].reaction.name
         # the permanent reaction when there is one (a transient cause first holds)
@@ -313,6 +349,10 @@ def judge_fault(fault: Fault, events: Sequence[tuple[float, MissionEvent]],
             policy = ERROR_POLICY[expected.cause].reaction
             handled = (handled and hit is not None and hit[1] == (want, policy.name)
                        and end in _END_STATES_OF[policy])
+    if expected.completes:
+        if completed:
+            observed = "completed" if observed == "none" else f"{observed}, then completed"
+        handled = handled and completed
     expected_text = (expected.reaction if expected.cause is None
                      else f"{expected.cause.value}: {expected.reaction}")
     if expected.fcu_follows and not math.isfinite(fault.end_s):

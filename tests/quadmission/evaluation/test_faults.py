@@ -78,11 +78,21 @@ def test_an_fcu_fault_for_good_needs_its_failsafe_within_the_fault() -> None:
     assert not judge_fault(for_good, [], [], EndState.LANDED)["handled"]
 
 
-def test_a_ridden_out_fault_must_raise_no_error() -> None:
+def test_a_ridden_out_fault_must_raise_no_error_and_let_the_mission_complete() -> None:
     fault = parse_fault("wind_gust@25:2,force=2")
-    assert judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD)["handled"]
-    hit = judge_fault(fault, [(26.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING)
+    judged = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, completed=True)
+    assert judged["expected"] == "NONE, then completed"
+    assert judged["observed"] == "completed" and judged["handled"]
+    hit = judge_fault(fault, [(26.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING,
+                      completed=True)
     assert not hit["handled"]
+    stopped = judge_fault(fault, [], [], EndState.LANDED_ON_START_PAD, completed=False)
+    assert not stopped["handled"], "a gust that is over leaves the mission nothing to stop for"
+    # a step (no duration) or no mission: no error is all it takes
+    jump = judge_fault(parse_fault("vio_jump@25,x=0.5"), [], [], EndState.FLYING)
+    assert jump["expected"] == "NONE" and jump["handled"]
+    alone = judge_fault(fault, [], [], EndState.HOLDING, mission=False)
+    assert alone["expected"] == "NONE" and alone["handled"]
 
 
 def _landing_failed(pad: int) -> MissionEvent:
@@ -116,21 +126,26 @@ def test_an_occluded_pad_is_searched_then_skipped_with_its_reason() -> None:
 def test_a_dark_camera_s_landing_is_searched_then_landed_when_the_camera_is_back() -> None:
     fault = parse_fault("camera_dark@130:60")
     back = judge_fault(fault, [(176.0, _landing_failed(5)), (232.0, _landed(5))], [],
-                       EndState.LANDED_ON_START_PAD)
-    assert back["expected"] == "SEARCH, then SKIP" and back["handled"]
-    assert back["observed"] == "SEARCH pad 5, then landed on it"
-    assert back["reaction_s"] == 46.0
+                       EndState.LANDED_ON_START_PAD, completed=True)
+    assert back["expected"] == "SEARCH, then landed or SKIP, then completed"
+    assert back["observed"] == "SEARCH pad 5, then landed on it, then completed"
+    assert back["handled"] and back["reaction_s"] == 46.0
     still_dark = judge_fault(fault, [(176.0, _landing_failed(5))], [],
-                             EndState.LANDED_ON_START_PAD, [(220.0, 5, "marker not seen")])
+                             EndState.LANDED_ON_START_PAD, [(220.0, 5, "marker not seen")],
+                             completed=True)
     assert still_dark["handled"]
-    assert still_dark["observed"] == "SEARCH pad 5, then SKIP pad 5: marker not seen"
+    assert still_dark["observed"] == ("SEARCH pad 5, then SKIP pad 5: marker not seen, then "
+                                      "completed")
     unsettled = judge_fault(fault, [(176.0, _landing_failed(5))], [], EndState.HOLDING)
     assert not unsettled["handled"], "a search that neither landed nor skipped"
     before = judge_fault(fault, [(100.0, _landing_failed(5)), (150.0, _landed(5))], [],
-                         EndState.LANDED_ON_START_PAD)
-    assert before["observed"] == "none" and before["handled"]  # a landing failed before it
+                         EndState.LANDED_ON_START_PAD, completed=True)
+    assert before["observed"] == "completed" and before["handled"]  # failed before it
     err = judge_fault(fault, [(140.0, _error("flight_error", "HOLD"))], [], EndState.HOLDING)
     assert not err["handled"]
+    for_good = judge_fault(parse_fault("camera_dark@130"), [(176.0, _landing_failed(5))], [],
+                           EndState.LANDED_ON_START_PAD, [(220.0, 5, "marker not seen")])
+    assert for_good["expected"] == "SEARCH, then SKIP" and for_good["handled"]
 
 
 def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None:
@@ -150,3 +165,51 @@ def test_without_the_mission_a_fault_that_ends_is_judged_as_before() -> None:
     assert expectation(fault, mission=False).reaction == "FAILSAFE"
     judged = judge_fault(fault, [], [26.0], EndState.HOLDING, mission=False)
     assert judged["expected"] == "FAILSAFE" and judged["handled"]
+
+
+def test_a_packet_burst_and_a_camera_blink_are_ridden_out_then_the_mission_completes() -> None:
+    burst = parse_fault("packet_burst@40:2,loss=0.4")
+    assert expectation(burst).completes and not expectation(burst).recovers
+    quiet = judge_fault(burst, [], [], EndState.LANDED_ON_START_PAD, completed=True)
+    assert quiet["expected"] == "NONE, then completed" and quiet["handled"]
+    assert quiet["observed"] == "completed"
+    # five /fcu/status lost in a row: the link lost for a while, held and resumed
+    hold, resume = _error("offboard_lost", "HOLD"), _error("offboard_lost", "RESUME")
+    held = judge_fault(burst, [(41.3, hold), (44.0, resume)], [], EndState.LANDED_ON_START_PAD,
+                       completed=True)
+    assert held["handled"] and held["reaction_s"] == pytest.approx(1.3)
+    assert held["observed"] == "offboard_lost: HOLD, then RESUME, then completed"
+    assert not judge_fault(burst, [(41.3, hold)], [], EndState.HOLDING)["handled"]
+    other = judge_fault(burst, [(41.0, _error("flight_error", "HOLD"))], [],
+                        EndState.LANDED_ON_START_PAD, completed=True)
+    assert not other["handled"], "another cause is an error the burst made"
+    blink = parse_fault("camera_dark@150:0.8")
+    landed = judge_fault(blink, [(150.5, _landing_failed(3)), (160.0, _landed(3))], [],
+                         EndState.LANDED_ON_START_PAD, completed=True)
+    assert landed["handled"]
+    assert landed["observed"] == "SEARCH pad 3, then landed on it, then completed"
+    assert not judge_fault(blink, [], [], EndState.LANDED_ON_START_PAD)["handled"]
+
+
+def _judge_run(specs: list[str], events: list[tuple[float, MissionEvent]],
+               completed: bool) -> list[dict[str, object]]:
+    return [judge_fault(parse_fault(s), events, [], EndState.LANDED_ON_START_PAD,
+                        completed=completed) for s in specs]
+
+
+def test_a_run_of_two_transient_faults_is_handled_when_the_mission_completes() -> None:
+    """As the transient campaign draws them: apart in time, each judged on its own
+    window, both handled when the mission completes with every landing inside."""
+    specs = ["camera_dark@60.2:1.1", "node_stop@200:4,name=mapping"]
+    silent = [(203.1, _error("module_silent", "HOLD")), (206.5, _error("module_silent",
+                                                                       "RESUME"))]
+    both = _judge_run(specs, silent, completed=True)
+    assert [j["handled"] for j in both] == [True, True], both
+    assert both[0]["observed"] == "completed", "the later fault's HOLD is not the blink's"
+    assert both[1]["observed"] == "module_silent: HOLD, then RESUME, then completed"
+    assert not any(j["handled"] for j in _judge_run(specs, silent, completed=False))
+    specs = ["link_lost@30:0.6", "vio_stop@150:3"]
+    lost = [(150.7, HOLD), (155.2, RESUME)]
+    first, second = _judge_run(specs, lost, completed=True)
+    assert first["handled"] and first["observed"] == "completed" and first["reaction_s"] is None
+    assert second["handled"] and second["reaction_s"] == pytest.approx(0.7)
