@@ -374,11 +374,9 @@ def cache_key(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.Ar
     the parameters, the observed cubes, ``empty_is_free`` and the rules' version."""
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(np.asarray(points, dtype=np.float64)).tobytes())
-    meta: dict[str, object] = {"min": np.asarray(field_min, dtype=np.float64).tolist(),
-                               "max": np.asarray(field_max, dtype=np.float64).tolist(),
-                               "params": asdict(params), "version": GRAPH_VERSION}
-    if empty_is_free:  # only then: the keys of the graphs cached before stay the same
-        meta["empty_is_free"] = True
+    meta = {"min": np.asarray(field_min, dtype=np.float64).tolist(),
+            "max": np.asarray(field_max, dtype=np.float64).tolist(),
+            "params": asdict(params), "version": GRAPH_VERSION, "empty_is_free": empty_is_free}
     h.update(json.dumps(meta, sort_keys=True).encode())
     if observed is not None:
         h.update(np.packbits(observed).tobytes())
