@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 
 import interfaces
+from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
 from navigation.mapping_node import DEPTH_TOPIC, MAP_TOPIC, POSE_AT, MappingNode
-from navigation.path_finder_node import PLAN_PATH, PLAN_PATH_SERVICE, PathFinderNode, path_points
+from navigation.path_finder_node import PathFinderNode, path_points
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default
 
 WALL = np.array([(2.0, y, z) for y in np.arange(-1.0, 1.0, 0.1)
@@ -79,7 +80,8 @@ def test_a_view_with_nothing_in_range_is_an_empty_map_the_path_finder_plans_on()
     fcu = Fcu(context=ex.context)
     for node in (mapping, finder, fcu):
         ex.add_node(node)
-    planner = fcu.create_client(PLAN_PATH, PLAN_PATH_SERVICE)
+    plan_path = interfaces.get_service(graph.PLAN_PATH.type)
+    planner = fcu.create_client(plan_path, graph.PLAN_PATH.name)
     ex.spin_for(1.5)  # the estimate settles; no cloud yet
     assert fcu.maps == [] and finder.map_version == 0  # no map yet: nothing seen
     stamps = []
@@ -91,7 +93,7 @@ def test_a_view_with_nothing_in_range_is_an_empty_map_the_path_finder_plans_on()
     assert [len(cloud_points(m)) for m in fcu.maps] == [0, 0]  # maps, with no obstacle
     assert [Time.from_msg(m.header.stamp) for m in fcu.maps] == [Time.from_msg(s)
                                                                  for s in stamps]
-    request = interfaces.new(PLAN_PATH.Request, start=interfaces.new(
+    request = interfaces.new(plan_path.Request, start=interfaces.new(
         "geometry_msgs/msg/Point", x=1.0, y=2.0, z=1.5), goal=interfaces.new(
         "geometry_msgs/msg/Point", x=6.0, y=2.0, z=1.5))
     future = planner.call_async(request)
