@@ -85,6 +85,18 @@ class VoxelMap:
         return self.origin + (idx.astype(np.float64) + 0.5) * self.voxel_size
 
 
+def map_to_publish(clouds_fused: int, clouds_published: int | None, voxels: int) -> bool:
+    """Whether there is a map to publish: a cloud fused since the last map was published
+    (``clouds_published`` clouds had been fused then; None: no map published yet), or,
+    before any cloud, a map loaded from a file (``voxels`` > 0). A fused cloud with nothing
+    in range (the start pad facing open floor) is a map too: its points say where
+    obstacles are, its stamp what the camera has seen, so a map of no voxel says the
+    view is free space. Before any cloud and any file there is no map at all."""
+    if clouds_published is None:
+        return clouds_fused > 0 or voxels > 0
+    return clouds_fused != clouds_published
+
+
 def _check_suffix(path: Path) -> None:
     if path.suffix.lower() not in MAP_SUFFIXES:
         raise MapFileError(f"{path}: a map file must end in {' or '.join(MAP_SUFFIXES)}")
@@ -121,4 +133,5 @@ def load_map(path: Path | str) -> FloatArray:
     return points
 
 
-__all__ = ["MAP_SUFFIXES", "VoxelMap", "camera_to_map", "load_map", "save_map"]
+__all__ = ["MAP_SUFFIXES", "VoxelMap", "camera_to_map", "load_map", "map_to_publish",
+           "save_map"]

@@ -6,8 +6,10 @@ simulator truth) and added to a :class:`~navigation.mapping.VoxelMap`. The map (
 started from ``map_file``) is published on ``/map/points`` at ``publish_rate_hz`` when a cloud
 was fused since the last one, stamped with the newest fused cloud's capture time: a map
 stamped t holds everything the camera saw until t, even when that added no voxel (the
-navigator waits for such a map after a turn before it flies on). :meth:`MappingNode.save`
-writes it as PCD/PLY. Parameters: ``config/mapping.yaml``.
+navigator waits for such a map after a turn before it flies on), and even when it holds
+no voxel at all (nothing in range: free space, which the path finder plans on; see
+:func:`~navigation.mapping.map_to_publish`). :meth:`MappingNode.save` writes it as PCD/PLY.
+Parameters: ``config/mapping.yaml``.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import interfaces
 from flight_control.health import MODULE_HEALTH, health_report
 from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
-from navigation.mapping import VoxelMap, camera_to_map, load_map, save_map
+from navigation.mapping import VoxelMap, camera_to_map, load_map, map_to_publish, save_map
 from navigation.params import MappingParams
 from runtime import Node, Time
 
@@ -47,7 +49,7 @@ class MappingNode(Node):
         #: (capture stamp [ns], position [m], orientation wxyz) of each fused cloud
         self.fused_poses: list[tuple[int, tuple[float, ...], tuple[float, ...]]] = []
         self._last_ns: int | None = None
-        self._published_fused = -1  # clouds_fused at the last publish
+        self._published_fused: int | None = None  # clouds_fused at the last publish
         self.map_stamp = Time(0).to_msg()  # capture time of the newest fused cloud
         self._pending = False
         self.pose_at = self.create_client(POSE_AT, graph.POSE_AT.name)
@@ -111,7 +113,7 @@ class MappingNode(Node):
             self.map_stamp = stamp
 
     def _publish(self) -> None:
-        if self.clouds_fused == self._published_fused or len(self.map) == 0:
+        if not map_to_publish(self.clouds_fused, self._published_fused, len(self.map)):
             return
         self._published_fused = self.clouds_fused
         self.map_pub.publish(cloud_msg(self.map.points(), self.map_stamp, MAP_FRAME))

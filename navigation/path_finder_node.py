@@ -7,10 +7,13 @@ It converts messages and maps errors; the graph is :mod:`navigation.voxel_graph`
 when ``cache_dir`` is set); a request after the map changed updates it where the change
 matters (:func:`~navigation.voxel_graph.update_graph`: only the block the new points reach,
 nothing when they fall in cubes already full, e.g. more of a wall already mapped), to the
-same graph a full build gives. A path's header stamp is the map's (the capture time of the
-newest depth cloud in it), so the navigator knows what the plan had seen. Every
-:class:`~navigation.errors.PlanningError` becomes a ``PlanPath`` result code here, in
-:data:`RESULT_OF`, with the error's text.
+same graph a full build gives. A map on ``/map/points`` is what the depth camera saw: one
+with no point in the field (the start pad facing open floor) is free space, a graph
+bounded only by the field's walls, floor and ceiling, so the path finder is ready with it;
+"no map yet" is only for before any map (no ``map_file``, nothing on ``/map/points``).
+A path's header stamp is the map's (the capture time of the newest depth cloud in it), so
+the navigator knows what the plan had seen. Every :class:`~navigation.errors.PlanningError`
+becomes a ``PlanPath`` result code here, in :data:`RESULT_OF`, with the error's text.
 Parameters: ``config/path_finder.yaml``.
 """
 
@@ -139,17 +142,25 @@ class PathFinderNode(Node):
     def map_points(self) -> np.ndarray:
         return np.vstack([self.static_points, self.kept_points, self.live_points])
 
+    @property
+    def has_map(self) -> bool:
+        """A map file or a live map arrived (an empty live map too: the camera saw nothing
+        to avoid, which is free space)."""
+        return len(self.static_points) > 0 or self.map_version > 0
+
     def graph(self, clearance: float = 0.0) -> VoxelGraph | None:
         """The graph of the current map (None: no map yet). Raises GraphError."""
         if self._graph_version.get(clearance) == self.map_version:
             return self._graphs[clearance]
-        points = self.map_points()
-        if len(points) == 0:
+        if not self.has_map:
             return None
+        points = self.map_points()
+        seen = self.map_version > 0  # a live map: no point in the field is free space
         old = self._graphs.get(clearance)
         if old is not None:
             if self._counts is None or self._counts[0] != self.map_version:
-                self._counts = (self.map_version, count_points(points, old.grid))
+                self._counts = (self.map_version,
+                                count_points(points, old.grid, empty_is_free=seen))
             graph, cubes = update_graph(old, self._counts[1])
             self.graph_updates += cubes > 0
             self.graph_unchanged += cubes == 0
@@ -160,9 +171,9 @@ class PathFinderNode(Node):
         gp = self.params.graph(clearance)
         if self.params.cache_dir:
             graph, _ = cached_graph(points, self.field_min, self.field_max, gp,
-                                    Path(self.params.cache_dir))
+                                    Path(self.params.cache_dir), empty_is_free=seen)
         else:
-            graph = build_graph(points, self.field_min, self.field_max, gp)
+            graph = build_graph(points, self.field_min, self.field_max, gp, empty_is_free=seen)
         self.graph_builds += 1
         self._graphs[clearance] = graph
         self._graph_version[clearance] = self.map_version
@@ -214,10 +225,9 @@ class PathFinderNode(Node):
         return response
 
     def _publish_health(self) -> None:
-        has_map = len(self.static_points) > 0 or len(self.live_points) > 0
-        level = MODULE_HEALTH.LEVEL_OK if has_map else MODULE_HEALTH.LEVEL_WARN
+        level = MODULE_HEALTH.LEVEL_OK if self.has_map else MODULE_HEALTH.LEVEL_WARN
         self.health_pub.publish(health_report(
-            "path_finder", level, "" if has_map else "no map yet",
+            "path_finder", level, "" if self.has_map else "no map yet",
             {"map_points": len(self.static_points) + len(self.live_points),
              "map_version": self.map_version, "graph_builds": self.graph_builds,
              "graph_updates": self.graph_updates, "graph_unchanged": self.graph_unchanged,

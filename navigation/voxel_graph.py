@@ -4,7 +4,9 @@ Pure and vectorised (numpy; no Python loop over cubes). The rules, each in one p
 
 - the field box is divided into cubes of side ``resolution`` from the field's minimum
   corner (a fixed origin), each identified by its centre;
-- points outside the field are dropped;
+- points outside the field are dropped; a cloud with none left raises EmptyCloud, unless
+  the caller says it is an observation (``empty_is_free``: the depth camera saw nothing
+  to avoid in the field), which is a graph of free space;
 - boundary cubes (the outer layer on every side, floor and ceiling included) are
   non-viable, and the walls, floor and ceiling beyond them count as obstacles for the
   corridors (cubes outside the field as far as the footprint reaches hold
@@ -206,17 +208,19 @@ def top_cube_centre(resolution: float, ceiling: float) -> float:
     up) at or below ``ceiling`` [m]."""
     return (math.floor(ceiling / resolution + 1e-9 - 0.5) + 0.5) * resolution
 
-def count_points(points: npt.ArrayLike, grid: Grid) -> npt.NDArray[np.int32]:
-    """Points per cube; points outside the field are dropped. Raises EmptyCloud when none
-    is left."""
+def count_points(points: npt.ArrayLike, grid: Grid, *,
+                 empty_is_free: bool = False) -> npt.NDArray[np.int32]:
+    """Points per cube; points outside the field are dropped. When none is left: raises
+    EmptyCloud, or, with ``empty_is_free`` (a map the depth camera made, which saw nothing
+    to avoid in the field), every count is 0: all free space."""
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if len(p) == 0:
+    if len(p) == 0 and not empty_is_free:
         raise EmptyCloud("the point cloud is empty")
     p = p[np.all(np.isfinite(p), axis=1)]
     lo = np.asarray(grid.origin)
     hi = lo + np.asarray(grid.shape) * grid.resolution
     p = p[np.all((p >= lo) & (p < hi), axis=1)]
-    if len(p) == 0:
+    if len(p) == 0 and not empty_is_free:
         raise EmptyCloud(f"none of the cloud's points is inside the field {lo.tolist()} .. "
                          f"{hi.tolist()} m")
     flat = grid.flat(grid.cell_of(p))
@@ -303,12 +307,15 @@ def _check_observed(params: GraphParams, observed: BoolArray | None, grid: Grid)
 
 
 def build_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
-                params: GraphParams, observed: BoolArray | None = None) -> VoxelGraph:
+                params: GraphParams, observed: BoolArray | None = None, *,
+                empty_is_free: bool = False) -> VoxelGraph:
     """The graph of ``points`` (N, 3) [m, map frame] over the field box, by the rules of
     the module docstring. ``observed``: cubes seen by the sensor (grid shape), used when
-    ``params.unknown_is_occupied``."""
+    ``params.unknown_is_occupied``. ``empty_is_free``: no point in the field is a graph of
+    free space (walls, floor and ceiling still bound it) rather than EmptyCloud
+    (:func:`count_points`)."""
     grid = Grid.over(field_min, field_max, params.resolution)
-    counts = count_points(points, grid)
+    counts = count_points(points, grid, empty_is_free=empty_is_free)
     _check_observed(params, observed, grid)
     shape = np.asarray(grid.shape, dtype=np.int64)
     viable, free, edges = _block(counts, params, observed, np.zeros(3, dtype=np.int64), shape)
@@ -361,14 +368,15 @@ def update_graph(graph: VoxelGraph, counts: npt.NDArray[np.int32],
 
 # -- cache ---------------------------------------------------------------------------------
 def cache_key(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
-              params: GraphParams, observed: BoolArray | None = None) -> str:
+              params: GraphParams, observed: BoolArray | None = None, *,
+              empty_is_free: bool = False) -> str:
     """A digest of everything the graph depends on: the cloud's bytes (float64), the field,
-    the parameters, the observed cubes and the rules' version."""
+    the parameters, the observed cubes, ``empty_is_free`` and the rules' version."""
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(np.asarray(points, dtype=np.float64)).tobytes())
     meta = {"min": np.asarray(field_min, dtype=np.float64).tolist(),
             "max": np.asarray(field_max, dtype=np.float64).tolist(),
-            "params": asdict(params), "version": GRAPH_VERSION}
+            "params": asdict(params), "version": GRAPH_VERSION, "empty_is_free": empty_is_free}
     h.update(json.dumps(meta, sort_keys=True).encode())
     if observed is not None:
         h.update(np.packbits(observed).tobytes())
@@ -377,10 +385,11 @@ def cache_key(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.Ar
 
 def cached_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt.ArrayLike,
                  params: GraphParams, cache_dir: Path,
-                 observed: BoolArray | None = None) -> tuple[VoxelGraph, bool]:
+                 observed: BoolArray | None = None, *,
+                 empty_is_free: bool = False) -> tuple[VoxelGraph, bool]:
     """:func:`build_graph`, loaded from ``cache_dir`` when it was built before with the same
     inputs, else built and saved there. Returns (graph, came from the cache)."""
-    key = cache_key(points, field_min, field_max, params, observed)
+    key = cache_key(points, field_min, field_max, params, observed, empty_is_free=empty_is_free)
     path = Path(cache_dir) / f"voxel_graph_{key}.npz"
     if path.is_file():
         try:
@@ -391,7 +400,8 @@ def cached_graph(points: npt.ArrayLike, field_min: npt.ArrayLike, field_max: npt
                                   z["edges"]), True
         except (OSError, KeyError, ValueError):
             pass  # a damaged cache file: rebuild and overwrite it
-    graph = build_graph(points, field_min, field_max, params, observed)
+    graph = build_graph(points, field_min, field_max, params, observed,
+                        empty_is_free=empty_is_free)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, origin=np.asarray(graph.grid.origin),

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from navigation.errors import MapFileError
-from navigation.mapping import VoxelMap, camera_to_map, load_map, save_map
+from navigation.mapping import VoxelMap, camera_to_map, load_map, map_to_publish, save_map
 
 
 def test_camera_points_land_in_the_map_frame_with_the_pose() -> None:
@@ -24,6 +24,16 @@ def test_range_limits_drop_points() -> None:
     pts = camera_to_map([[0.05, 0, 0], [3.0, 0, 0], [9.0, 0, 0]], (0, 0, 0), (1, 0, 0, 0),
                         (0, 0, 0), min_range=0.1, max_range=6.0)
     assert pts[:, 0].tolist() == [3.0]
+
+
+def test_a_fused_cloud_is_a_map_even_with_nothing_in_range() -> None:
+    """A view of open floor adds no voxel, yet it is a map: free space, seen."""
+    assert not map_to_publish(0, None, 0)  # no cloud, no file: no map yet
+    assert map_to_publish(1, None, 0)  # a cloud with nothing in range: an empty map
+    assert map_to_publish(0, None, 120)  # a map file, before any cloud
+    assert not map_to_publish(0, 0, 120)  # the file's map, already published
+    assert not map_to_publish(3, 3, 0)  # nothing fused since the last map
+    assert map_to_publish(4, 3, 0)  # another empty view: a newer stamp
 
 
 def test_voxel_map_is_deterministic_and_order_independent() -> None:

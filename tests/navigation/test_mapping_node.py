@@ -1,6 +1,7 @@
 """The mapping node through its topics: depth clouds and /fcu/pose_at in, /map/points out.
 A map stamped t holds every cloud captured until t, even one that added no voxel (the
-navigator waits for such a map after a turn)."""
+navigator waits for such a map after a turn), and a cloud with nothing in range (the start
+pad facing open floor) is a map too: free space, which the path finder plans on."""
 
 from __future__ import annotations
 
@@ -12,10 +13,14 @@ import interfaces
 from interfaces import graph
 from navigation.cloud_msgs import cloud_msg, cloud_points
 from navigation.mapping_node import POSE_AT, MappingNode
+from navigation.path_finder_node import PathFinderNode, path_points
 from runtime import DeterministicExecutor, Node, Time, qos_profile_default
 
 WALL = np.array([(2.0, y, z) for y in np.arange(-1.0, 1.0, 0.1)
                  for z in np.arange(-0.5, 0.5, 0.1)])  # 2 m ahead of the camera (FLU)
+# open floor ahead, seen from 1.5 m: every point below min_z once in the map frame
+FLOOR = np.array([(x, y, -1.5) for x in np.arange(1.5, 5.0, 0.5)
+                  for y in np.arange(-1.0, 1.0, 0.5)])
 
 
 class Fcu(Node):
@@ -65,3 +70,35 @@ def test_a_cloud_with_nothing_new_still_advances_the_map_stamp() -> None:
     first, second = (cloud_points(m) for m in fcu.maps)
     assert np.array_equal(first, second)
     assert np.allclose(first[:, 0].mean(), 1.0 + 0.12 + 2.0, atol=0.06)  # in the map frame
+
+
+def test_a_view_with_nothing_in_range_is_an_empty_map_the_path_finder_plans_on() -> None:
+    ex = DeterministicExecutor()
+    mapping = MappingNode(context=ex.context, parameter_overrides={"settle_s": 0.5})
+    finder = PathFinderNode(context=ex.context, parameter_overrides={
+        "field_min": [-2.0, -2.0, 0.0], "field_max": [8.0, 6.0, 3.0]})
+    fcu = Fcu(context=ex.context)
+    for node in (mapping, finder, fcu):
+        ex.add_node(node)
+    plan_path = interfaces.get_service(graph.PLAN_PATH.type)
+    planner = fcu.create_client(plan_path, graph.PLAN_PATH.name)
+    ex.spin_for(1.5)  # the estimate settles; no cloud yet
+    assert fcu.maps == [] and finder.map_version == 0  # no map yet: nothing seen
+    stamps = []
+    for cloud in (np.empty((0, 3)), FLOOR):  # nothing in range, then only the floor
+        stamps.append(ex.now().to_msg())
+        fcu.depth.publish(cloud_msg(cloud, stamps[-1], "camera"))
+        ex.spin_for(1.5)
+    assert mapping.clouds_fused == 2 and len(mapping.map) == 0
+    assert [len(cloud_points(m)) for m in fcu.maps] == [0, 0]  # maps, with no obstacle
+    assert [Time.from_msg(m.header.stamp) for m in fcu.maps] == [Time.from_msg(s)
+                                                                 for s in stamps]
+    request = interfaces.new(plan_path.Request, start=interfaces.new(
+        "geometry_msgs/msg/Point", x=1.0, y=2.0, z=1.5), goal=interfaces.new(
+        "geometry_msgs/msg/Point", x=6.0, y=2.0, z=1.5))
+    future = planner.call_async(request)
+    assert ex.spin_until_future_complete(future, 2.0)
+    reply = future.result()
+    assert reply.success, reply.message
+    assert len(path_points(reply.path)) == 2  # straight over the open floor
+    assert Time.from_msg(reply.path.header.stamp) == Time.from_msg(stamps[-1])

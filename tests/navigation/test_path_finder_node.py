@@ -161,3 +161,26 @@ def test_a_restarted_mapping_nodes_smaller_map_does_not_erase_the_wall(
     response = ask(ex, client, (1.0, 1.0, 1.0), (5.0, 1.0, 1.0))
     assert response.success
     assert max(p[1] for p in path_points(response.path)) > 2.9  # round the wall, north
+
+
+def test_an_empty_map_is_free_space_and_no_map_is_none(rig) -> None:  # type: ignore[no-untyped-def]
+    """The start pad faces open floor: the mapping's first map holds no point. That is a
+    map (free space, seen), so the path finder is ready and plans straight on it; only
+    before any map is there "no map yet"."""
+    ex, client, finder = rig
+    ex.spin_for(1.1)
+    assert client.health.level != 0 and client.health.modules[0].message == "no map yet"
+    assert ask(ex, client, (1.0, 1.0, 1.0), (5.0, 1.0, 1.0)).result == R.RESULT_NO_MAP
+    client.map_pub.publish(cloud_msg(np.empty((0, 3)), Time(2_000_000_000).to_msg(), "map"))
+    ex.spin_for(1.1)
+    assert client.health.level == 0 and client.health.modules[0].message == ""
+    straight = ask(ex, client, (1.0, 1.0, 1.0), (5.0, 1.0, 1.0))
+    assert straight.success, straight.message
+    assert len(path_points(straight.path)) == 2
+    assert Time.from_msg(straight.path.header.stamp) == Time(2_000_000_000)
+    # the vehicle turns and sees the wall: the free graph is updated, and the path goes round
+    client.map_pub.publish(cloud_msg(WALL, Time(3_000_000_000).to_msg(), "map"))
+    ex.spin_for(0.1)
+    around = ask(ex, client, (1.0, 1.0, 1.0), (5.0, 1.0, 1.0))
+    assert around.success and path_points(around.path)[:, 1].max() > 3.0
+    assert (finder.graph_builds, finder.graph_updates) == (1, 1)

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from navigation.astar import plan
 from navigation.errors import EmptyCloud, InvalidBounds, ResolutionTooSmall
 from navigation.voxel_graph import (
     OFFSETS,
@@ -158,6 +159,44 @@ def test_errors_say_what_is_wrong() -> None:
         params(resolution=0.0)
     with pytest.raises(InvalidBounds, match="below the maximum"):
         build_graph(FAR, FIELD_MAX, FIELD_MIN, params())
+
+
+def test_an_observed_map_with_no_point_in_the_field_is_free_space() -> None:
+    """The depth camera saw nothing to avoid (a start pad facing open floor): the graph
+    is free space bounded by the walls, floor and ceiling alone, whether the map holds no
+    point or only points beyond the field; a cloud given offline still has to hold one."""
+    gp = params(footprint_radius=0.35, safety_margin=0.05, vertical_clearance=0.2)
+    n, m = gp.inflation_cubes
+    for cloud in (np.empty((0, 3)), np.array([[9.0, 9.0, 9.0]])):
+        g = build_graph(cloud, FIELD_MIN, FIELD_MAX, gp, empty_is_free=True)
+        assert not g.counts.any()
+        nx, ny, nz = g.grid.shape
+        i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
+        # free: every cube whose footprint's box stays inside the field, nothing else
+        inside = ((i >= n) & (i < nx - n) & (j >= n) & (j < ny - n) & (k >= max(m, 1))
+                  & (k < nz - max(m, 1)))
+        assert np.array_equal(g.free, inside)
+        across = plan(g, (0.5, 0.5, 1.0), (3.5, 3.5, 1.0))
+        assert len(across.points) == 2  # nothing in the way: one straight leg
+        with pytest.raises(EmptyCloud):
+            build_graph(cloud, FIELD_MIN, FIELD_MAX, gp)
+    # the camera then sees a wall: the update from free space is the full build's graph
+    wall = np.array([(2.05, y, z) for y in np.arange(0.05, 3.0, 0.1)
+                     for z in np.arange(0.05, 2.0, 0.1)])
+    free = build_graph(np.empty((0, 3)), FIELD_MIN, FIELD_MAX, gp, empty_is_free=True)
+    updated, cubes = update_graph(free, count_points(wall, free.grid))
+    assert cubes > 0 and _same(updated, build_graph(wall, FIELD_MIN, FIELD_MAX, gp))
+    assert len(plan(updated, (0.5, 1.0, 1.0), (3.5, 1.0, 1.0)).points) > 2  # round it
+
+
+def test_the_cache_keeps_an_empty_map_apart(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    empty = np.empty((0, 3))
+    assert (cache_key(empty, FIELD_MIN, FIELD_MAX, params(), empty_is_free=True)
+            != cache_key(empty, FIELD_MIN, FIELD_MAX, params()))
+    free, _ = cached_graph(empty, FIELD_MIN, FIELD_MAX, params(), tmp_path, empty_is_free=True)
+    assert free.free.any()
+    with pytest.raises(EmptyCloud):  # not read back from the free graph's file
+        cached_graph(empty, FIELD_MIN, FIELD_MAX, params(), tmp_path)
 
 
 def test_the_cache_returns_the_same_graph_and_keys_on_every_input(tmp_path) -> None:  # type: ignore[no-untyped-def]
