@@ -282,3 +282,24 @@ def test_while_held_the_operator_cannot_resume_but_can_abort() -> None:
     assert rig.state == "stopped"
     assert rig.driver.mission.stop is not None
     assert rig.driver.mission.stop.cause is ErrorCause.OPERATOR_ABORT
+
+
+def test_a_module_restarted_resumes_only_once_it_reports_ok() -> None:
+    """A node's process respawned reports again before it has rebuilt its state (mapping
+    without a fused cloud warns): reporting is not enough, the hold waits for OK, then the
+    settle time."""
+    rig = rig_exploring()
+    rig.report_health()
+    rig.watchdog(PARAMS.silence_timeout_s + 0.1)  # every module silent: the process died
+    assert rig.state == "held" and hold_events(rig)[-1]["cause"] == "module_silent"
+    for _ in range(round(3 * SETTLE_S / 0.1)):  # back, warning: not OK yet
+        rig.t_ns += round(0.1e9)
+        rig.report_health(ok=False, message="no depth cloud fused yet")
+        rig.feed(rig.driver.status)
+        rig.feed(Tick())
+    assert rig.state == "held"
+    settle(rig, SETTLE_S - 0.1)  # OK from now: not before the settle time
+    assert rig.state == "held"
+    settle(rig, 0.2)
+    assert rig.state == "mission.explore" and isinstance(rig.job, SendGoal) \
+        and rig.job.action is Action.EXPLORE
