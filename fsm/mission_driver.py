@@ -75,6 +75,8 @@ from fsm.mission_table import TAKEOFFS, ErrorCause, Phase, phase_of
 Vec3 = tuple[float, float, float]
 PROBE_PERIOD_S = 0.1  # preflight: the modules are asked again this often
 PICTURE_POLL_S = 0.1  # after the hover: a first picture is looked for this often
+#: the causes whose module may have died with a flight-control goal running (:meth:`Driver.hold`)
+MODULE_CAUSES = frozenset({ErrorCause.MODULE_SILENT, ErrorCause.MODULE_ERROR})
 
 
 @dataclass(frozen=True)
@@ -616,7 +618,20 @@ class Driver:
 
     def hold(self) -> None:
         """Nothing more to send: with its goal canceled the layer below holds the last
-        setpoint (the seed's stop leaves the vehicle as it is for the pilot)."""
+        setpoint (the seed's stop leaves the vehicle as it is for the pilot). But held or
+        stopped on a module silent or in error: its process may have died with a
+        flight-control goal of its own running (the navigator's reach to the end of a leg,
+        precision landing's descent), which no cancel reaches any more and which would fly
+        on to its end; a reach to where the vehicle is takes the setpoint from it (flight
+        control preempts the older goal), in the air, in offboard (the FCU's failsafe flies
+        otherwise). Its answer is not waited for (a dead flight control gives none)."""
+        m, s = self.mission, self.status
+        why = m.held if m.state == "held" else m.stop if m.state == "stopped" else None
+        if why is None or why.cause not in MODULE_CAUSES or self.position is None \
+                or s is None or not (s.armed and not s.landed and s.offboard):
+            return
+        self._ask(SendGoal(self._new_job(), Action.REACH, ReachGoal(self.position)),
+                  _ignore)
 
     def cancel(self) -> None:
         self._new_job()  # the one in hand is over
@@ -761,6 +776,10 @@ class Driver:
         self._apply_alerts()  # a cause already known decides at once
         if self.mission.state == state_then:
             self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9))
+
+
+def _ignore(_: GoalDone) -> None:
+    """A job whose answer changes nothing (the reach that holds)."""
 
 
 def _percent(fraction: float) -> str:

@@ -20,6 +20,8 @@ from fsm.mission_driver import (
     NavigateGoal,
     OperatorCommand,
     Order,
+    Position,
+    ReachGoal,
     SendGoal,
     TakeoffGoal,
     Tick,
@@ -303,3 +305,26 @@ def test_a_module_restarted_resumes_only_once_it_reports_ok() -> None:
     settle(rig, 0.2)
     assert rig.state == "mission.explore" and isinstance(rig.job, SendGoal) \
         and rig.job.action is Action.EXPLORE
+
+
+def test_held_on_a_silent_module_takes_the_setpoint_with_a_reach_to_where_it_is() -> None:
+    """The navigator's process died with its reach to the end of a leg running at flight
+    control: the mission's cancel reaches nobody, so the hold sends its own reach to where
+    the vehicle is (flight control preempts the orphan); a lost position sends none (the
+    reach would be refused) and the resume restarts the exploration."""
+    rig = rig_exploring()
+    rig.feed(Position((4.0, 5.0, 1.9)))
+    rig.report_health()
+    rig.watchdog(PARAMS.silence_timeout_s + 0.1)
+    assert rig.state == "held"
+    sent = [c for c in rig.out if isinstance(c, SendGoal)]
+    assert [(c.action, c.goal) for c in sent] == [(Action.REACH, ReachGoal((4.0, 5.0, 1.9)))]
+    assert rig.out.index(next(c for c in rig.out if isinstance(c, CancelGoal))) \
+        < rig.out.index(sent[0])  # the explore canceled first
+    settle(rig, SETTLE_S + 0.1)
+    assert rig.state == "mission.explore" and rig.job.action is Action.EXPLORE
+
+    lost = rig_exploring()
+    lost.feed(Position((4.0, 5.0, 1.9)))
+    lose_position(lost)
+    assert lost.state == "held" and not any(isinstance(c, SendGoal) for c in lost.out)
