@@ -125,7 +125,9 @@ RESTART_SURVIVED = frozenset({"aruco_scanner", "mapping", "path_finder", "naviga
                               "precision_land", "vio"})
 """The nodes whose restart (``node_stop`` with a duration) the mission survives: HOLD on
 their cause (a module silent; the VIO's: the localisation lost), RESUME once they are back
-(reporting OK) for the settle time, then completed. ``flight_control`` too when it is back
+(reporting OK) for the settle time, then completed (the VIO only if back before the FCU's
+position-loss failsafe descends: seed 0, ``node_stop@60:5,name=vio`` descended at 63 s onto
+a 0.6 m box, judged not handled, as ``vio_stop`` as long). ``flight_control`` too when it is back
 before the FCU's offboard-loss failsafe acts (:func:`fcu_takes_back_within_s`); later, and
 ``fcu_bridge`` (the setpoints and the vision both stop, and a restarted bridge holds the
 vision back until its time sync converges again), the FCU's failsafe lands the vehicle
