@@ -29,11 +29,12 @@ critical) go through the error policy (:data:`~fsm.mission_table.ERROR_POLICY`),
 ``mission.await_sequence`` ends after ``sequence_timeout_s``.
 
 Recovery: a transient cause holds the mission in ``held`` (the machine's). Each tick
-there, the cause is clear when no alert is present; clear for ``recovery_settle_s``, the
-mission resumes where it was: the FCU out of offboard (its failsafe flew), offboard is
-asked for first with a take-off goal that climbs where the vehicle is (flight control's
-takeoff asks PX4 for offboard once the setpoints reach it), then the state held in
-restarts its action from where the vehicle is (a new plan). Not clear after
+there, the cause is clear when no alert is present and every module that was silent or in
+error meanwhile (a respawned node) reports OK again, not merely reports; clear for
+``recovery_settle_s``, the mission resumes where it was: the FCU out of offboard (its
+failsafe flew), offboard is asked for first with a take-off goal that climbs where the
+vehicle is (flight control's takeoff asks PX4 for offboard once the setpoints reach it),
+then the state held in restarts its action from where the vehicle is (a new plan). Not clear after
 ``recovery_deadline_s``, the permanent reaction; the FCU's failsafe landed the vehicle
 meanwhile (but for a take-off state, which begins on the ground), the mission ends in
 ``landed``. The time held is not the interrupted state's: the explore budget and the
@@ -74,6 +75,8 @@ from fsm.mission_table import TAKEOFFS, ErrorCause, Phase, phase_of
 Vec3 = tuple[float, float, float]
 PROBE_PERIOD_S = 0.1  # preflight: the modules are asked again this often
 PICTURE_POLL_S = 0.1  # after the hover: a first picture is looked for this often
+#: the causes whose module may have died with a flight-control goal running (:meth:`Driver.hold`)
+MODULE_CAUSES = frozenset({ErrorCause.MODULE_SILENT, ErrorCause.MODULE_ERROR})
 
 
 @dataclass(frozen=True)
@@ -381,6 +384,8 @@ class Driver:
         self.held_s = 0.0
         self._clear_ns: int | None = None
         self._reengaging = False
+        #: the modules silent or in error during this hold: each must report OK to resume
+        self._returning: set[str] = set()
 
     def step(self, event: Input, now_ns: int) -> list[Command]:
         """Take one input at ``now_ns`` (int nanoseconds, companion clock); the commands
@@ -436,7 +441,7 @@ class Driver:
             elif s.offboard_signal_lost:
                 out.append((ErrorCause.OFFBOARD_LOST, "the FCU misses the offboard setpoints"))
         for topic, module in self.modules.items():
-            age = None if module.last_ns is None else (self.now_ns - module.last_ns) / 1e9
+            age = self._age_s(module)
             if age is None or age > p.silence_timeout_s:
                 out.append((ErrorCause.MODULE_SILENT, f"{topic}: no report for "
                             f"{'ever' if age is None else f'{age:.1f} s'}"))
@@ -448,6 +453,15 @@ class Driver:
         elif s is not None and s.battery_warning >= p.battery_low_warning:
             out.append((ErrorCause.BATTERY_LOW, f"battery low ({_percent(s.battery_remaining)})"))
         return out
+
+    def _age_s(self, module: _Module) -> float | None:
+        """Since the module's latest report [s]; None: it never reported."""
+        return None if module.last_ns is None else (self.now_ns - module.last_ns) / 1e9
+
+    def _down(self, module: _Module) -> bool:
+        """The module is silent or reports an error (an alert of :meth:`alerts`)."""
+        age = self._age_s(module)
+        return age is None or age > self.params.silence_timeout_s or module.error
 
     # -- inputs ----------------------------------------------------------------------------
     def _answer(self, reply: Reply) -> None:
@@ -510,7 +524,10 @@ class Driver:
             m.held_landed("the FCU's failsafe landed the vehicle while held")
             return
         held_s = (now - self._entered_ns) / 1e9
-        if self.alerts():
+        # a module silent or in error while held (a respawned process) must come back OK,
+        # not merely reporting: a restarted node says it has rebuilt its state that way
+        self._returning |= {t for t, module in self.modules.items() if self._down(module)}
+        if self.alerts() or any(not self.modules[t].ok for t in self._returning):
             self._clear_ns = None
         elif self._clear_ns is None:
             self._clear_ns = now
@@ -519,7 +536,11 @@ class Driver:
                 and not self._reengaging:
             self._resume(held_s)
         elif held_s >= p.recovery_deadline_s:  # offboard being asked for included
-            m.give_up(f"not clear after {held_s:.1f} s (deadline {p.recovery_deadline_s:g} s)")
+            waiting = "; ".join(f"{t} back but not OK: {self.modules[t].message}"
+                                for t in sorted(self._returning) if not self._down(
+                                    self.modules[t]) and not self.modules[t].ok)
+            m.give_up(f"not clear after {held_s:.1f} s (deadline {p.recovery_deadline_s:g} s)"
+                      + (f" ({waiting})" if waiting and not self.alerts() else ""))
 
     def _resume(self, held_s: float) -> None:
         s = self.status
@@ -597,7 +618,20 @@ class Driver:
 
     def hold(self) -> None:
         """Nothing more to send: with its goal canceled the layer below holds the last
-        setpoint (the seed's stop leaves the vehicle as it is for the pilot)."""
+        setpoint (the seed's stop leaves the vehicle as it is for the pilot). But held or
+        stopped on a module silent or in error: its process may have died with a
+        flight-control goal of its own running (the navigator's reach to the end of a leg,
+        precision landing's descent), which no cancel reaches any more and which would fly
+        on to its end; a reach to where the vehicle is takes the setpoint from it (flight
+        control preempts the older goal), in the air, in offboard (the FCU's failsafe flies
+        otherwise). Its answer is not waited for (a dead flight control gives none)."""
+        m, s = self.mission, self.status
+        why = m.held if m.state == "held" else m.stop if m.state == "stopped" else None
+        if why is None or why.cause not in MODULE_CAUSES or self.position is None \
+                or s is None or not (s.armed and not s.landed and s.offboard):
+            return
+        self._ask(SendGoal(self._new_job(), Action.REACH, ReachGoal(self.position)),
+                  _ignore)
 
     def cancel(self) -> None:
         self._new_job()  # the one in hand is over
@@ -609,7 +643,7 @@ class Driver:
             self.held_s += ran_s
         if state in ("held", "paused"):  # the interrupted state's time so far
             self._used_s += ran_s
-            self._clear_ns, self._reengaging = None, False
+            self._clear_ns, self._reengaging, self._returning = None, False, set()
         elif not (left in ("held", "paused") and state == self.mission.resume_to):
             self._used_s = 0.0  # a new state, not one resumed
         self._failure = None  # a failure waiting for its cause belonged to the state left
@@ -742,6 +776,10 @@ class Driver:
         self._apply_alerts()  # a cause already known decides at once
         if self.mission.state == state_then:
             self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9))
+
+
+def _ignore(_: GoalDone) -> None:
+    """A job whose answer changes nothing (the reach that holds)."""
 
 
 def _percent(fraction: float) -> str:

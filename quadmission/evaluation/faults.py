@@ -32,14 +32,16 @@ from typing import Any
 
 from fsm.mission_machine import EventKind, MissionEvent
 from fsm.mission_table import ERROR_POLICY, ErrorCause, Reaction
+from runtime.parameters import load_parameters
 from sim.arena import PAD_SIZE, ArenaSpec
 from sim.fault_spec import Fault, FaultKind
+from sim.fcu.commander import COMMANDER_NODE_NAME, CommanderParams
 from sim.fcu.firmware import Firmware
 from sim.world import Crash, Scene, Trajectory
 
-__all__ = ["EXPECTED", "FAULT_SETTLE_S", "NODE_STOP_EXPECTED", "RECOVERS", "EndState",
-           "Expectation", "FaultExpectationError", "FcuFailsafes", "Handler", "end_state",
-           "expectation", "judge_fault"]
+__all__ = ["EXPECTED", "FAULT_SETTLE_S", "NODE_STOP_EXPECTED", "RECOVERS", "RESTART_SURVIVED",
+           "EndState", "Expectation", "FaultExpectationError", "FcuFailsafes", "Handler",
+           "end_state", "expectation", "fcu_takes_back_within_s", "judge_fault"]
 
 AT_REST_M_S = 0.15  # m/s: slower than this, the vehicle is at rest (landed or holding)
 ON_GROUND_M = 0.1  # m: the body this close to its resting height on the pad is down
@@ -134,8 +136,36 @@ NODE_STOP_EXPECTED: dict[str, Expectation] = {
     **{name: EXPECTED[FaultKind.NODE_STOP] for name in (
         "aruco_scanner", "mapping", "path_finder", "navigator", "precision_land")},
 }
-"""``node_stop``'s reaction by node. The mission node and the operator have none: no
-module watches the mission (a policy the mission lacks), the operator is not on board."""
+"""``node_stop``'s reaction by node, stopped for good. The mission node and the operator
+have none: no module watches the mission (a policy the mission lacks), the operator is not
+on board."""
+
+RESTART_SURVIVED = frozenset({"aruco_scanner", "mapping", "path_finder", "navigator",
+                              "precision_land", "vio"})
+"""The nodes whose restart (``node_stop`` with a duration) the mission survives: HOLD on
+their cause (a module silent; the VIO's: the localisation lost), RESUME once they are back
+(reporting OK) for the settle time, then completed (the VIO only if back before the FCU's
+position-loss failsafe descends: seed 0, ``node_stop@60:5,name=vio`` descended at 63 s onto
+a 0.6 m box, judged not handled, as ``vio_stop`` as long). ``flight_control`` too when it is back
+before the FCU's offboard-loss failsafe acts (:func:`fcu_takes_back_within_s`); later, and
+``fcu_bridge`` (the setpoints and the vision both stop, and a restarted bridge holds the
+vision back until its time sync converges again), the FCU's failsafe lands the vehicle
+first: their expectation for good."""
+
+
+def fcu_takes_back_within_s() -> float:
+    """How soon [s] after the setpoint stream stops it must stream again for the FCU to
+    return to OFFBOARD, not land: the loss (``COM_OF_LOSS_T``) and the hold before the
+    action (``COM_FAIL_ACT_T``), less the stream it needs before OFFBOARD is entered."""
+    c = load_parameters(CommanderParams, COMMANDER_NODE_NAME)
+    return c.offboard_loss_timeout_s + c.failsafe_hold_s - c.offboard_min_stream_s
+
+
+def _restart_survived(fault: Fault) -> bool:
+    name = fault.text("name")
+    if name == "flight_control":
+        return fault.duration_s is not None and fault.duration_s < fcu_takes_back_within_s()
+    return name in RESTART_SURVIVED
 
 
 RECOVERED = "HOLD, then RESUME, then completed"
@@ -159,6 +189,8 @@ def expectation(fault: Fault, *, mission: bool = True) -> Expectation:
     else:
         base = EXPECTED[fault.kind]
     cause = base.cause if base.cause is not None else RECOVERS.get(base.handler)
+    if fault.kind is FaultKind.NODE_STOP and not _restart_survived(fault):
+        return base  # stopped for good, or back too late: as for good
     if mission and math.isfinite(fault.end_s) and cause is not None \
             and ERROR_POLICY[cause].transient:
         return Expectation(Handler.MISSION, cause, recovers=True)

@@ -20,6 +20,8 @@ from fsm.mission_driver import (
     NavigateGoal,
     OperatorCommand,
     Order,
+    Position,
+    ReachGoal,
     SendGoal,
     TakeoffGoal,
     Tick,
@@ -282,3 +284,47 @@ def test_while_held_the_operator_cannot_resume_but_can_abort() -> None:
     assert rig.state == "stopped"
     assert rig.driver.mission.stop is not None
     assert rig.driver.mission.stop.cause is ErrorCause.OPERATOR_ABORT
+
+
+def test_a_module_restarted_resumes_only_once_it_reports_ok() -> None:
+    """A node's process respawned reports again before it has rebuilt its state (mapping
+    without a fused cloud warns): reporting is not enough, the hold waits for OK, then the
+    settle time."""
+    rig = rig_exploring()
+    rig.report_health()
+    rig.watchdog(PARAMS.silence_timeout_s + 0.1)  # every module silent: the process died
+    assert rig.state == "held" and hold_events(rig)[-1]["cause"] == "module_silent"
+    for _ in range(round(3 * SETTLE_S / 0.1)):  # back, warning: not OK yet
+        rig.t_ns += round(0.1e9)
+        rig.report_health(ok=False, message="no depth cloud fused yet")
+        rig.feed(rig.driver.status)
+        rig.feed(Tick())
+    assert rig.state == "held"
+    settle(rig, SETTLE_S - 0.1)  # OK from now: not before the settle time
+    assert rig.state == "held"
+    settle(rig, 0.2)
+    assert rig.state == "mission.explore" and isinstance(rig.job, SendGoal) \
+        and rig.job.action is Action.EXPLORE
+
+
+def test_held_on_a_silent_module_takes_the_setpoint_with_a_reach_to_where_it_is() -> None:
+    """The navigator's process died with its reach to the end of a leg running at flight
+    control: the mission's cancel reaches nobody, so the hold sends its own reach to where
+    the vehicle is (flight control preempts the orphan); a lost position sends none (the
+    reach would be refused) and the resume restarts the exploration."""
+    rig = rig_exploring()
+    rig.feed(Position((4.0, 5.0, 1.9)))
+    rig.report_health()
+    rig.watchdog(PARAMS.silence_timeout_s + 0.1)
+    assert rig.state == "held"
+    sent = [c for c in rig.out if isinstance(c, SendGoal)]
+    assert [(c.action, c.goal) for c in sent] == [(Action.REACH, ReachGoal((4.0, 5.0, 1.9)))]
+    assert rig.out.index(next(c for c in rig.out if isinstance(c, CancelGoal))) \
+        < rig.out.index(sent[0])  # the explore canceled first
+    settle(rig, SETTLE_S + 0.1)
+    assert rig.state == "mission.explore" and rig.job.action is Action.EXPLORE
+
+    lost = rig_exploring()
+    lost.feed(Position((4.0, 5.0, 1.9)))
+    lose_position(lost)
+    assert lost.state == "held" and not any(isinstance(c, SendGoal) for c in lost.out)

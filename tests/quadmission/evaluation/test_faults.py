@@ -6,11 +6,13 @@ from __future__ import annotations
 import pytest
 
 from fsm.mission_machine import EventKind, MissionEvent, Severity
+from fsm.mission_table import ErrorCause
 from quadmission.evaluation.faults import (
     EXPECTED,
     EndState,
     FaultExpectationError,
     expectation,
+    fcu_takes_back_within_s,
     judge_fault,
 )
 from sim.fault_spec import FaultKind, parse_fault
@@ -157,6 +159,30 @@ def test_node_stop_is_expected_by_the_node_and_unknown_nodes_are_named() -> None
     assert mapping["expected"] == "module_silent: HOLD" and mapping["handled"]
     with pytest.raises(FaultExpectationError, match=r"node 'mission'.*flight_control"):
         expectation(parse_fault("node_stop@30,name=mission"))
+
+
+def test_a_node_restarted_is_held_then_resumed_where_the_mission_survives_it() -> None:
+    """The watched modules and the VIO back: HOLD, then RESUME, then completed; flight
+    control only when back before the FCU's offboard-loss failsafe acts (seed 0,
+    node_stop@60:5 of it: back at the end of the FCU's 5 s hold, too late, the failsafe's
+    landing hit a box); the bridge never (its time sync first)."""
+    for name, cause in (("navigator", "module_silent"), ("mapping", "module_silent"),
+                        ("precision_land", "module_silent"), ("vio", "localisation_lost")):
+        restarted = judge_fault(parse_fault(f"node_stop@60:5,name={name}"),
+                                [(63.1, _error(cause, "HOLD")), (68.1, _error(cause, "RESUME"))],
+                                [], EndState.LANDED_ON_START_PAD, completed=True)
+        assert restarted["expected"] == f"{cause}: HOLD, then RESUME, then completed"
+        assert restarted["observed"] == f"{cause}: HOLD, then RESUME, then completed"
+        assert restarted["handled"]
+    within = fcu_takes_back_within_s()
+    assert within == 5.0  # COM_OF_LOSS_T 1 s + COM_FAIL_ACT_T 5 s - 1 s of stream
+    soon = expectation(parse_fault("node_stop@60:2,name=flight_control"))
+    assert soon.recovers and soon.cause is ErrorCause.OFFBOARD_LOST
+    for late in ("node_stop@60:5,name=flight_control", "node_stop@60:2,name=fcu_bridge"):
+        assert expectation(parse_fault(late)).reaction == "FAILSAFE"
+    # for good, as before
+    assert expectation(parse_fault("node_stop@60,name=navigator")).reaction == "HOLD"
+    assert not expectation(parse_fault("node_stop@60,name=flight_control")).recovers
 
 
 def test_without_the_mission_a_fault_that_ends_is_judged_as_before() -> None:

@@ -2,8 +2,8 @@
 mission, which resumes where it was once the cause has been clear for the settle time.
 One short flight per transient cause, the fault early, each stopped as soon as the
 mission has gone on to its next phase (a whole mission is ``make sim``'s, too long here).
-A module silent, then healthy again (a respawned process) is the respawn work's flight
-(``--transport ros2``); the driver's tests walk it tick by tick."""
+A module silent, then healthy again, is a node stopped and restarted in process (its
+process respawned): the navigator's, while exploring."""
 
 from __future__ import annotations
 
@@ -40,6 +40,14 @@ def vio_lost(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     return _fly(tmp_path_factory.mktemp("vio_lost"), "vio_stop@30:3", 45.0)
 
 
+@pytest.fixture(scope="module")
+def navigator_restarted(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The navigator stopped at 30 s while exploring (seed 0: from 21 s), a fresh one
+    started 4 s later (its process respawned)."""
+    return _fly(tmp_path_factory.mktemp("navigator_restarted"),
+                "node_stop@30:4,name=navigator", 48.0)
+
+
 def test_a_link_loss_during_the_takeoff_holds_then_resumes_into_the_exploration(
         link_lost: dict[str, Any]) -> None:
     states = _states(link_lost)
@@ -71,3 +79,21 @@ def test_a_vio_loss_while_exploring_holds_then_explores_again(
     assert fault["observed"] == "localisation_lost: HOLD, then RESUME"
     assert vio_lost["sim_time_s"] >= resumed_s + 5.0  # and it goes on exploring
     assert not vio_lost["crashed"]
+
+
+def test_a_navigator_restarted_while_exploring_holds_then_explores_with_the_new_one(
+        navigator_restarted: dict[str, Any]) -> None:
+    states = _states(navigator_restarted)
+    names = [s for _, s in states]
+    held = names.index("held")
+    assert names[held - 1:] == ["mission.explore", "held", "mission.explore"]
+    held_s, resumed_s = states[held][0], states[held + 1][0]
+    assert 33.0 < held_s < 33.5  # /navigator/health silent for silence_timeout_s (3 s)
+    assert resumed_s >= 34.0 + 2.0  # the new one from 34 s, then OK for the settle time
+    (fault,) = navigator_restarted["faults"]
+    assert fault["observed"] == "module_silent: HOLD, then RESUME"
+    # and it explores on: the new navigator took the resumed goal (a goal nobody served
+    # would hold the mission in explore where it stopped, or fail it)
+    assert navigator_restarted["sim_time_s"] >= resumed_s + 10.0
+    assert navigator_restarted["final_state"] == "mission.explore"
+    assert not navigator_restarted["crashed"]
