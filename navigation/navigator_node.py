@@ -6,7 +6,7 @@ policies' of :mod:`navigation.navigator_policy` (read its docstring): ``/navigat
 follows a planned path and re-plans when a leg is blocked (:class:`NavigatePolicy`),
 ``/navigation/explore`` flies the arena's explore path or coverage lanes in sweeps until a
 ``stop_marker_ids`` marker is on ``/perception/markers`` (:class:`ExplorePolicy`; a goal
-that follows a canceled one for the same area, altitude and markers goes on from the first
+that follows an interrupted one for the same area, altitude and markers goes on from the first
 waypoint that one did not reach, with its coverage: the node keeps
 :class:`~navigation.navigator_policy.ExploreSoFar` between goals, in memory only), and
 ``/navigation/takeoff`` climbs with ``/flight_control/takeoff``, then makes
@@ -102,8 +102,9 @@ class NavigatorNode(Node):
         self._orientation = (1.0, 0.0, 0.0, 0.0)  # wxyz, ENU <- FLU, of the last odometry
         self.markers_seen: dict[int, int] = {}  # marker id -> last capture stamp [ns]
         self.active = ""  # the running action, for health
-        #: how far the last explore goal got, when it was canceled (the mission's HOLD): the
-        #: next explore goal for the same area, altitude and markers goes on from there
+        #: how far the last explore goal got, when it was interrupted (canceled by the
+        #: mission's HOLD, or a flight error): the next explore goal for the same area,
+        #: altitude and markers goes on from there
         self.explore_so_far: ExploreSoFar | None = None
         self.last_message = ""
         self.planner = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
@@ -270,7 +271,7 @@ class NavigatorNode(Node):
             so_far=self.explore_so_far)
         end = await self._drive(policy, handle, feedback)
         assert isinstance(end, ExploreFinish)
-        self.explore_so_far = policy.so_far() if end.outcome is Outcome.CANCELED else None
+        self.explore_so_far = policy.so_far()  # (None unless interrupted)
         return self._finish(handle, EXPLORE, EXPLORE_CODES[end.outcome], end.success,
                             end.message, coverage=end.coverage,
                             markers_found=list(end.markers_found), elapsed=elapsed())

@@ -52,8 +52,9 @@ can stay out of the camera's footprint as the vehicle passes); lanes parallel to
 cannot miss it, so the next sweep crosses the last one's lanes. A goal built with an
 interrupted one's :class:`ExploreSoFar` (:meth:`ExplorePolicy.so_far`: its sweep, that
 sweep's waypoints, the first one not reached, the coverage grid) for the same area,
-altitude and markers goes on from there: the mission's HOLD cancels the goal and its RESUME
-sends a new one, which would otherwise fly the lanes already flown again. The first
+altitude and markers goes on from there: the mission's HOLD cancels the goal (or the
+fault makes flight control refuse a goal first: a flight error) and its RESUME sends a new
+one, which would otherwise fly the lanes already flown again. The first
 waypoint left is planned from where the vehicle is now; a lane left half-flown goes on
 through its points beyond the vehicle.
 
@@ -97,6 +98,11 @@ NAVIGATE_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.NO_PATH, Outcome.FLIGH
 SURVEY_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.FLIGHT_ERROR, Outcome.CANCELED})
 EXPLORE_OUTCOMES = frozenset({Outcome.MARKER_FOUND, Outcome.COVERED, Outcome.TIME_BUDGET,
                               Outcome.FLIGHT_ERROR, Outcome.CANCELED})
+#: The explore ends a next goal goes on from (:meth:`ExplorePolicy.so_far`): the goal
+#: canceled (the mission's HOLD) or a flight error (the fault that holds the mission can
+#: make flight control refuse the next reach or turn before the cancel comes: a VIO drop,
+#: "no valid position estimate"). The others end the exploration: nothing is left of it.
+EXPLORE_INTERRUPTED = frozenset({Outcome.CANCELED, Outcome.FLIGHT_ERROR})
 
 
 def _pick(cls: Any, params: object) -> Any:
@@ -751,9 +757,12 @@ class ExplorePolicy(_Follower):
         super().__init__(follow)
 
     def so_far(self) -> ExploreSoFar | None:
-        """How far this exploration got (None before its first waypoint): what a next goal
-        continues from when this one is interrupted."""
-        if self._sweep_plan is None:
+        """How far this exploration got: what a next goal continues from when this one is
+        interrupted. None before its first waypoint and once it ended other than
+        interrupted (:data:`EXPLORE_INTERRUPTED`): a marker found, the area covered or the
+        budget spent end the exploration."""
+        if self._sweep_plan is None or (self.result is not None
+                                        and self.result.outcome not in EXPLORE_INTERRUPTED):
             return None
         waypoints, source = self._sweep_plan
         return ExploreSoFar(self.area, self.altitude, self.wanted, self._sweep, waypoints,
@@ -892,6 +901,7 @@ class ExplorePolicy(_Follower):
 
 
 __all__ = [
+    "EXPLORE_INTERRUPTED",
     "EXPLORE_OUTCOMES",
     "LANE_DETOUR",
     "LANE_POINT_DETOUR_M",

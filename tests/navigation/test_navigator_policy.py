@@ -15,6 +15,7 @@ from flight_control.policy import Finish, Log, Outcome, PolicyError, Sleep
 from navigation.astar import path_length
 from navigation.coverage import lane_spacing
 from navigation.navigator_policy import (
+    EXPLORE_INTERRUPTED,
     EXPLORE_OUTCOMES,
     LANE_STEP_M,
     NAVIGATE_OUTCOMES,
@@ -1294,6 +1295,37 @@ def test_an_explore_interrupted_in_a_later_sweep_goes_on_in_that_sweep() -> None
         "explore sweep 2/3", "explore sweep 3/3"]
     assert end.outcome is Outcome.COVERED and "in 3 sweeps" in end.message
     assert end.message == whole.of(Finish)[0].message  # the same count as in one goal
+
+
+def test_an_explore_ended_by_a_flight_error_is_gone_on_from_too() -> None:
+    """The fault that holds the mission (a VIO drop) can make flight control refuse or fail
+    the next reach before the mission's cancel comes: the goal ends with a flight error,
+    and the goal the RESUME sends goes on from the leg that failed."""
+    waypoints = lanes(CORNER, area=WIDE_AREA)
+    before = World(explore(area=WIDE_AREA), straight, here=CORNER)
+    before.fail = lambda c: ("no valid position estimate" if isinstance(c, SendReach)
+                             and np.allclose(c.target, waypoints[4]) else None)
+    assert before.run().outcome is Outcome.FLIGHT_ERROR
+    assert Outcome.FLIGHT_ERROR in EXPLORE_INTERRUPTED
+    so_far = before.policy.so_far()
+    assert so_far is not None and (so_far.next_leg, so_far.flown) == (4, 4)
+    after = resumed(before, so_far)
+    assert after.run().message.startswith("10/10 waypoints flown")
+    assert targets(after)[0] == waypoints[4].tolist()
+
+
+@pytest.mark.parametrize("ended", ["covered", "marker", "budget"])
+def test_an_explore_that_ended_leaves_nothing_to_go_on_from(ended: str) -> None:
+    """Found, covered or out of time, the exploration is over: a next goal starts afresh."""
+    wanted = frozenset({19}) if ended == "marker" else frozenset()
+    policy = explore(area=WIDE_AREA, wanted=wanted, budget_ns=int(5e9) if ended == "budget"
+                     else 0)
+    world = World(policy, straight, here=CORNER)
+    if ended == "marker":
+        world.markers = {19: 0}
+    end = world.run()
+    assert end.outcome not in EXPLORE_INTERRUPTED
+    assert policy.so_far() is None
 
 
 @pytest.mark.parametrize("other", [{"area": LONG_AREA}, {"wanted": frozenset({19})},
