@@ -5,7 +5,10 @@ It flies only through the flight-control actions (``/flight_control/takeoff``, `
 policies' of :mod:`navigation.navigator_policy` (read its docstring): ``/navigation/navigate``
 follows a planned path and re-plans when a leg is blocked (:class:`NavigatePolicy`),
 ``/navigation/explore`` flies the arena's explore path or coverage lanes in sweeps until a
-``stop_marker_ids`` marker is on ``/perception/markers`` (:class:`ExplorePolicy`), and
+``stop_marker_ids`` marker is on ``/perception/markers`` (:class:`ExplorePolicy`; a goal
+that follows an interrupted one for the same area, altitude and markers goes on from the first
+waypoint that one did not reach, with its coverage: the node keeps
+:class:`~navigation.navigator_policy.ExploreSoFar` between goals, in memory only), and
 ``/navigation/takeoff`` climbs with ``/flight_control/takeoff``, then makes
 ``survey_turns`` quarter turns (:class:`SurveyPolicy`). This node feeds a policy the pose,
 the time, the markers and the answers of the planner and the flight actions, and carries
@@ -47,6 +50,7 @@ from navigation.navigator_policy import (
     ExploreFinish,
     ExplorePolicy,
     ExploreProgress,
+    ExploreSoFar,
     ExploreTuning,
     FollowTuning,
     Inputs,
@@ -98,6 +102,10 @@ class NavigatorNode(Node):
         self._orientation = (1.0, 0.0, 0.0, 0.0)  # wxyz, ENU <- FLU, of the last odometry
         self.markers_seen: dict[int, int] = {}  # marker id -> last capture stamp [ns]
         self.active = ""  # the running action, for health
+        #: how far the last explore goal got, when it was interrupted (canceled by the
+        #: mission's HOLD, or a flight error): the next explore goal for the same area,
+        #: altitude and markers goes on from there
+        self.explore_so_far: ExploreSoFar | None = None
         self.last_message = ""
         self.planner = self.create_client(PLAN_PATH, graph.PLAN_PATH.name)
         self.reach = ActionClient(self, REACH, graph.REACH.name)
@@ -259,9 +267,11 @@ class NavigatorNode(Node):
             altitude=goal.altitude or self.params.cruise_altitude, field_min=self.field_min,
             field_max=self.field_max, explore_paths=self.explore_paths, start_ns=start_ns,
             wanted=frozenset(int(i) for i in goal.stop_marker_ids),
-            budget_ns=goal.time_budget.sec * 1_000_000_000 + goal.time_budget.nanosec)
+            budget_ns=goal.time_budget.sec * 1_000_000_000 + goal.time_budget.nanosec,
+            so_far=self.explore_so_far)
         end = await self._drive(policy, handle, feedback)
         assert isinstance(end, ExploreFinish)
+        self.explore_so_far = policy.so_far()  # (None unless interrupted)
         return self._finish(handle, EXPLORE, EXPLORE_CODES[end.outcome], end.success,
                             end.message, coverage=end.coverage,
                             markers_found=list(end.markers_found), elapsed=elapsed())

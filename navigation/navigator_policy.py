@@ -49,7 +49,14 @@ is) or the time budget is used up. While none is seen, it sweeps again, up to
 lanes along come first: they have the fewest ends, so cover the area soonest). A robot
 moves while the lanes are flown, and one sweep can miss it (a robot driving beside a lane
 can stay out of the camera's footprint as the vehicle passes); lanes parallel to its track
-cannot miss it, so the next sweep crosses the last one's lanes.
+cannot miss it, so the next sweep crosses the last one's lanes. A goal built with an
+interrupted one's :class:`ExploreSoFar` (:meth:`ExplorePolicy.so_far`: its sweep, that
+sweep's waypoints, the first one not reached, the coverage grid) for the same area,
+altitude and markers goes on from there: the mission's HOLD cancels the goal (or the
+fault makes flight control refuse a goal first: a flight error) and its RESUME sends a new
+one, which would otherwise fly the lanes already flown again. The first
+waypoint left is planned from where the vehicle is now; a lane left half-flown goes on
+through its points beyond the vehicle.
 
 Surveying (:class:`SurveyPolicy`): quarter turns after takeoff, so the depth camera maps
 all around.
@@ -91,6 +98,11 @@ NAVIGATE_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.NO_PATH, Outcome.FLIGH
 SURVEY_OUTCOMES = frozenset({Outcome.SUCCEEDED, Outcome.FLIGHT_ERROR, Outcome.CANCELED})
 EXPLORE_OUTCOMES = frozenset({Outcome.MARKER_FOUND, Outcome.COVERED, Outcome.TIME_BUDGET,
                               Outcome.FLIGHT_ERROR, Outcome.CANCELED})
+#: The explore ends a next goal goes on from (:meth:`ExplorePolicy.so_far`): the goal
+#: canceled (the mission's HOLD) or a flight error (the fault that holds the mission can
+#: make flight control refuse the next reach or turn before the cancel comes: a VIO drop,
+#: "no valid position estimate"). The others end the exploration: nothing is left of it.
+EXPLORE_INTERRUPTED = frozenset({Outcome.CANCELED, Outcome.FLIGHT_ERROR})
 
 
 def _pick(cls: Any, params: object) -> Any:
@@ -204,6 +216,33 @@ class ExploreFinish(Finish):
 
     coverage: float = 0.0
     markers_found: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class ExploreSoFar:
+    """How far an exploration got: the goal it was for (``area``, ``altitude``,
+    ``wanted``), the sweep being flown (0-based), that sweep's ``waypoints`` (N, 3) [m] and
+    where they came from, ``next_leg``: the index of the first of them not yet reached,
+    the waypoints flown and skipped so far, and the coverage grid's cells seen. The node
+    keeps the one of an explore goal canceled (the mission's HOLD) and hands it to the
+    next goal, which continues from there when it is for the same area, altitude and
+    markers (:meth:`continues`); a restarted navigator has none and starts over."""
+
+    area: FloatArray
+    altitude: float  # m
+    wanted: frozenset[int]
+    sweep: int
+    waypoints: FloatArray
+    source: str
+    next_leg: int
+    flown: int
+    skipped: int
+    seen: npt.NDArray[np.bool_]
+
+    def continues(self, area: FloatArray, altitude: float, wanted: frozenset[int]) -> bool:
+        """Whether a goal for ``area``, ``altitude`` [m] and ``wanted`` is this one's."""
+        return (self.area.shape == area.shape and bool(np.array_equal(self.area, area))
+                and self.altitude == altitude and self.wanted == wanted)
 
 
 Command = (Plan | Sleep | SendReach | SendTurn | PollAction | CancelAction | NavigateProgress
@@ -689,7 +728,8 @@ class ExplorePolicy(_Follower):
     def __init__(self, follow: FollowTuning, explore: ExploreTuning, *, area: FloatArray,
                  altitude: float, field_min: FloatArray, field_max: FloatArray,
                  explore_paths: Mapping[str, Mapping[int, Any]], start_ns: int,
-                 wanted: frozenset[int] = frozenset(), budget_ns: int = 0) -> None:
+                 wanted: frozenset[int] = frozenset(), budget_ns: int = 0,
+                 so_far: ExploreSoFar | None = None) -> None:
         self.explore = explore
         self.area, self.altitude = area, altitude
         self.field_min, self.field_max = field_min, field_max
@@ -702,7 +742,31 @@ class ExplorePolicy(_Follower):
                                         explore.down_camera_aspect)
         self.budget_used = False
         self._waypoint: FloatArray  # the explore waypoint flown to (set by _main)
+        #: where an interrupted goal for the same area, altitude and markers got to: this
+        #: one goes on from there (None: from the start)
+        self.resumed = (so_far if so_far is not None
+                        and so_far.continues(area, altitude, wanted)
+                        and so_far.seen.shape == self.grid.seen.shape else None)
+        self._ignored = so_far is not None and self.resumed is None
+        if self.resumed is not None:
+            self.grid.seen[...] = self.resumed.seen
+        # the sweep flown, its waypoints and their source, the first waypoint not reached,
+        # the waypoints flown and skipped (set by _main; read by so_far)
+        self._sweep, self._leg, self._flown, self._skipped = 0, 0, 0, 0
+        self._sweep_plan: tuple[FloatArray, str] | None = None
         super().__init__(follow)
+
+    def so_far(self) -> ExploreSoFar | None:
+        """How far this exploration got: what a next goal continues from when this one is
+        interrupted. None before its first waypoint and once it ended other than
+        interrupted (:data:`EXPLORE_INTERRUPTED`): a marker found, the area covered or the
+        budget spent end the exploration."""
+        if self._sweep_plan is None or (self.result is not None
+                                        and self.result.outcome not in EXPLORE_INTERRUPTED):
+            return None
+        waypoints, source = self._sweep_plan
+        return ExploreSoFar(self.area, self.altitude, self.wanted, self._sweep, waypoints,
+                            source, self._leg, self._flown, self._skipped, self.grid.seen.copy())
 
     def seen(self) -> tuple[int, ...]:
         """The markers seen since the start, by id."""
@@ -730,19 +794,33 @@ class ExplorePolicy(_Follower):
 
     def _main(self) -> Script[ExploreFinish]:
         f, e = self.follow, self.explore
-        waypoints, source = self._waypoints(0)
-        skipped = flown = 0
         outcome: Finish | None = None
         stopped = False
         sweeps = e.explore_sweeps if self.wanted else 1
-        for sweep in range(sweeps):
-            if sweep:
+        so_far = self.resumed
+        if self._ignored:
+            yield Log("explore from the start: the goal interrupted last was for another "
+                      "area, altitude or markers")
+        if so_far is None:
+            first_sweep, first_leg = 0, 0
+            waypoints, source = self._waypoints(0)
+        else:  # an interrupted goal's: its sweep from the first waypoint it did not reach
+            first_sweep, first_leg = so_far.sweep, so_far.next_leg
+            waypoints, source = so_far.waypoints, so_far.source
+            self._flown, self._skipped = so_far.flown, so_far.skipped
+        for sweep in range(first_sweep, sweeps):
+            if sweep != first_sweep:
                 waypoints, source = self._waypoints(sweep)
+                first_leg = 0
+            self._sweep, self._sweep_plan = sweep, (waypoints, source)
             yield Log(f"explore sweep {sweep + 1}/{sweeps}: {len(waypoints)} waypoints "
-                      f"({source})")
+                      f"({source})" + (f", resumed at waypoint {first_leg + 1} after an "
+                                       "interruption" if so_far is not None
+                                       and sweep == first_sweep else ""))
             lanes = source.startswith("coverage lanes")
-            for k, wp in enumerate(waypoints):
-                self._waypoint = wp
+            for k in range(first_leg, len(waypoints)):
+                wp = self._waypoint = waypoints[k]
+                self._leg = k
                 if self._stop():
                     stopped = True
                     break
@@ -768,7 +846,7 @@ class ExplorePolicy(_Follower):
                         fly = yield from self._fly(nearer, radius=f.waypoint_radius,
                                                    speed=f.cruise_speed)
                 if fly.outcome is Outcome.NO_PATH:
-                    skipped += 1
+                    self._skipped += 1
                     continue
                 if fly.outcome is Outcome.CANCELED:
                     outcome = Finish(Outcome.CANCELED, "canceled")
@@ -780,10 +858,11 @@ class ExplorePolicy(_Follower):
                 if fly.outcome is Outcome.STOPPED:
                     stopped = True
                     break
-                flown += 1
+                self._flown += 1
             if stopped or outcome is not None or self._stop():
                 break
         found = self.seen()
+        flown, skipped = self._flown, self._skipped
         if outcome is None:
             hit = sorted(self.wanted & set(found))
             if hit:
@@ -822,6 +901,7 @@ class ExplorePolicy(_Follower):
 
 
 __all__ = [
+    "EXPLORE_INTERRUPTED",
     "EXPLORE_OUTCOMES",
     "LANE_DETOUR",
     "LANE_POINT_DETOUR_M",
@@ -836,6 +916,7 @@ __all__ = [
     "ExploreFinish",
     "ExplorePolicy",
     "ExploreProgress",
+    "ExploreSoFar",
     "ExploreTuning",
     "FollowTuning",
     "Inputs",

@@ -182,6 +182,40 @@ def test_explore_stops_when_a_wanted_marker_is_seen(stack) -> None:  # type: ign
     assert r.coverage < 0.9
 
 
+def test_an_explore_goal_after_a_canceled_one_goes_on_where_that_one_stopped(stack) -> None:  # type: ignore[no-untyped-def]
+    """The mission's HOLD cancels the explore goal, its RESUME sends the same goal again:
+    the navigator goes on from the waypoint it was flying to, not from the first."""
+    rig, mission = stack
+    goal = interfaces.new(EXPLORE.Goal, area=area(1.0, 1.0, 4.0, 4.0), altitude=1.5)
+    waypoints: list[list[tuple[float, float]]] = [[], []]
+
+    def feedback(i: int) -> Any:
+        def on(msg: Any) -> None:
+            p = msg.feedback.next_waypoint
+            if not waypoints[i] or waypoints[i][-1] != (p.x, p.y):
+                waypoints[i].append((p.x, p.y))
+        return on
+
+    handle = rig.wait(mission.explore.send_goal_async(goal, feedback(0)), 2.0)
+    result = handle.get_result_async()
+    t_end = rig.t() + 60.0
+    while len(waypoints[0]) < 3 and rig.t() < t_end:  # on the way to the third waypoint
+        rig.ex.spin_for(0.2)
+    assert len(waypoints[0]) == 3 and not result.done()
+    rig.wait(handle.cancel_goal_async(), 2.0)
+    canceled = rig.wait(result, 5.0).result
+    assert canceled.result == EXPLORE.Result.RESULT_CANCELED, canceled.message
+    handle = rig.wait(mission.explore.send_goal_async(goal, feedback(1)), 2.0)
+    r = rig.wait(handle.get_result_async(), 120.0).result
+    assert r.success and r.result == EXPLORE.Result.RESULT_COVERED, r.message
+    assert waypoints[1][0] == waypoints[0][2]  # the waypoint it was flying to
+    assert not set(waypoints[0][:2]) & set(waypoints[1])  # those reached: not again
+    # the waypoints flown before count too (the first, at the vehicle, has no feedback)
+    flown, of = (int(n) for n in r.message.split(" ", 1)[0].split("/"))
+    assert flown == of >= len(waypoints[0]) - 1 + len(waypoints[1]), r.message
+    assert r.coverage > 0.9
+
+
 def test_a_pillar_seen_late_on_the_leg_makes_it_replan_round_it(stack) -> None:  # type: ignore[no-untyped-def]
     rig, mission = stack
     # a thin pillar on the straight line y = 6.5 m, published once the leg has started

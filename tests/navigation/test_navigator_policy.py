@@ -15,6 +15,7 @@ from flight_control.policy import Finish, Log, Outcome, PolicyError, Sleep
 from navigation.astar import path_length
 from navigation.coverage import lane_spacing
 from navigation.navigator_policy import (
+    EXPLORE_INTERRUPTED,
     EXPLORE_OUTCOMES,
     LANE_STEP_M,
     NAVIGATE_OUTCOMES,
@@ -26,6 +27,7 @@ from navigation.navigator_policy import (
     ExploreFinish,
     ExplorePolicy,
     ExploreProgress,
+    ExploreSoFar,
     ExploreTuning,
     FollowTuning,
     Inputs,
@@ -1197,6 +1199,154 @@ def test_cancel_ends_exploring_canceled_without_holding() -> None:
     end = world.run()
     assert end.outcome is Outcome.CANCELED and end.message == "canceled"
     assert len(world.of(SendReach)) == 1
+
+
+# -- an explore goal after an interrupted one (the mission's HOLD, then RESUME) -----------
+#: 5 lanes along x (y = 1 to 6, 1.25 m apart at most), 9 m long: points at x = 4 and 7
+WIDE_AREA = np.array([[1.0, 1.0], [10.0, 1.0], [10.0, 6.0], [1.0, 6.0]])
+CORNER = np.array([1.0, 1.0, Z])
+
+
+def cancel_once_flying_to(target: np.ndarray) -> Callable[[World], None]:
+    """Cancel the goal as soon as a reach to ``target`` has been sent (the vehicle then
+    stops a fifth of the way along that leg)."""
+    def during(world: World) -> None:
+        world.cancel = any(np.allclose(r.target, target) for r in world.of(SendReach))
+    return during
+
+
+def interrupted(target: np.ndarray, **kwargs: Any) -> tuple[World, ExploreSoFar]:
+    """An explore of ``WIDE_AREA`` from its corner canceled on the way to ``target``, and
+    how far it got."""
+    world = World(explore(area=WIDE_AREA, **kwargs), straight, here=CORNER,
+                  during=cancel_once_flying_to(target))
+    assert world.run().outcome is Outcome.CANCELED
+    so_far = world.policy.so_far()
+    assert so_far is not None
+    return world, so_far
+
+
+def resumed(before: World, so_far: ExploreSoFar, **kwargs: Any) -> World:
+    """The next goal, from where ``before`` left the vehicle, handed ``so_far``."""
+    area = kwargs.pop("area", WIDE_AREA)
+    return World(explore(area=area, so_far=so_far, **kwargs), straight,
+                 here=before.position)
+
+
+def targets(world: World) -> list[list[float]]:
+    return [r.target.tolist() for r in world.of(SendReach)]
+
+
+def test_an_explore_after_a_canceled_one_flies_only_the_legs_not_yet_flown() -> None:
+    waypoints = lanes(CORNER, area=WIDE_AREA)
+    assert len(waypoints) == 10  # 5 lanes
+    before, so_far = interrupted(waypoints[4])  # on the crossing to the third lane
+    assert (so_far.sweep, so_far.next_leg, so_far.flown) == (0, 4, 4)
+    whole = World(explore(area=WIDE_AREA), straight, here=CORNER)
+    whole_end = whole.run()
+    after = resumed(before, so_far)
+    end = after.run()
+    # the third lane's start first (planned from where the vehicle stopped), then the rest
+    # as an uninterrupted explore flies it: no reach of the first two lanes again
+    first_plan = after.of(Plan)[0]
+    assert np.array_equal(first_plan.start, before.position)
+    assert np.array_equal(first_plan.goal, waypoints[4])
+    left = targets(whole)[targets(whole).index(waypoints[4].tolist()):]
+    assert targets(after) == left
+    assert after.of(Log)[0] == Log("explore sweep 1/1: 10 waypoints (coverage lanes over the "
+                                   "area), resumed at waypoint 5 after an interruption")
+    # the waypoints flown before count, and so does what the camera saw of the area
+    assert end.outcome is Outcome.COVERED and end.message == whole_end.message
+    assert end.message.startswith("10/10 waypoints flown")
+    first = after.of(ExploreProgress)[0]
+    fresh = World(explore(area=WIDE_AREA), straight, here=before.position)
+    fresh.run()
+    assert first.coverage >= float(so_far.seen.mean()) > fresh.of(ExploreProgress)[0].coverage
+    assert end.coverage == whole_end.coverage
+
+
+def test_a_lane_interrupted_half_flown_goes_on_from_where_the_vehicle_is() -> None:
+    waypoints = lanes(CORNER, area=WIDE_AREA)
+    lane_start, lane_end = waypoints[2], waypoints[3]  # the second lane, east to west
+    points = lane_points(lane_start, lane_end, EXPLORE.lane_point_spacing)
+    before, so_far = interrupted(points[1])  # between its first and second point
+    assert so_far.next_leg == 3
+    after = resumed(before, so_far)
+    assert after.run().outcome is Outcome.COVERED
+    assert targets(after)[:2] == [points[1].tolist(), lane_end.tolist()]
+    reached_before = {tuple(t) for t in targets(before)[:-1]}  # the last one was canceled
+    assert not reached_before & {tuple(t) for t in targets(after)}  # nothing twice
+
+
+def test_an_explore_interrupted_in_a_later_sweep_goes_on_in_that_sweep() -> None:
+    wanted = frozenset({19})
+    whole = World(explore(area=WIDE_AREA, wanted=wanted), straight, here=CORNER)
+    whole.run()
+    second_sweep = int(np.flatnonzero(["sweep 2/3" in log.text for log in whole.of(Log)])[0])
+    assert second_sweep == 1
+    at = whole.log.index(whole.of(Log)[1])  # the reaches after the second sweep's log
+    across = [c for c in whole.log[at:] if isinstance(c, SendReach)]
+    before, so_far = interrupted(across[3].target, wanted=wanted)
+    assert so_far.sweep == 1
+    after = resumed(before, so_far, wanted=wanted)
+    end = after.run()
+    assert after.of(Log)[0].text.startswith("explore sweep 2/3")
+    assert [log.text.split(":")[0] for log in after.of(Log)] == [
+        "explore sweep 2/3", "explore sweep 3/3"]
+    assert end.outcome is Outcome.COVERED and "in 3 sweeps" in end.message
+    assert end.message == whole.of(Finish)[0].message  # the same count as in one goal
+
+
+def test_an_explore_ended_by_a_flight_error_is_gone_on_from_too() -> None:
+    """The fault that holds the mission (a VIO drop) can make flight control refuse or fail
+    the next reach before the mission's cancel comes: the goal ends with a flight error,
+    and the goal the RESUME sends goes on from the leg that failed."""
+    waypoints = lanes(CORNER, area=WIDE_AREA)
+    before = World(explore(area=WIDE_AREA), straight, here=CORNER)
+    before.fail = lambda c: ("no valid position estimate" if isinstance(c, SendReach)
+                             and np.allclose(c.target, waypoints[4]) else None)
+    assert before.run().outcome is Outcome.FLIGHT_ERROR
+    assert Outcome.FLIGHT_ERROR in EXPLORE_INTERRUPTED
+    so_far = before.policy.so_far()
+    assert so_far is not None and (so_far.next_leg, so_far.flown) == (4, 4)
+    after = resumed(before, so_far)
+    assert after.run().message.startswith("10/10 waypoints flown")
+    assert targets(after)[0] == waypoints[4].tolist()
+
+
+@pytest.mark.parametrize("ended", ["covered", "marker", "budget"])
+def test_an_explore_that_ended_leaves_nothing_to_go_on_from(ended: str) -> None:
+    """Found, covered or out of time, the exploration is over: a next goal starts afresh."""
+    wanted = frozenset({19}) if ended == "marker" else frozenset()
+    policy = explore(area=WIDE_AREA, wanted=wanted, budget_ns=int(5e9) if ended == "budget"
+                     else 0)
+    world = World(policy, straight, here=CORNER)
+    if ended == "marker":
+        world.markers = {19: 0}
+    end = world.run()
+    assert end.outcome not in EXPLORE_INTERRUPTED
+    assert policy.so_far() is None
+
+
+@pytest.mark.parametrize("other", [{"area": LONG_AREA}, {"wanted": frozenset({19})},
+                                   {"altitude": Z + 0.4}])
+def test_a_goal_for_another_area_altitude_or_markers_starts_afresh(other: dict[str, Any]
+                                                                   ) -> None:
+    waypoints = lanes(CORNER, area=WIDE_AREA)
+    before, so_far = interrupted(waypoints[4])
+    after = resumed(before, so_far, **other)
+    assert after.policy.resumed is None
+    fresh = World(explore(**{"area": WIDE_AREA, **other}), straight, here=before.position)
+    fresh.run()
+    after.run()
+    assert after.of(Log)[0] == Log("explore from the start: the goal interrupted last was "
+                                   "for another area, altitude or markers")
+    assert targets(after) == targets(fresh)
+    assert after.of(ExploreProgress)[0].coverage == fresh.of(ExploreProgress)[0].coverage
+
+
+def test_an_explore_not_yet_started_has_nothing_to_go_on_from() -> None:
+    assert explore().so_far() is None
 
 
 def test_explore_progress_names_the_waypoint_the_coverage_and_the_markers() -> None:
