@@ -70,7 +70,7 @@ from fsm.mission_machine import (
     Severity,
     Vec2,
 )
-from fsm.mission_table import TAKEOFFS, ErrorCause, Phase, phase_of
+from fsm.mission_table import PRECISION_LANDINGS, TAKEOFFS, ErrorCause, Phase, phase_of
 
 Vec3 = tuple[float, float, float]
 PROBE_PERIOD_S = 0.1  # preflight: the modules are asked again this often
@@ -544,9 +544,11 @@ class Driver:
 
     def _resume(self, held_s: float) -> None:
         s = self.status
-        if s is not None and s.armed and not s.landed and not s.offboard:
+        if s is not None and s.armed and not s.landed and (
+                not s.offboard or self.mission.resume_to in PRECISION_LANDINGS):
             # the FCU's failsafe flies: ask for offboard again (flight control's take-off
-            # streams, asks PX4 for offboard and climbs where the vehicle is)
+            # streams, asks PX4 for offboard and climbs where the vehicle is); a precision
+            # landing held in its descent starts again from cruise altitude the same way
             self._reengaging = True
             self._ask(SendGoal(self._new_job(), Action.TAKEOFF,
                                TakeoffGoal(self.params.cruise_altitude)), self._reengaged)

@@ -226,6 +226,12 @@ RECOVERABLE: tuple[str, ...] = (*RESUMABLE, "returning.navigate", "returning.lan
 #: vehicle landed by the FCU ends in ``landed``.
 TAKEOFFS: tuple[str, ...] = ("mission.takeoff", "mission.pad.takeoff")
 
+#: The states that fly a precision landing (a goal starts from cruise height above its
+#: pad, and the precision-landing node refuses one from near the pad): held in the air,
+#: they resume by climbing back to cruise altitude first, wherever the hold caught them.
+PRECISION_LANDINGS: tuple[str, ...] = ("mission.pad.land", "mission.pad.search",
+                                       "returning.land")
+
 
 #: The states that read the down camera's markers: the modules' checks before the start,
 #: the robot search and its pictures, and the landings on a pad (precision landing, its
@@ -307,7 +313,7 @@ def to_transitions_states(states: tuple[StateSpec, ...] = STATES) -> list[Any]:
     return out
 
 
-__all__ = ["ERROR_POLICY", "INITIAL", "RECOVERABLE", "RESUMABLE", "SEPARATOR", "STATES",
-           "SUSPEND", "TAKEOFFS", "TRANSITIONS",
+__all__ = ["ERROR_POLICY", "INITIAL", "PRECISION_LANDINGS", "RECOVERABLE", "RESUMABLE",
+           "SEPARATOR", "STATES", "SUSPEND", "TAKEOFFS", "TRANSITIONS",
            "ErrorCause", "Phase", "Policy", "Reaction", "StateSpec", "TransitionSpec", "leaves",
            "phase_of", "terminal_states", "to_transitions_states", "walk"]

@@ -491,11 +491,12 @@ class _Follower(_Policy):
                                                         attempts=attempts)
                 if no_path is not None:
                     return _Flown(Outcome.NO_PATH, no_path)
+                fresh = True
                 if new is not None:
                     if (why := too_long(new)) is not None:
                         return _Flown(Outcome.NO_PATH, why)
                     path, i = new, 1
-                fresh = True
+                    continue  # (a new path of one point: the vehicle is at the goal)
             wp = path[i]
             last = i == len(path) - 1
             here, yaw = self.here, self._now.yaw

@@ -13,9 +13,8 @@ image's capture time from ``/fcu/pose_at``; ``seed`` uses the latest ``/fcu/odom
 as the paper does. It never reads simulator truth.
 
 Results: LANDED, MARKER_NOT_FOUND, MARKER_LOST, FLIGHT_ERROR (a reach or the land
-failed), TIMEOUT, CANCELED, each with a message. Feedback at each frame: phase, marker
-visible, the (filtered) horizontal error, the reference altitude. Health on ``~/health``.
-Parameters: ``config/precision_land.yaml`` (:class:`navigation.params.PrecisionLandParams`).
+failed), TIMEOUT, CANCELED (also while it waits on a node that died). Feedback: phase,
+marker visible, horizontal error, reference altitude. Parameters: :class:`PrecisionLandParams`.
 """
 
 from __future__ import annotations
@@ -47,6 +46,7 @@ from navigation.precision_landing import Measurement, Pose
 from runtime import (
     ActionClient,
     ActionServer,
+    GoalCanceled,
     GoalResponse,
     Node,
     Rejection,
@@ -120,7 +120,6 @@ class PrecisionLandNode(Node):
         self.server = ActionServer(self, PRECISION_LAND, graph.PRECISION_LAND.name, self._execute,
                                    goal_callback=self._check_goal)
 
-    # -- inputs ----------------------------------------------------------------------------
     def _on_odometry(self, msg: Any) -> None:
         self.odometry = msg
 
@@ -172,19 +171,19 @@ class PrecisionLandNode(Node):
         self.get_logger().info(f"precision_land: {finish.message}")
         return result
 
-    async def _pose_at(self, stamp_ns: int) -> Pose | None:
-        response = await self.pose_at.call_async(
-            interfaces.new(POSE_AT.Request, stamp=Time(stamp_ns).to_msg()))
+    async def _pose_at(self, handle: ServerGoalHandle, stamp_ns: int) -> Pose | None:
+        response = await handle.unless_canceled(self.pose_at.call_async(
+            interfaces.new(POSE_AT.Request, stamp=Time(stamp_ns).to_msg())))
         if not response.success:
             return None
         return _pose(response.odometry.pose.pose)
 
-    async def _plan_leg(self, check: CheckLeg) -> tuple[PlanAnswer, Any]:
+    async def _plan_leg(self, handle: ServerGoalHandle, check: CheckLeg) -> tuple[PlanAnswer, Any]:
         """The path finder's answer to a search leg (UNKNOWN without a path finder)."""
         if not self.planner.service_is_ready():
             return PlanAnswer.UNKNOWN, None
-        r = await self.planner.call_async(plan_request(np.array(check.start),
-                                                       np.array(check.goal)))
+        request = plan_request(np.array(check.start), np.array(check.goal))
+        r = await handle.unless_canceled(self.planner.call_async(request))
         if r.success:
             return PlanAnswer.PATH, path_points(r.path)
         return (PlanAnswer.BLOCKED if int(r.result) in SEARCH_POINT_BLOCKED
@@ -200,8 +199,14 @@ class PrecisionLandNode(Node):
         return goal
 
     async def _execute(self, handle: ServerGoalHandle) -> Any:
-        goal = handle.request
-        start = self._latest()
+        policy = self._start(handle)
+        try:
+            return await self._run(handle, policy)
+        except GoalCanceled:  # while it waited on a node (that may have died)
+            return self._result(handle, policy.cancel(), policy)
+
+    def _start(self, handle: ServerGoalHandle) -> PrecisionLandPolicy:
+        goal, start = handle.request, self._latest()
         assert start is not None  # checked by the goal callback
         policy = PrecisionLandPolicy(self.landing_params, self.params.strategy,
                                      int(goal.pad_id), _point(goal.pad_position), start[0],
@@ -212,6 +217,9 @@ class PrecisionLandNode(Node):
         self.frames = []
         if self.scanner_enable.service_is_ready() and not handle.is_cancel_requested:
             self.scanner_enable.call_async(interfaces.new(SET_BOOL.Request, data=True))
+        return policy
+
+    async def _run(self, handle: ServerGoalHandle, policy: PrecisionLandPolicy) -> Any:
         reach_result: Any = None  # the running reach's result future
         while True:
             if handle.is_cancel_requested:
@@ -233,23 +241,24 @@ class PrecisionLandNode(Node):
                 assert latest is not None
                 pose: Pose | None = latest[0]
                 if policy.needs_capture_pose(frame.marker):
-                    pose = await self._pose_at(frame.stamp_ns)
+                    pose = await self._pose_at(handle, frame.stamp_ns)
                 if pose is None:
                     continue  # no pose at its capture time: the frame says nothing
                 command = policy.frame(self.now().nanoseconds, frame.marker, pose,
                                        latest[0].position, latest[1], frame.stamp_ns)
                 while isinstance(command, CheckLeg):
-                    command = policy.leg_planned(command, *(await self._plan_leg(command)),
-                                                 self.now().nanoseconds)
+                    answer = await self._plan_leg(handle, command)
+                    command = policy.leg_planned(command, *answer, self.now().nanoseconds)
                     if policy.leg_note:
                         self.get_logger().info(f"precision_land: {policy.leg_note}")
                 self._feedback(handle, policy, frame.marker is not None)
                 if isinstance(command, Finish):
                     return self._result(handle, command, policy)
                 if isinstance(command, Move):
-                    reach = await self.reach.send_goal_async(self._reach_goal(command))
+                    sent = self.reach.send_goal_async(self._reach_goal(command))
+                    reach = await handle.unless_canceled(sent)
                     if not reach.accepted:
-                        rejected = await reach.get_result_async()
+                        rejected = await handle.unless_canceled(reach.get_result_async())
                         return self._result(
                             handle, policy.reach_rejected(rejected.result.message), policy)
                     reach_result = reach.get_result_async()
@@ -260,9 +269,9 @@ class PrecisionLandNode(Node):
 
     async def _final_land(self, handle: ServerGoalHandle, policy: PrecisionLandPolicy) -> Any:
         self._feedback(handle, policy, True)
-        land = await self.land.send_goal_async(
-            interfaces.new(LAND.Goal, speed=self.params.land_speed, disarm=self.params.disarm))
-        r = (await land.get_result_async()).result
+        land = await handle.unless_canceled(self.land.send_goal_async(
+            interfaces.new(LAND.Goal, speed=self.params.land_speed, disarm=self.params.disarm)))
+        r = (await handle.unless_canceled(land.get_result_async())).result
         finish = policy.land_ended(land.accepted and r.success, r.message)
         return self._result(handle, finish, policy,
                             position=r.position if finish.success else None)

@@ -30,6 +30,7 @@ from runtime.context import Context
 from runtime.errors import (
     ClockError,
     FutureError,
+    GoalCanceled,
     InvalidNameError,
     LaunchError,
     ParameterError,
@@ -64,6 +65,7 @@ __all__ = [
     "EndpointKind",
     "Future",
     "FutureError",
+    "GoalCanceled",
     "GoalResponse",
     "GoalStatus",
     "HistoryPolicy",

@@ -15,19 +15,22 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import traceback
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass
 from enum import Enum, IntEnum
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 import interfaces
 from interfaces.qos import qos_profile_action_status_default, qos_profile_default
 from runtime.clock import Time, seconds_to_ns
-from runtime.errors import RuntimeApiError
-from runtime.future import Future
+from runtime.errors import GoalCanceled, RuntimeApiError
+from runtime.future import Future, first_done
 from runtime.node import Node
+
+T = TypeVar("T")
 
 
 class GoalStatus(IntEnum):
@@ -114,6 +117,7 @@ class ServerGoalHandle:
         self.stamp = stamp
         self.status = GoalStatus.ACCEPTED
         self.result: Any = None
+        self._cancel_requested: Future[None] = Future(server._node.context.loop)
 
     @property
     def is_active(self) -> bool:
@@ -130,7 +134,21 @@ class ServerGoalHandle:
                 f"{status.name}"
             )
         self.status = status
+        if status is GoalStatus.CANCELING:
+            self._cancel_requested.set_result(None)
         self._server.publish_status()
+
+    async def unless_canceled(self, future: Future[T]) -> T:
+        """``future``'s result, or :class:`GoalCanceled` if this goal's cancel comes first.
+
+        A server that dies mid-call never answers: an execute callback that awaits it
+        plainly would keep its goal running for ever, deaf to the cancel.
+        """
+        if not future.done() and not self.is_cancel_requested:
+            await first_done(future, self._cancel_requested, loop=self._server._node.context.loop)
+        if not future.done():
+            raise GoalCanceled(f"goal {self.goal_id.hex()[:8]} canceled while it waited")
+        return future.result()
 
     def execute(self) -> None:
         """Start executing (the default when a goal is accepted)."""
@@ -264,7 +282,7 @@ class ActionServer:
                 result.message = self._rejections[key]
             response.result = result
             return response
-        if not handle.is_active:
+        if handle.result is not None:  # terminal, and execute has returned its result
             return self._result_response(handle)
         waiter: Future[Any] = Future(self._node.context.loop)
         self._result_waiters.setdefault(key, []).append(waiter)
@@ -293,8 +311,9 @@ class ActionServer:
     async def _guarded(self, execution: Coroutine[Any, Any, Any]) -> Any:
         try:
             return await execution
-        except Exception as exc:
-            self._node.get_logger().error(f"{self.action_name}: execute failed: {exc!r}")
+        except Exception as exc:  # with where it failed: a bug in a node, to be fixed
+            where = "".join(traceback.format_exception(exc)[-4:]).rstrip()
+            self._node.get_logger().error(f"{self.action_name}: execute failed: {exc!r}\n{where}")
             return None
 
     def _finish(self, handle: ServerGoalHandle, task: Future[Any]) -> None:

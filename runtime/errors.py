@@ -58,6 +58,10 @@ class FutureError(RuntimeApiError):
     """A future's result asked for before it is done, or set twice."""
 
 
+class GoalCanceled(RuntimeApiError):
+    """An action goal's cancel came while its execute callback waited on something else."""
+
+
 class LaunchError(RuntimeApiError):
     """A launch description that names a missing factory or a bad node entry."""
 

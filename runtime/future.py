@@ -90,6 +90,19 @@ class Future(Generic[T]):
         return self.result()
 
 
+def first_done(*futures: Future[Any], loop: EventLoop | None = None) -> Future[None]:
+    """A future done as soon as any of ``futures`` is (``await first_done(a, b)``)."""
+    either: Future[None] = Future(loop)
+
+    def wake(_f: Future[Any]) -> None:
+        if not either.done():
+            either.set_result(None)
+
+    for future in futures:
+        future.add_done_callback(wake)
+    return either
+
+
 class Task(Future[T]):
     """Runs a coroutine on the loop; each ``await`` of a Future suspends it until done."""
 

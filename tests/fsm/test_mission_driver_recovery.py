@@ -266,6 +266,25 @@ def test_a_navigation_leg_resumed_is_planned_again_to_the_same_pad() -> None:
                                               NavigateGoal((3.0, 7.5, 1.5)))]
 
 
+def test_a_precision_landing_held_in_its_descent_climbs_back_before_it_lands_again() -> None:
+    """Flight control restarted while precision landing's descent was a few centimetres above
+    the pad: the FCU kept offboard, but a goal from there is refused ("take off first").
+    The resume climbs to cruise altitude where the vehicle is, then lands on the same pad."""
+    rig = flying_pads(rig=Rig(config=RESUMES))
+    rig.feed(IN_OFFBOARD)
+    rig.done()
+    assert rig.state == "mission.pad.land"
+    lose_position(rig)
+    assert rig.state == "held"
+    rig.feed(IN_OFFBOARD)
+    settle(rig, SETTLE_S)
+    assert rig.state == "held"  # the climb first, though the FCU is still in offboard
+    assert rig.job == SendGoal(rig.job.job, Action.TAKEOFF, TakeoffGoal(1.5))
+    out = rig.done(after_s=2.0)
+    assert rig.state == "mission.pad.land" and rig.driver.mission.target_pad == 2
+    assert [g.action for g in of(out, SendGoal)] == [Action.PRECISION_LAND]
+
+
 def test_a_battery_critical_while_held_lands_at_once() -> None:
     rig = rig_exploring()
     lose_position(rig)

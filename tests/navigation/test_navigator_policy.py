@@ -1461,3 +1461,22 @@ def test_the_tunings_take_their_values_from_the_navigator_parameters() -> None:
     assert follow.plan_attempts == values["plan_attempts"]
     assert follow.max_reach_failures == values["max_reach_failures"]
     assert tuning.start_pad == values["start_pad"] and tuning.arena == values["arena"]
+
+
+def test_a_recheck_that_plans_a_single_point_path_ends_the_path_without_an_error() -> None:
+    """A leg re-checked from a point in the goal's own voxel gets a path of one point (the
+    vehicle is there); it used to index past its end (random arena 200, light: the
+    exploration failed with an IndexError and the robot was never found)."""
+    old = p((0, 0), (2, 0), (4, 0))
+
+    def planner(start: np.ndarray, goal: np.ndarray, world: World) -> Planned:
+        if len(world.of(Plan)) == 1:
+            return ok(old)
+        if len(world.of(Plan)) == 2:  # the re-check from (2, 0): one point
+            return ok(np.array([start]), stamp_ns=world.now_ns)
+        return straight(start, goal, world)
+
+    world = World(navigate(), planner)
+    finish = world.run()
+    assert finish.outcome is not Outcome.STOPPED
+    assert world.of(SendReach)[0].target.tolist() == [2, 0, Z]

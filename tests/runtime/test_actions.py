@@ -12,12 +12,14 @@ from runtime import (
     ActionServer,
     CancelResponse,
     DeterministicExecutor,
+    GoalCanceled,
     GoalStatus,
     Node,
     Rejection,
     ServerGoalHandle,
 )
 from runtime.action import CancelReturnCode, GoalResponse
+from runtime.future import Future
 
 TAKEOFF = interfaces.get_action("quadmission_interfaces/action/Takeoff")
 
@@ -180,3 +182,55 @@ def test_an_execute_that_raises_aborts_the_goal_and_the_executor_goes_on(
     assert result_future.result().status == GoalStatus.ABORTED
     again = _send(ex, client, 1.0)  # the server still answers
     assert again.accepted
+
+
+def test_a_goal_waiting_on_a_silent_node_still_hears_its_cancel(ex: DeterministicExecutor) -> None:
+    """A service whose node died never answers; ``unless_canceled`` lets the cancel end the
+    goal anyway, so the server takes the next goal (a precision landing after flight
+    control's restart was refused as "already running" before)."""
+    node = Node("waiter", context=ex.context)
+    never: Future[Any] = Future(ex.context.loop)  # the dead node's answer
+    seen: list[str] = []
+
+    async def execute(handle: ServerGoalHandle) -> Any:
+        try:
+            await handle.unless_canceled(never)
+        except GoalCanceled as canceled:
+            seen.append(str(canceled))
+            handle.canceled()
+        return interfaces.new(TAKEOFF.Result, message="canceled while waiting")
+
+    ActionServer(node, TAKEOFF, "/waiter", execute)
+    client = ActionClient(Node("pilot", context=ex.context), TAKEOFF, "/waiter")
+    handle = _send(ex, client, 1.0)
+    ex.spin_for(2.0)
+    assert handle.status is GoalStatus.EXECUTING  # still waiting: nothing answered
+    ex.spin_until_future_complete(handle.cancel_goal_async(), timeout_sec=1.0)
+    result_future = handle.get_result_async()
+    ex.spin_until_future_complete(result_future, timeout_sec=1.0)
+    assert result_future.result().status == GoalStatus.CANCELED
+    assert len(seen) == 1 and "canceled while it waited" in seen[0]
+
+
+def test_unless_canceled_returns_the_answer_that_comes_first(ex: DeterministicExecutor) -> None:
+    node = Node("answerer", context=ex.context)
+
+    async def execute(handle: ServerGoalHandle) -> Any:
+        answer: Future[float] = Future(ex.context.loop)
+
+        def reply() -> None:
+            if not answer.done():
+                answer.set_result(2.5)
+
+        node.create_timer(0.3, reply)
+        altitude = await handle.unless_canceled(answer)
+        handle.succeed()
+        return interfaces.new(TAKEOFF.Result, success=True, message=f"{altitude}")
+
+    ActionServer(node, TAKEOFF, "/answerer", execute)
+    client = ActionClient(Node("pilot", context=ex.context), TAKEOFF, "/answerer")
+    handle = _send(ex, client, 1.0)
+    result_future = handle.get_result_async()
+    ex.spin_until_future_complete(result_future, timeout_sec=2.0)
+    assert result_future.result().status == GoalStatus.SUCCEEDED
+    assert result_future.result().result.message == "2.5"
