@@ -20,7 +20,6 @@ marker visible, horizontal error, reference altitude. Parameters: :class:`Precis
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -78,12 +77,6 @@ PRECISION_LAND_CODES = {Outcome.SUCCEEDED: RESULT.RESULT_LANDED,
                         Outcome.CANCELED: RESULT.RESULT_CANCELED}
 
 
-@dataclass(frozen=True)
-class _Frame:
-    stamp_ns: int
-    marker: Measurement | None
-
-
 def _point(point_msg: Any) -> tuple[float, float, float]:
     return float(point_msg.x), float(point_msg.y), float(point_msg.z)
 
@@ -102,7 +95,7 @@ class PrecisionLandNode(Node):
         self.params = self.declare_params(PrecisionLandParams)
         self.landing_params = self.params.landing()
         self.odometry: Any = None  # latest /fcu/odometry
-        self.frames: list[_Frame] = []
+        self.frames: list[tuple[int, Measurement | None]] = []  # (capture stamp [ns], marker)
         self.watch_id: int | None = None  # the pad the running goal wants
         self.active = False
         self.last_outcome = ""
@@ -129,7 +122,7 @@ class PrecisionLandNode(Node):
         marker = pad_marker(((int(d.id), Measurement((float(d.offset_x), float(d.offset_y)),
                                                      float(d.height)))
                              for d in msg.detections), self.watch_id)
-        self.frames.append(_Frame(Time.from_msg(msg.header.stamp).nanoseconds, marker))
+        self.frames.append((Time.from_msg(msg.header.stamp).nanoseconds, marker))
 
     def _latest(self) -> tuple[Pose, float] | None:
         """The latest pose and horizontal speed [m/s], or None before any odometry."""
@@ -236,33 +229,36 @@ class PrecisionLandNode(Node):
             frames, self.frames = self.frames, []
             if (timeout := policy.poll(self.now().nanoseconds, bool(frames))) is not None:
                 return self._result(handle, timeout, policy)
-            for frame in frames:
+            for stamp_ns, marker in frames:
                 latest = self._latest()
                 assert latest is not None
                 pose: Pose | None = latest[0]
-                if policy.needs_capture_pose(frame.marker):
-                    pose = await self._pose_at(handle, frame.stamp_ns)
+                if policy.needs_capture_pose(marker):
+                    pose = await self._pose_at(handle, stamp_ns)
                 if pose is None:
                     continue  # no pose at its capture time: the frame says nothing
-                command = policy.frame(self.now().nanoseconds, frame.marker, pose,
-                                       latest[0].position, latest[1], frame.stamp_ns)
+                command = policy.frame(self.now().nanoseconds, marker, pose,
+                                       latest[0].position, latest[1], stamp_ns)
                 while isinstance(command, CheckLeg):
                     answer = await self._plan_leg(handle, command)
                     command = policy.leg_planned(command, *answer, self.now().nanoseconds)
                     if policy.leg_note:
                         self.get_logger().info(f"precision_land: {policy.leg_note}")
-                self._feedback(handle, policy, frame.marker is not None)
+                self._feedback(handle, policy, marker is not None)
                 if isinstance(command, Finish):
                     return self._result(handle, command, policy)
                 if isinstance(command, Move):
                     sent = self.reach.send_goal_async(self._reach_goal(command))
                     reach = await handle.unless_canceled(sent)
-                    if not reach.accepted:
-                        rejected = await handle.unless_canceled(reach.get_result_async())
-                        return self._result(
-                            handle, policy.reach_rejected(rejected.result.message), policy)
-                    reach_result = reach.get_result_async()
-                    break  # frames queued before the move are stale
+                    if reach.accepted:
+                        reach_result = reach.get_result_async()
+                        break  # frames queued before the move are stale
+                    rejected = await handle.unless_canceled(reach.get_result_async())
+                    refused = policy.reach_rejected(rejected.result.message)
+                    if isinstance(refused, Finish):
+                        return self._result(handle, refused, policy)
+                    self.get_logger().warn(f"precision_land: {refused.why}")
+                    break
                 if isinstance(command, Touchdown):
                     return await self._final_land(handle, policy)
             await self.sleep(self.params.poll_s)

@@ -248,8 +248,15 @@ class PrecisionLandPolicy:
             return Wait(f"correction move: {message}")
         return Finish(Outcome.FLIGHT_ERROR, f"reach failed: {message}")
 
-    def reach_rejected(self, message: str) -> Finish:
+    def reach_rejected(self, message: str) -> Finish | Wait:
+        """Flight control refused the move's reach. A search leg's refused (its point
+        outside the flyable volume, near a wall the map had not shown: random arena 209's
+        pad in a corner) is skipped like a blocked one, the next frame going on with the
+        search; any other move's refusal is a flight error."""
         self.moving = False
+        if self.lander.phase is Phase.SEARCH:  # every move of the search is a search leg
+            self._leg_goal = None
+            return Wait(f"search point skipped: its reach was refused: {message}")
         return Finish(Outcome.FLIGHT_ERROR, f"reach rejected: {message}")
 
     def land_ended(self, success: bool, message: str) -> Finish:

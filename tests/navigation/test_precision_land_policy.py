@@ -355,9 +355,29 @@ def test_a_move_that_fails_otherwise_is_a_flight_error():
 def test_a_rejected_move_is_a_flight_error():
     world = _World((4.6, 3.0, 1.5))
     policy = _moving(world)
+    assert policy.phase is Phase.ALIGN  # a correction move, not a search leg
     assert policy.reach_rejected("busy") == Finish(Outcome.FLIGHT_ERROR,
                                                    "reach rejected: busy")
     assert not policy.moving
+
+
+def test_a_search_point_whose_reach_is_refused_is_skipped_and_the_search_goes_on():
+    """Random arena 209, dark: a pad in a corner, a search point 0.4 m from the walls that
+    the map had not shown; flight control refused its reach (outside its flyable volume)
+    and the landing ended in a flight error. It is skipped like a blocked point now."""
+    world = _World((4.0, 3.0, 1.5))
+    policy = _policy(world, search_radius=2.0, search_spacing=0.8, search_timeout_s=600.0)
+    _, second = _search_moves(world, policy, 2)
+    refused = _until_command(world, policy)
+    assert isinstance(refused, Move) and policy.phase is Phase.SEARCH
+    why = "target (0.47, 0.4, 1.5) m is outside the flyable volume"
+    assert policy.reach_rejected(why) == Wait(f"search point skipped: its reach was refused: "
+                                              f"{why}")
+    assert not policy.moving
+    following = _until_command(world, policy)  # the next frame: the next point
+    assert isinstance(following, Move)
+    assert following.position != pytest.approx(refused.position)
+    assert following.position != pytest.approx(second.position)
 
 
 def test_cancel():

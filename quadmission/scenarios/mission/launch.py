@@ -30,6 +30,7 @@ from navigation.navigator_node import NavigatorNode
 from navigation.path_finder_node import PathFinderNode
 from quadmission.assembly.companion import (
     check_mission_altitudes,
+    check_turn_first_angle,
     navigator_overrides,
     planning_bounds,
 )
@@ -105,7 +106,9 @@ def navigator(*, parameter_overrides: dict[str, Any] | None = None,
               **kwargs: Any) -> NavigatorNode:
     """The navigator with the arena's field, name and start pad."""
     arena, rest = pop_arena(parameter_overrides)
-    return NavigatorNode(parameter_overrides=navigator_overrides(arena) | rest, **kwargs)
+    node = NavigatorNode(parameter_overrides=navigator_overrides(arena) | rest, **kwargs)
+    check_turn_first_angle(node.params)
+    return node
 
 
 def operator(*, parameter_overrides: dict[str, Any] | None = None,

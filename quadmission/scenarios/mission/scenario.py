@@ -49,6 +49,7 @@ from navigation.precision_land_node import PrecisionLandNode
 from perception.aruco_scanner_node import ArucoScannerNode
 from quadmission.assembly.companion import (
     check_mission_altitudes,
+    check_turn_first_angle,
     navigator_overrides,
     planning_bounds,
     start_companion,
@@ -257,7 +258,8 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         ArucoScannerNode(context=context),
         MappingNode(context=context),
         PathFinderNode(context=context, parameter_overrides=planning_bounds(arena)),
-        NavigatorNode(context=context, parameter_overrides=navigator_overrides(published)),
+        navigator := NavigatorNode(context=context,
+                                   parameter_overrides=navigator_overrides(published)),
         PrecisionLandNode(context=context),
         mission := MissionNode(context=context, parameter_overrides=pads | {
             "target_robot": target}),
@@ -267,6 +269,7 @@ def fly_mission(options: ScenarioOptions, *, script: Sequence[Step] = (),
         buttons := ScriptedOperator(context=context),
     ]
     check_mission_altitudes(arena, mission.params)
+    check_turn_first_angle(navigator.params)
     for node in nodes:
         sitl.executor.add_node(node)
     check_faults("mission", options.faults)

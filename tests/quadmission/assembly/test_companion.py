@@ -3,6 +3,7 @@ mission's heights."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -10,15 +11,21 @@ import pytest
 
 from fsm.params import MissionParams
 from navigation.navigator_node import NavigatorNode
+from navigation.params import NavigatorParams
 from navigation.voxel_graph import top_cube_centre
 from perception.aruco import ScanMode, ScannerSettings
 from perception.params import ScannerParams
-from quadmission.assembly.companion import check_mission_altitudes, navigator_overrides
+from quadmission.assembly.companion import (
+    check_mission_altitudes,
+    check_turn_first_angle,
+    horizontal_half_fov,
+    navigator_overrides,
+)
 from runtime import DeterministicExecutor
 from runtime.errors import ParameterError
 from runtime.parameters import load_parameters
 from sim.arena import default_arena
-from sim.quadrotor import QuadrotorParams
+from sim.quadrotor import QuadrotorParams, onboard_cameras
 from sim.render import CameraIntrinsics
 
 
@@ -57,3 +64,17 @@ def test_the_navigator_knows_the_arena_from_the_app() -> None:
     assert (node.params.arena, node.params.start_pad) == (arena.name, arena.start_pad)
     assert np.allclose(node.field_max, arena.field.size)
     node.destroy_node()
+
+
+def test_a_leg_flown_without_turning_first_stays_inside_the_depth_camera_s_view() -> None:
+    """config/*.yaml agree (28.6 deg against the depth camera's 36.5 deg half field of view);
+    45 deg, the old default under which random arena 208 hit a box face never seen, is
+    refused with both angles named."""
+    navigator = load_parameters(NavigatorParams, "navigator")
+    check_turn_first_angle(navigator)
+    camera = onboard_cameras().depth_camera
+    assert math.degrees(horizontal_half_fov(camera)) == pytest.approx(36.5, abs=0.1)
+    with pytest.raises(ParameterError, match=r"turn_first_angle: 0.785 rad \(45.0 deg\).*36.5 deg"):
+        check_turn_first_angle(replace(navigator, turn_first_angle=0.785))
+    wide = replace(camera, width=320)  # a wider camera allows it
+    check_turn_first_angle(replace(navigator, turn_first_angle=0.785), wide)
