@@ -491,6 +491,48 @@ def _vehicle_run(args: argparse.Namespace) -> int:
     return outcome.exit_code
 
 
+# -- fly-realtime ----------------------------------------------------------------------------
+#: fly-realtime's ROS domain: not 0, where a launch or a user's stack runs by default
+REALTIME_DOMAIN_ID = 38
+
+
+def _fly_realtime_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, default=Path("runs/realtime"),
+                   help="folder for report.json, mission.json, the logs and the vehicle's "
+                        "ground truth (OUT/vehicle)")
+    _world_args(p)
+    _fault_args(p, "the vehicle's: the simulator's kinds")
+    p.add_argument("--domain-id", type=int, default=REALTIME_DOMAIN_ID,
+                   help=f"the run's own ROS domain (default {REALTIME_DOMAIN_ID})")
+    p.add_argument("--until-state", default=None, metavar="STATE",
+                   help="end once the mission enters STATE (e.g. mission.pad.takeoff: "
+                        "after the first pad's landing)")
+    p.add_argument("--timeout", type=_positive_seconds, default=1800.0,
+                   help="host seconds the companion may fly at most (default 1800)")
+
+
+def _fly_realtime_run(args: argparse.Namespace) -> int:
+    from quadmission.scenarios.mission.realtime import RealtimeOptions, fly_realtime
+    from sim.arena import Lighting
+
+    if not 0 <= args.domain_id <= 232:
+        from quadmission.errors import OptionsError
+
+        raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
+    faults = _faults_of(args)  # checked here: a bad spec is said before anything starts
+    report = fly_realtime(RealtimeOptions(
+        out=args.out, seed=args.seed, arena=args.arena, random_arena=args.random_arena,
+        lighting=Lighting(args.lighting) if args.lighting else None,
+        faults=tuple(f.spec() for f in faults), domain_id=args.domain_id,
+        until_state=args.until_state, timeout_s=args.timeout, say=_stderr))
+    print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)},
+                     allow_nan=False), flush=True)
+    _stderr(f"report: {args.out / 'report.json'}")
+    _stderr(str(report["verdict"]))
+    reached = args.until_state is not None and report["companion_exit_code"] == 0
+    return 0 if report["ok"] or reached else 1
+
+
 # -- campaign --------------------------------------------------------------------------------
 def _positive_int(text: str) -> int:
     try:
@@ -725,6 +767,9 @@ COMMANDS: tuple[Command, ...] = (
     Command("vehicle", "the simulated vehicle alone on the wall clock, where PX4 v1.17, its "
             "uXRCE-DDS agent, the cameras and a VIO stand (ROS 2)", _vehicle_args,
             _vehicle_run),
+    Command("fly-realtime", "the mission in real time: the vehicle, companion.yaml and an "
+            "operator in processes, scored against the vehicle's truth", _fly_realtime_args,
+            _fly_realtime_run),
     Command("interfaces", "list message types, or show one: field types and defaults",
             _interfaces_args, _interfaces_run),
     Command("bag", "a recorded rosbag2 MCAP: info (topics, counts, duration) or repair",

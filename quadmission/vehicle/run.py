@@ -53,6 +53,10 @@ __all__ = ["EXIT_CRASHED", "Pacer", "VehicleOptions", "VehicleOutcome", "run_veh
 EXIT_CRASHED = 1
 _PACE_HZ = 1000.0  # pacing and taking what arrived, per simulated second (at most)
 _DAY_S = 86400.0
+#: behind real time, what arrived is taken at most this often [ns simulated] (keeping up, at
+#: every pacing step: the wait returns on arrival). An rcl wait costs ~0.3 ms: at every
+#: step it was a third of the vehicle's main thread, the time it needs to catch up
+_TAKE_BEHIND_NS = 5_000_000
 
 
 @dataclass(frozen=True)
@@ -93,10 +97,12 @@ class VehicleOutcome:
 
 @dataclass
 class Pacer:
-    """A world part at up to :data:`_PACE_HZ`: takes what arrived on the transport, then
-    waits (on the transport, so arrivals are taken as they come) until the host's
-    monotonic clock has reached simulated time / ``rtf``; behind, it goes on at once and
-    tells the lag monitor."""
+    """The first world part, at up to :data:`_PACE_HZ`: takes what arrived on the
+    transport, then waits (on the transport, so arrivals are taken as they come) until
+    the host's monotonic clock has reached simulated time / ``rtf``; behind, it goes on at
+    once and tells the lag monitor. Its first update anchors the run to the host: simulated
+    time ``t`` is then due at ``host0 + t / rtf``, and ``anchor`` is called with the host's
+    clock [ns] at simulated time 0 (before any other part of that tick publishes)."""
 
     wait: Callable[[float], object]
     dispatch: Callable[[], int]
@@ -105,13 +111,20 @@ class Pacer:
     monitor: LagMonitor
     say: Callable[[str], None]
     stopped: Callable[[], bool]
+    anchor: Callable[[int], None]
     name: str = "wall_clock_pacer"
-    host0: float = field(default_factory=time.monotonic)
+    host0: float | None = None  # host monotonic time of simulated time 0 [s]
     taken: int = 0  # samples handed to the nodes
+    _taken_ns: int = -_TAKE_BEHIND_NS  # simulated time of the last take
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        self.taken += self.dispatch()
+        if self.host0 is None:
+            self.host0 = time.monotonic() - t_ns / 1e9 / self.rtf
+            self.anchor(time.time_ns() - t_ns)
         target = self.host0 + t_ns / 1e9 / self.rtf
+        if target > time.monotonic() or t_ns - self._taken_ns >= _TAKE_BEHIND_NS:
+            self.taken += self.dispatch()  # behind: every _TAKE_BEHIND_NS only (it costs)
+            self._taken_ns = t_ns
         while not self.stopped():
             ahead = target - time.monotonic()
             if ahead <= 0.0:
@@ -122,6 +135,10 @@ class Pacer:
         line = self.monitor.update(now - self.host0, now - target)
         if line is not None:
             self.say(f"{line} at {t_ns / 1e9:.3f} s simulated")
+
+    def host_s(self) -> float:
+        """Host seconds since simulated time 0."""
+        return 0.0 if self.host0 is None else time.monotonic() - self.host0
 
 
 def _tick_hz(physics_hz: int) -> float:
@@ -159,20 +176,24 @@ def run_vehicle(options: VehicleOptions, say: Callable[[str], None]) -> VehicleO
             sitl.extra_parts.extend(sensor_parts(simulation.sensors, renderer, sitl.scene,
                                                  seed=options.seed))
             sitl.extra_parts.append(watch)
+            host_zero = [0]  # the host's clock at simulated time 0 [ns], once anchored
+
+            def anchor(host_zero_ns: int) -> None:
+                """The stamps' clock and the agent's: the host's."""
+                host_zero[0] = host_zero_ns
+                simulation.sensors.stamp_offset_ns = host_zero_ns
+                sitl.vision.node.stamp_offset_ns = host_zero_ns
+                sitl.agent.clock_offset_ns += host_zero_ns
+
             pacer = Pacer(transport.wait, transport.dispatch, options.rtf,
                           _tick_hz(sitl.scene.physics_hz), monitor, say,
-                          lambda: bool(stop))
-            sitl.extra_parts.append(pacer)
-            # the host's clock at simulated time 0: the stamps' and the agent's clock
-            host_zero_ns = time.time_ns() - ex.now().nanoseconds
-            simulation.sensors.stamp_offset_ns = host_zero_ns
-            sitl.vision.node.stamp_offset_ns = host_zero_ns
-            sitl.agent.clock_offset_ns += host_zero_ns
-            pacer.host0 = time.monotonic()
+                          lambda: bool(stop), anchor)
+            sitl.first_parts.insert(0, pacer)
             say(f"vehicle up on ROS domain {options.domain_id}: arena {arena.name}, seed "
                 f"{options.seed}, rtf {options.rtf:g}; ground truth to {options.out}")
             result = sitl.run(options.duration_s, stop=StopWhen(lambda: bool(stop)))
-        host_s = time.monotonic() - pacer.host0
+        host_s = pacer.host_s()
+        host_zero_ns = host_zero[0]
         outcome = _outcome(result, stop[0] if stop else "")
         summary = _summary(options, arena.name, host_zero_ns, result, host_s, monitor, watch,
                            pacer.taken, outcome)
