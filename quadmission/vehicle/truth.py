@@ -50,7 +50,7 @@ class FcuWatch:
     touchdowns: list[dict[str, Any]] = field(default_factory=list)
     _nav: str | None = None
     _failsafe: bool = False
-    _landed: bool = True  # on its pad at boot: the first touchdown is a landing's
+    _landed: bool | None = None  # None until the land detector has said (at boot)
 
     def update(self, t_ns: int, scene: Scene) -> None:
         t_s = round(t_ns / 1e9, 3)
@@ -67,8 +67,10 @@ class FcuWatch:
                 self.say(f"FCU FAILSAFE at {t_s:.2f} s: {reason}, nav_state {nav}")
             self._failsafe = bool(status.failsafe)
         land = self.firmware.land
-        landed = bool(land is not None and land.landed)
-        if landed and not self._landed:
+        if land is None:
+            return
+        landed = bool(land.landed)
+        if landed and self._landed is False:  # not its first word: it stood on its pad
             x, y, z = (float(v) for v in scene.views.quad_qpos[:3])
             self.touchdowns.append({"t_s": t_s, "position_m": [round(x, 4), round(y, 4),
                                                                round(z, 4)]})

@@ -164,6 +164,7 @@ class RealtimeOptions:
     domain_id: int = 0
     until_state: str | None = None  # end once the mission enters it (a short check)
     timeout_s: float = 1800.0  # [s of host time] the companion's launch at most
+    settle_s: float = _SETTLE_S  # [s of host time] the vehicle runs on after the companion
     companion: Path = COMPANION_YAML
     extra_vehicle_args: tuple[str, ...] = ()
     say: Callable[[str], None] = field(default=lambda _line: None, compare=False)
@@ -247,7 +248,7 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
                 break  # crashed, or stopped from outside
             time.sleep(0.5)
         companion_code = _stop(procs["companion"])
-        time.sleep(_SETTLE_S)
+        time.sleep(options.settle_s)
     finally:
         for proc in reversed(list(procs.values())):
             _stop(proc)
