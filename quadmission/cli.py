@@ -474,18 +474,27 @@ def _vehicle_args(p: argparse.ArgumentParser) -> None:
                    help="simulator YAMLs (default: config/)")
 
 
-def _vehicle_run(args: argparse.Namespace) -> int:
-    from quadmission.vehicle.run import VehicleOptions, run_vehicle
+def _vehicle_options(args: argparse.Namespace, out: Path) -> Any:
+    """The vehicle's options from the arguments ``vehicle`` and ``fly-realtime`` share
+    (a bad one is said here, before anything starts)."""
+    from quadmission.vehicle.run import VehicleOptions
     from sim.arena import Lighting
 
-    options = VehicleOptions(
-        out=args.out, seed=args.seed, arena=args.arena, random_arena=args.random_arena,
+    return VehicleOptions(
+        out=out, seed=args.seed, arena=args.arena, random_arena=args.random_arena,
         lighting=Lighting(args.lighting) if args.lighting else None,
-        faults=_faults_of(args), rtf=args.rtf, domain_id=args.domain_id,
-        loopback_only=not args.network,
-        **({} if args.duration is None else {"duration_s": args.duration}),
-        config_dir=None if args.config_dir is None else args.config_dir.resolve())
-    outcome = run_vehicle(options, lambda line: _stderr(f"[vehicle] {line}"))
+        faults=_faults_of(args), rtf=getattr(args, "rtf", 1.0), domain_id=args.domain_id,
+        loopback_only=not getattr(args, "network", False),
+        **({} if getattr(args, "duration", None) is None else {"duration_s": args.duration}),
+        config_dir=None if getattr(args, "config_dir", None) is None
+        else args.config_dir.resolve())
+
+
+def _vehicle_run(args: argparse.Namespace) -> int:
+    from quadmission.vehicle.run import run_vehicle
+
+    outcome = run_vehicle(_vehicle_options(args, args.out),
+                          lambda line: _stderr(f"[vehicle] {line}"))
     print(json.dumps({"exit_code": outcome.exit_code, "reason": outcome.reason,
                       "out": str(args.out)}), flush=True)
     return outcome.exit_code
@@ -513,17 +522,9 @@ def _fly_realtime_args(p: argparse.ArgumentParser) -> None:
 
 def _fly_realtime_run(args: argparse.Namespace) -> int:
     from quadmission.scenarios.mission.realtime import RealtimeOptions, fly_realtime
-    from sim.arena import Lighting
 
-    if not 0 <= args.domain_id <= 232:
-        from quadmission.errors import OptionsError
-
-        raise OptionsError(f"--domain-id {args.domain_id} is outside 0..232")
-    faults = _faults_of(args)  # checked here: a bad spec is said before anything starts
     report = fly_realtime(RealtimeOptions(
-        out=args.out, seed=args.seed, arena=args.arena, random_arena=args.random_arena,
-        lighting=Lighting(args.lighting) if args.lighting else None,
-        faults=tuple(f.spec() for f in faults), domain_id=args.domain_id,
+        out=args.out, vehicle=_vehicle_options(args, args.out / "vehicle"),
         until_state=args.until_state, timeout_s=args.timeout, say=_stderr))
     print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)},
                      allow_nan=False), flush=True)

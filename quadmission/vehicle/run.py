@@ -88,6 +88,20 @@ class VehicleOptions:
                                f"{', '.join(sorted(k.value for k in SIM_KINDS))})")
 
 
+    def argv(self) -> list[str]:
+        """``quadmission vehicle``'s arguments for these options."""
+        return [
+            "--out", str(self.out), "--seed", str(self.seed),
+            *(["--arena", str(self.arena)] if self.arena else []),
+            *(["--random-arena"] if self.random_arena else []),
+            *(["--lighting", self.lighting.value] if self.lighting else []),
+            *(a for f in self.faults for a in ("--fault", f.spec())),
+            "--rtf", repr(self.rtf), "--domain-id", str(self.domain_id),
+            *([] if self.loopback_only else ["--network"]),
+            *([] if self.duration_s == _DAY_S else ["--duration", repr(self.duration_s)]),
+            *(["--config-dir", str(self.config_dir)] if self.config_dir else [])]
+
+
 @dataclass(frozen=True)
 class VehicleOutcome:
     exit_code: int

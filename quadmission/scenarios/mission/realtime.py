@@ -31,7 +31,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, Any
 
@@ -44,9 +44,10 @@ from quadmission.evaluation.mission import landing, score, touchdown_summary
 from quadmission.evaluation.tracking import rounded
 from quadmission.reports.report import write_report
 from quadmission.scenarios.mission.scenario import target_robot
+from quadmission.vehicle.run import VehicleOptions
 from quadmission.vehicle.truth import VehicleTruth, load_truth
 from runtime import Node, Time
-from sim.arena import ArenaSpec, Lighting, load_arena
+from sim.arena import ArenaSpec, load_arena
 
 __all__ = ["MISSION_JSON", "MissionRecorder", "RealtimeOptions", "fly_realtime",
            "realtime_report", "recorder"]
@@ -153,20 +154,15 @@ def realtime_report(arena: ArenaSpec, truth: VehicleTruth,
 
 @dataclass(frozen=True)
 class RealtimeOptions:
-    """What ``quadmission fly-realtime`` takes."""
+    """What ``quadmission fly-realtime`` takes: the vehicle's options (its ``out`` is
+    replaced by ``OUT/vehicle``; its domain is the run's) and the companion's."""
 
     out: Path
-    seed: int = 0
-    arena: Path | None = None
-    random_arena: bool = False
-    lighting: Lighting | None = None
-    faults: tuple[str, ...] = ()  # the vehicle's --fault specs
-    domain_id: int = 0
+    vehicle: VehicleOptions
     until_state: str | None = None  # end once the mission enters it (a short check)
     timeout_s: float = 1800.0  # [s of host time] the companion's launch at most
     settle_s: float = _SETTLE_S  # [s of host time] the vehicle runs on after the companion
     companion: Path = COMPANION_YAML
-    extra_vehicle_args: tuple[str, ...] = ()
     say: Callable[[str], None] = field(default=lambda _line: None, compare=False)
 
 
@@ -213,22 +209,16 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
     """Fly the mission in real time (see the module docstring); the report."""
     out = options.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
-    vehicle_out = out / "vehicle"
-    world = [*(["--arena", str(options.arena)] if options.arena else []),
-             *(["--random-arena"] if options.random_arena else []),
-             *(["--lighting", options.lighting.value] if options.lighting else [])]
-    ros = ["--domain-id", str(options.domain_id)]
+    vehicle = replace(options.vehicle, out=out / "vehicle")
+    ros = ["--domain-id", str(vehicle.domain_id)]
     logs = {name: (out / f"{name}.log").open("w", encoding="utf-8")
             for name in ("vehicle", "companion", "operator")}
     procs: dict[str, subprocess.Popen[str]] = {}
     try:
-        procs["vehicle"] = _start(_cli("vehicle", "--out", str(vehicle_out), "--seed",
-                                       str(options.seed), *world, *ros,
-                                       *(a for f in options.faults for a in ("--fault", f)),
-                                       *options.extra_vehicle_args), logs["vehicle"])
+        procs["vehicle"] = _start(_cli("vehicle", *vehicle.argv()), logs["vehicle"])
         options.say(f"vehicle started (pid {procs['vehicle'].pid}); log {out / 'vehicle.log'}")
         _wait_up(procs["vehicle"], out / "vehicle.log")
-        arena_file = vehicle_out / "arena.yaml"
+        arena_file = vehicle.out / "arena.yaml"
         until = {_MISSION_FACTORY: {"until_state": options.until_state}} \
             if options.until_state else None
         companion = _with_arena(options.companion, arena_file, out, until)
@@ -256,7 +246,7 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
             log.close()
     record = json.loads((out / MISSION_JSON).read_text(encoding="utf-8")) \
         if (out / MISSION_JSON).is_file() else {"events": [], "states": []}
-    report = realtime_report(load_arena(vehicle_out / "arena.yaml"), load_truth(vehicle_out),
+    report = realtime_report(load_arena(vehicle.out / "arena.yaml"), load_truth(vehicle.out),
                              record)
     report["companion_exit_code"] = companion_code
     report["until_state"] = options.until_state

@@ -20,6 +20,7 @@ import pytest
 import yaml
 
 from quadmission.scenarios.mission.realtime import COMPANION_YAML, RealtimeOptions, fly_realtime
+from quadmission.vehicle.run import VehicleOptions
 from sim.arena import PAD_SIZE
 from tests.runtime.processes.conftest import needs_ros2, ros_domain
 
@@ -51,8 +52,9 @@ _TIMEOUT_S = 900.0  # host seconds the companion may take at most: a generous bo
 def _fly(tmp_path: Path, until_state: str, settle_s: float = 3.0) -> dict[str, Any]:
     arena = tmp_path / "small.yaml"
     arena.write_text(ARENA)
-    return fly_realtime(RealtimeOptions(out=tmp_path / "run", arena=arena,
-                                        domain_id=ros_domain("vehicle"),
+    vehicle = VehicleOptions(out=tmp_path / "unused", arena=arena,
+                             domain_id=ros_domain("vehicle"))
+    return fly_realtime(RealtimeOptions(out=tmp_path / "run", vehicle=vehicle,
                                         until_state=until_state, timeout_s=_TIMEOUT_S,
                                         settle_s=settle_s))
 
