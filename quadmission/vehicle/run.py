@@ -39,7 +39,12 @@ from quadmission.errors import OptionsError
 from quadmission.scenarios.mission.launch import mission_sitl
 from quadmission.scenarios.options import ScenarioOptions
 from quadmission.vehicle.lag import LagMonitor
-from quadmission.vehicle.truth import VEHICLE_JSON, FcuWatch, write_trajectory
+from quadmission.vehicle.truth import (
+    VEHICLE_JSON,
+    FcuWatch,
+    setpoint_figures,
+    write_trajectory,
+)
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor
 from sim.arena import Lighting
 from sim.fault_spec import Fault
@@ -254,6 +259,7 @@ def _summary(options: VehicleOptions, arena: str, host_zero_ns: int, result: Wor
         "cpu_time_s": round(result.cpu_time_s, 3),
         "samples_taken": taken,
         "behind": monitor.summary(host_s),
+        "setpoints": setpoint_figures(watch.setpoint_gaps_s),
         "touchdowns": watch.touchdowns, "failsafes": watch.failsafes,
         "nav_states": watch.nav_states,
         "crash": None if crash is None else {

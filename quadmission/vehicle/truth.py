@@ -8,7 +8,8 @@
   vehicle's stamps are on, at simulated time 0: a companion time ``T`` ns is simulated
   time ``T - host_ns_at_sim_zero``), ``touchdowns`` (the FCU's land detector going to
   landed, with the true position), ``nav_states`` and ``failsafes`` (the FCU's, with
-  their simulated time), ``crash``, how far it fell behind real time (``behind``), the
+  their simulated time), ``setpoints`` (the offboard stream as the FCU took it: count,
+  largest gap, gaps over 0.5 s), ``crash``, how far it fell behind real time (``behind``), the
   arena, seed, rtf and the run's figures.
 - ``DIR/arena.yaml``: the arena flown.
 
@@ -30,7 +31,10 @@ from sim.fcu.firmware import Firmware
 from sim.world import Scene, Trajectory
 
 __all__ = ["TRUTH_NPZ", "VEHICLE_JSON", "FcuWatch", "VehicleTruth", "load_truth",
-           "write_trajectory"]
+           "setpoint_figures", "write_trajectory"]
+
+#: a gap in the offboard stream worth counting [s]: the issue's bound (PX4 needs 2 Hz)
+SETPOINT_GAP_S = 0.5
 
 TRUTH_NPZ = "truth.npz"
 VEHICLE_JSON = "vehicle.json"
@@ -48,7 +52,13 @@ class FcuWatch:
     nav_states: list[dict[str, Any]] = field(default_factory=list)
     failsafes: list[dict[str, Any]] = field(default_factory=list)
     touchdowns: list[dict[str, Any]] = field(default_factory=list)
+    setpoint_gaps_s: list[float] = field(default_factory=list)
+    """Gaps between the offboard heartbeats (``/fmu/in/offboard_control_mode``) the FCU
+    took while in OFFBOARD [s, at this part's rate]: PX4 drops offboard after
+    ``COM_OF_LOSS_T`` of silence."""
     _nav: str | None = None
+    _heartbeat_us: int | None = None
+    _heartbeat_s: float | None = None
     _failsafe: bool = False
     _landed: bool | None = None  # None until the land detector has said (at boot)
 
@@ -66,6 +76,13 @@ class FcuWatch:
                 self.failsafes.append({"t_s": t_s, "nav_state": nav, "reason": reason})
                 self.say(f"FCU FAILSAFE at {t_s:.2f} s: {reason}, nav_state {nav}")
             self._failsafe = bool(status.failsafe)
+            beat = self.firmware.offboard_heartbeat_us
+            if beat != self._heartbeat_us:
+                if nav == "OFFBOARD" and self._heartbeat_s is not None:
+                    self.setpoint_gaps_s.append(round(t_ns / 1e9 - self._heartbeat_s, 3))
+                self._heartbeat_us, self._heartbeat_s = beat, t_ns / 1e9
+            elif nav != "OFFBOARD":
+                self._heartbeat_s = None  # a gap counts from a heartbeat in OFFBOARD
         land = self.firmware.land
         if land is None:
             return
@@ -76,6 +93,13 @@ class FcuWatch:
                                                                round(z, 4)]})
             self.say(f"touchdown at {t_s:.2f} s at ({x:.3f}, {y:.3f}) m")
         self._landed = landed
+
+
+def setpoint_figures(gaps_s: list[float]) -> dict[str, Any]:
+    """The offboard stream's figures from its gaps [s]."""
+    return {"heartbeats": len(gaps_s), "max_gap_s": max(gaps_s, default=None),
+            f"gaps_over_{SETPOINT_GAP_S:g}_s": sum(g > SETPOINT_GAP_S for g in gaps_s),
+            "p99_gap_s": float(np.percentile(gaps_s, 99)) if gaps_s else None}
 
 
 def write_trajectory(out: Path, trajectory: Trajectory) -> Path:

@@ -148,7 +148,8 @@ def realtime_report(arena: ArenaSpec, truth: VehicleTruth,
         "states": [{"t_s": rounded(truth.sim_time_s(s["stamp_ns"]), 3), "state": s["state"]}
                    for s in record.get("states", [])],
         "vehicle": {k: summary[k] for k in ("rtf", "rtf_achieved", "sim_time_s",
-                                            "wall_time_s", "cpu_time_s", "behind")},
+                                            "wall_time_s", "cpu_time_s", "behind",
+                                            "setpoints")},
     }
 
 

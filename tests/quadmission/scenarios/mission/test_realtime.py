@@ -75,6 +75,8 @@ def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landin
     assert any(abs(t["t_s"] - landed["t_s"]) < 5.0 for t in report["touchdowns"]), report
     behind = report["vehicle"]["behind"]  # reported, whatever the host's load made it
     assert {"episodes", "max_lag_s", "behind_s"} <= set(behind)
+    # the offboard stream as the FCU took it, in OFFBOARD: seconds of it at >= 2 Hz
+    assert report["vehicle"]["setpoints"]["heartbeats"] > 20
     # companion.yaml's nodes, as written: the run only told them the arena
     ours = yaml.safe_load((run / "companion.yaml").read_text())["nodes"]
     theirs = yaml.safe_load(COMPANION_YAML.read_text())["nodes"]
