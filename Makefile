@@ -27,8 +27,8 @@ OUT    ?= runs/default
 # takes ~3 minutes (the ROS 2 wheels are many); pip itself only installs uv into the venv
 UV_INSTALL := $(BIN)/uv pip install --quiet --python $(BIN)/python
 
-.PHONY: setup test sim lint typecheck bench docs mutate mutate-clean clean system-deps \
-        ros-interfaces
+.PHONY: setup test sim fly-realtime lint typecheck bench docs mutate mutate-clean clean \
+        system-deps ros-interfaces
 
 ## make: set up .venv (Python packages, ROS 2 Jazzy, our interface packages built with rosidl)
 setup: $(ROS_STAMP)
@@ -96,6 +96,12 @@ test: $(ROS_STAMP)
 ## recording its topics to OUT/bag (rosbag2 MCAP)
 sim: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission sim --record --out $(OUT)
+
+## make fly-realtime: the mission in real time: `quadmission vehicle` on the wall clock,
+## config/launch/companion.yaml and the simulated operator, each in processes of their own
+## (ROS domain 38), scored against the vehicle's truth in runs/realtime/report.json
+fly-realtime: $(ROS_STAMP)
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/quadmission fly-realtime --out runs/realtime
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

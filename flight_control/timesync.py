@@ -21,6 +21,7 @@ from types import MappingProxyType
 from flight_control.errors import TimesyncParameterError, UnknownEstimatorError
 from interfaces.px4.timesync import (
     MAX_CONSECUTIVE_HIGH_DEVIATION,
+    MAX_DEVIATION_SAMPLE_US,
     MAX_RTT_SAMPLE_US,
     PPM,
     US_PER_S,
@@ -259,7 +260,10 @@ class ReportedOffset:
     (FCU clock minus agent clock [us]) on ``/fmu/out/timesync_status``: this is what a
     companion of a real PX4 can read. Our sign is the other way round (local = companion),
     so ``offset_us = -estimated_offset``. Converged once a report with a measured round
-    trip arrives. :meth:`update` takes one exchange's observed offset as is.
+    trip arrives. A converged offset that steps by more than PX4's deviation gate
+    (``MAX_DEVIATION_SAMPLE_US``) is a new clock (the FCU rebooted, or its clock jumped):
+    the estimate restarts from the new report (``resets`` counts it), not converged, and
+    converges again at the next. :meth:`update` takes one exchange's observed offset as is.
     """
 
     def __init__(self) -> None:
@@ -272,6 +276,13 @@ class ReportedOffset:
     def report(self, estimated_offset_us: int, observed_offset_us: int,
                round_trip_us: int) -> TimesyncEstimate:
         """Take one ``TimesyncStatus`` (its offsets are FCU minus companion)."""
+        last = self._estimate
+        if last.converged and abs(-int(estimated_offset_us) - last.offset_us) \
+                > MAX_DEVIATION_SAMPLE_US:  # a new clock: restart from this report
+            self._estimate = TimesyncEstimate(
+                offset_us=-int(estimated_offset_us), observed_offset_us=-int(observed_offset_us),
+                rtt_us=int(round_trip_us), resets=last.resets + 1, samples=1)
+            return self._estimate
         self._estimate = replace(
             self._estimate, offset_us=-int(estimated_offset_us),
             observed_offset_us=-int(observed_offset_us), rtt_us=int(round_trip_us),

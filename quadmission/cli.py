@@ -329,12 +329,25 @@ def _spin_paced(ex: Any, seconds: float, pacer: Any) -> None:
 # -- sim -------------------------------------------------------------------------------------
 def _sim_args(p: argparse.ArgumentParser) -> None:
     from quadmission.scenarios import DEFAULT_SCENARIO, SCENARIOS
-    from sim.arena import Lighting
 
     p.add_argument("--scenario", default=DEFAULT_SCENARIO, choices=sorted(SCENARIOS),
                    help=f"what to run (default: {DEFAULT_SCENARIO})")
     p.add_argument("--out", type=Path, default=Path("runs/default"),
                    help="folder for report.json, pictures and logs")
+    _world_args(p)
+    p.add_argument("--target-robot", type=int, default=None, metavar="ID",
+                   help="mission: the robot marker to find (default: config/mission.yaml's)")
+    p.add_argument("--remove-pad", type=int, default=None, metavar="ID",
+                   help="mission: remove this pad from the field, which the mission still "
+                        "believes is there (seed 003, 4.2: the pad-search branch)")
+    _fault_args(p, "the kinds each scenario takes: docs/scenarios.md")
+    _run_services_args(p)
+
+
+def _world_args(p: argparse.ArgumentParser) -> None:
+    """The world a run flies in: --seed, --arena or --random-arena, --lighting."""
+    from sim.arena import Lighting
+
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same run)")
     arena = p.add_mutually_exclusive_group()
     arena.add_argument("--arena", type=Path, default=None,
@@ -343,18 +356,22 @@ def _sim_args(p: argparse.ArgumentParser) -> None:
                        help="generate a random arena from --seed instead")
     p.add_argument("--lighting", choices=[preset.value for preset in Lighting], default=None,
                    help="lighting preset (default: the arena's own)")
-    p.add_argument("--target-robot", type=int, default=None, metavar="ID",
-                   help="mission: the robot marker to find (default: config/mission.yaml's)")
-    p.add_argument("--remove-pad", type=int, default=None, metavar="ID",
-                   help="mission: remove this pad from the field, which the mission still "
-                        "believes is there (seed 003, 4.2: the pad-search branch)")
+
+
+def _fault_args(p: argparse.ArgumentParser, kinds: str) -> None:
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="inject a fault, KIND@T[:DURATION][,key=value...] in simulated "
-                        "seconds (repeatable; the kinds each scenario takes: "
-                        "docs/scenarios.md)")
+                        f"seconds (repeatable; {kinds})")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE.yaml",
                    help="inject the faults listed in this YAML file")
-    _run_services_args(p)
+
+
+def _faults_of(args: argparse.Namespace) -> tuple[Any, ...]:
+    """``--fault`` and ``--faults``; a bad spec is a SimError naming the bad part."""
+    from sim.fault_spec import load_faults, parse_faults
+
+    return tuple(parse_faults(args.fault)) + tuple(load_faults(args.faults)
+                                                   if args.faults else ())
 
 
 def _stderr(line: str) -> None:
@@ -367,10 +384,9 @@ def _sim_run(args: argparse.Namespace) -> int:
     from quadmission.reports.report import REPORT_NAME
     from quadmission.scenarios import SCENARIOS, ScenarioOptions
     from sim.arena import Lighting
-    from sim.fault_spec import load_faults, parse_faults
 
     # a bad spec is a SimError: one line naming the bad part, exit code 2
-    faults = parse_faults(args.fault) + (load_faults(args.faults) if args.faults else ())
+    faults = _faults_of(args)
     check_faults(args.scenario, faults)  # the kinds this scenario takes, or why not
     services = _run_services(args)
     options = ScenarioOptions(out=args.out, seed=args.seed, arena=args.arena,
@@ -435,6 +451,87 @@ def _linger(services: Any, args: argparse.Namespace) -> None:
                 time.sleep(1.0)
     finally:
         services.close()
+
+
+# -- vehicle ---------------------------------------------------------------------------------
+def _vehicle_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, default=Path("runs/vehicle"),
+                   help="folder for the ground truth: truth.npz (the true trajectory), "
+                        "vehicle.json (touchdowns, the FCU's failsafes, a crash, how far "
+                        "it fell behind real time), arena.yaml; written when it ends")
+    _world_args(p)
+    _fault_args(p, "the simulator's kinds: docs/scenarios.md")
+    p.add_argument("--rtf", type=_positive_float, default=1.0,
+                   help="pace to this many times real time (default 1; a companion on the "
+                        "host's clock flies it at 1 only)")
+    p.add_argument("--domain-id", type=int, default=0, help="the DDS domain id (ROS_DOMAIN_ID)")
+    p.add_argument("--network", action="store_true",
+                   help="discover and talk beyond this machine (default: localhost only)")
+    p.add_argument("--duration", type=_positive_seconds, default=None,
+                   help="stop after this many simulated seconds (default: a day; SIGINT "
+                        "or SIGTERM stops it, writing what it has)")
+    p.add_argument("--config-dir", type=Path, default=None,
+                   help="simulator YAMLs (default: config/)")
+
+
+def _vehicle_options(args: argparse.Namespace, out: Path) -> Any:
+    """The vehicle's options from the arguments ``vehicle`` and ``fly-realtime`` share
+    (a bad one is said here, before anything starts)."""
+    from quadmission.vehicle.run import VehicleOptions
+    from sim.arena import Lighting
+
+    return VehicleOptions(
+        out=out, seed=args.seed, arena=args.arena, random_arena=args.random_arena,
+        lighting=Lighting(args.lighting) if args.lighting else None,
+        faults=_faults_of(args), rtf=getattr(args, "rtf", 1.0), domain_id=args.domain_id,
+        loopback_only=not getattr(args, "network", False),
+        **({} if getattr(args, "duration", None) is None else {"duration_s": args.duration}),
+        config_dir=None if getattr(args, "config_dir", None) is None
+        else args.config_dir.resolve())
+
+
+def _vehicle_run(args: argparse.Namespace) -> int:
+    from quadmission.vehicle.run import run_vehicle
+
+    outcome = run_vehicle(_vehicle_options(args, args.out),
+                          lambda line: _stderr(f"[vehicle] {line}"))
+    print(json.dumps({"exit_code": outcome.exit_code, "reason": outcome.reason,
+                      "out": str(args.out)}), flush=True)
+    return outcome.exit_code
+
+
+# -- fly-realtime ----------------------------------------------------------------------------
+#: fly-realtime's ROS domain: not 0, where a launch or a user's stack runs by default
+REALTIME_DOMAIN_ID = 38
+
+
+def _fly_realtime_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", type=Path, default=Path("runs/realtime"),
+                   help="folder for report.json, mission.json, the logs and the vehicle's "
+                        "ground truth (OUT/vehicle)")
+    _world_args(p)
+    _fault_args(p, "the vehicle's: the simulator's kinds")
+    p.add_argument("--domain-id", type=int, default=REALTIME_DOMAIN_ID,
+                   help=f"the run's own ROS domain (default {REALTIME_DOMAIN_ID})")
+    p.add_argument("--until-state", default=None, metavar="STATE",
+                   help="end once the mission enters STATE (e.g. mission.pad.takeoff: "
+                        "after the first pad's landing)")
+    p.add_argument("--timeout", type=_positive_seconds, default=1800.0,
+                   help="host seconds the companion may fly at most (default 1800)")
+
+
+def _fly_realtime_run(args: argparse.Namespace) -> int:
+    from quadmission.scenarios.mission.realtime import RealtimeOptions, fly_realtime
+
+    report = fly_realtime(RealtimeOptions(
+        out=args.out, vehicle=_vehicle_options(args, args.out / "vehicle"),
+        until_state=args.until_state, timeout_s=args.timeout, say=_stderr))
+    print(json.dumps({k: v for k, v in report.items() if not isinstance(v, list | dict)},
+                     allow_nan=False), flush=True)
+    _stderr(f"report: {args.out / 'report.json'}")
+    _stderr(str(report["verdict"]))
+    reached = args.until_state is not None and report["companion_exit_code"] == 0
+    return 0 if report["ok"] or reached else 1
 
 
 # -- campaign --------------------------------------------------------------------------------
@@ -668,6 +765,12 @@ COMMANDS: tuple[Command, ...] = (
     Command("fsm", "the mission state machine's transitions (--diagram: mermaid, for the README)",
             _fsm_args, _fsm_run),
     Command("launch", "run a launch file's nodes in simulated time", _launch_args, _launch_run),
+    Command("vehicle", "the simulated vehicle alone on the wall clock, where PX4 v1.17, its "
+            "uXRCE-DDS agent, the cameras and a VIO stand (ROS 2)", _vehicle_args,
+            _vehicle_run),
+    Command("fly-realtime", "the mission in real time: the vehicle, companion.yaml and an "
+            "operator in processes, scored against the vehicle's truth", _fly_realtime_args,
+            _fly_realtime_run),
     Command("interfaces", "list message types, or show one: field types and defaults",
             _interfaces_args, _interfaces_run),
     Command("bag", "a recorded rosbag2 MCAP: info (topics, counts, duration) or repair",

@@ -161,13 +161,18 @@ class SimSensorsNode(Node):
     """Publishes the simulated sensors; the world loop's parts decide when. Holds the
     sensors' parameters (:class:`SensorParams`)."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, *, clock: bool = True, **kwargs: Any) -> None:
         super().__init__(SENSORS_NODE_NAME, **kwargs)
         self.params = self.declare_params(SensorParams)
-        self.down_image, self.down_info, self.depth_points, self.clock = (
+        self.down_image, self.down_info, self.depth_points = (
             self.create_publisher(t.type, t.name, t.qos)
-            for t in (graph.CAMERA_DOWN_RAW, graph.CAMERA_DOWN_INFO, graph.CAMERA_DEPTH_POINTS,
-                      graph.CLOCK))
+            for t in (graph.CAMERA_DOWN_RAW, graph.CAMERA_DOWN_INFO, graph.CAMERA_DEPTH_POINTS))
+        #: /clock (None without ``clock``: a vehicle on the wall clock publishes none)
+        self.clock = (self.create_publisher(graph.CLOCK.type, graph.CLOCK.name, graph.CLOCK.qos)
+                      if clock else None)
+        self.stamp_offset_ns = 0
+        """The stamps' clock minus simulated time [ns]: 0 in simulated time; a vehicle on
+        the wall clock stamps as a camera driver on its host does (the host's clock)."""
 
 
 @dataclass
@@ -189,7 +194,7 @@ class DownCamera:
     deterministic."""
 
     def update(self, t_ns: int, scene: Scene) -> None:
-        stamp = Time(t_ns)
+        stamp = Time(t_ns + self.node.stamp_offset_ns)
         if self.node.down_info.get_subscription_count():
             self.node.down_info.publish(camera_info_msg(self.intrinsics, stamp, DOWN_FRAME))
         if not self.node.down_image.get_subscription_count():
@@ -241,7 +246,7 @@ class DepthCamera:
     def update(self, t_ns: int, scene: Scene) -> None:
         if not self.node.depth_points.get_subscription_count():
             return
-        stamp = Time(t_ns)
+        stamp = Time(t_ns + self.node.stamp_offset_ns)
         if self.latency_s <= 0.0:
             self._publish(self.cloud.points(scene.data), stamp)
             return
@@ -267,6 +272,7 @@ class ClockPublisher:
     name: str = "clock"
 
     def update(self, t_ns: int, scene: Scene) -> None:
+        assert self.node.clock is not None  # sensor_parts adds this part only with a /clock
         self.node.clock.publish(
             interfaces.new("rosgraph_msgs/msg/Clock", clock=Time(t_ns).to_msg())
         )
@@ -300,7 +306,7 @@ def sensor_parts(
 
     noise = params.depth_camera.noise_std if depth_noise_std is None else depth_noise_std
     sensor = CameraSensorModel(camera_model_params(), scene.arena.lighting, seed + 3)
-    return [
+    parts: list[DownCamera | DepthCamera | ClockPublisher] = [
         DownCamera(node, renderer, CameraIntrinsics.from_camera(scene.quad.down_camera),
                    rate_hz=rate("down_camera.rate_hz", params.down_camera.rate_hz, camera_hz),
                    sensor=sensor, latency_s=params.down_camera.latency_s),
@@ -308,5 +314,8 @@ def sensor_parts(
                                           noise_std=noise, seed=seed),
                     rate_hz=rate("depth_camera.rate_hz", params.depth_camera.rate_hz, depth_hz),
                     latency_s=params.depth_camera.latency_s),
-        ClockPublisher(node, rate_hz=rate("clock_rate_hz", params.clock_rate_hz, None)),
     ]
+    if node.clock is not None:
+        parts.append(ClockPublisher(node, rate_hz=rate("clock_rate_hz", params.clock_rate_hz,
+                                                       None)))
+    return parts

@@ -67,6 +67,10 @@ class VisionNode(Node):
         self.params = self.declare_params(VisionParams)
         pose = graph.SIM_VISION_POSE
         self.pose = self.create_publisher(pose.type, pose.name, pose.qos)
+        self.stamp_offset_ns = 0
+        """The stamps' clock minus simulated time [ns] (as
+        :attr:`sim.sensors.SimSensorsNode.stamp_offset_ns`: a VIO on the vehicle's host
+        stamps with the host's clock)."""
 
 
 @dataclass
@@ -132,7 +136,8 @@ class VisionPose:
             cov[i * 7] = n.yaw_std**2 + 1e-6
         msg = interfaces.new(
             "geometry_msgs/msg/PoseWithCovarianceStamped",
-            header=interfaces.new("std_msgs/msg/Header", stamp=Time(t_ns).to_msg(),
+            header=interfaces.new("std_msgs/msg/Header",
+                                  stamp=Time(t_ns + self.node.stamp_offset_ns).to_msg(),
                                   frame_id=MAP_FRAME),
             pose=interfaces.new(
                 "geometry_msgs/msg/PoseWithCovariance",

@@ -90,18 +90,22 @@ class FcuInbox:
 class FcuAgentNode(Node):
     """Publishes what the FCU sends and queues what the companion sends, across the link."""
 
-    def __init__(self, link: Link, **kwargs: Any) -> None:
+    def __init__(self, link: Link, *, session_topics: bool = True, **kwargs: Any) -> None:
+        """``session_topics``: the modelled XRCE session's Timesync exchange on the graph
+        (:data:`XRCE_SESSION`, for the companion's ``timesync_source: exchange``); without
+        it the agent carries the /fmu topics alone, as PX4's does."""
         super().__init__("fcu_agent", **kwargs)
         self.link = link
         self.inbox = FcuInbox()
+        outs, ins = (AGENT_OUT, AGENT_IN) if session_topics else (FMU_OUT, FMU_IN)
         self._publishers = {
             short: self.create_publisher(topic.type, topic.name, topic.qos)
-            for short, topic in AGENT_OUT.items()
+            for short, topic in outs.items()
         }
         self._subscriptions = [
             self.create_subscription(topic.type, topic.name, self._receiver(short, topic.type),
                                      topic.qos)
-            for short, topic in AGENT_IN.items()
+            for short, topic in ins.items()
         ]
         self._consumers: dict[str, Callable[[Arrival], None]] = {}
         self.sent = dict.fromkeys(AGENT_OUT, 0)

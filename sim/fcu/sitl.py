@@ -70,9 +70,11 @@ def build_sitl(
     vision_noise: VisionNoise | None = None,
     executor: DeterministicExecutor | None = None,
     physics_hz: int | None = None,
+    session_topics: bool = True,
 ) -> Sitl:
     """A quadrotor on the start pad, FCU booted, vision running; nothing armed yet.
-    ``physics_hz`` defaults to ``config/sim_world.yaml``'s."""
+    ``physics_hz`` defaults to ``config/sim_world.yaml``'s; ``session_topics``: the
+    agent's modelled XRCE time-sync exchange on the graph (:class:`FcuAgentNode`)."""
     scene = Scene.build(arena or default_arena(), physics_hz=physics_hz)
     scene.place_at_takeoff()
     ex = executor or DeterministicExecutor()
@@ -81,7 +83,7 @@ def build_sitl(
     assert firmware.firmware is not None
     the_link = Link(link_params.__class__(link_params.to_fcu, link_params.to_companion,
                                           seed + link_params.seed, link_params.clock))
-    agent = FcuAgentNode(the_link, context=ex.context)
+    agent = FcuAgentNode(the_link, session_topics=session_topics, context=ex.context)
     imu = Imu.seeded(seed + 1, rate_hz=firmware.firmware.imu_rate_hz)
     fw = Firmware(agent, imu, the_link.clock, firmware)
     vision_node = VisionNode(context=ex.context)

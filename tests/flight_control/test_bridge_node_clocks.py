@@ -242,3 +242,25 @@ def test_the_bridge_says_when_its_time_sync_restarts_after_the_offset_steps(
         "-25050000 us")
     assert said[2].startswith("time sync converged: companion minus FCU clock -25050000 us")
     assert bridge.synced
+
+
+def test_an_fcu_that_reboots_is_synced_again_on_its_new_clock(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """PX4 rebooted (or its clock jumped): the offset it reports steps by seconds. The
+    bridge restarts its time sync, says so, holds stamps on the receive time for one
+    report, then stamps on the new clock. A small change (the FCU's own filter moving)
+    is no restart."""
+    loop = _loop()
+    loop.report_offset(7_250_000)
+    loop.report_offset(7_250_000 + 5_000)  # 5 ms: the FCU's estimate moving
+    assert loop.bridge.synced and loop.bridge.timesync.estimate.resets == 0
+    rebooted = 7_250_000 + 31_000_000  # back 31 s later, its boot clock from the start
+    with caplog.at_level(logging.INFO):
+        loop.report_offset(rebooted)
+        assert not loop.bridge.synced
+        assert "time sync restarted (restart 1): the clock offset stepped from 7255000 to " \
+               f"{rebooted} us" in caplog.text
+        loop.report_offset(rebooted)
+    assert loop.bridge.synced and "time sync converged" in caplog.text
+    taken_ns = loop.ex.now_ns() - AGE_NS
+    assert loop.odometry_sampled_at(taken_ns // NS_PER_US - rebooted) == taken_ns

@@ -20,7 +20,7 @@ truth is not judged here; ``quadmission sim --scenario mission`` writes the repo
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from fsm.mission_machine import EventKind
@@ -44,14 +44,15 @@ from quadmission.scenarios.mission.scenario import (
 from quadmission.scenarios.square.launch import SitlSimulation, launch_arena, pop_arena
 from runtime import DeterministicExecutor, Node
 from runtime.launch import SimulationResult
-from sim.fault_spec import parse_faults
+from sim.arena import ArenaSpec
+from sim.fault_spec import Fault, parse_faults
 from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
 from sim.render import SceneRenderer
 from sim.sensors import SimSensorsNode, sensor_parts
 
-__all__ = ["LaunchedMission", "MissionSimulation", "mission", "navigator", "operator",
-           "path_finder", "sitl"]
+__all__ = ["LaunchedMission", "MissionSimulation", "mission", "mission_sitl", "navigator",
+           "operator", "path_finder", "sitl"]
 
 
 class MissionSimulation(SitlSimulation):
@@ -82,14 +83,22 @@ def sitl(executor: DeterministicExecutor, *, arena: str | None = None, seed: int
     pad ``remove_pad``, which the mission still has on its map), with ``faults`` (specs,
     :mod:`sim.fault_spec`): the simulator's, and in process the app's (the executor
     runs every node then; under ros2 the launcher kills a stopped node's process)."""
-    flown = flown_arena(launch_arena(arena), remove_pad)
-    sim = build_sitl(flown, seed=seed, executor=executor)
-    sensors = SimSensorsNode(context=executor.context)
+    return mission_sitl(executor, flown_arena(launch_arena(arena), remove_pad), seed=seed,
+                        faults=parse_faults(faults) if faults else ())
+
+
+def mission_sitl(executor: DeterministicExecutor, flown: ArenaSpec, *, seed: int = 0,
+                 faults: Sequence[Fault] = (), vehicle: bool = False) -> MissionSimulation:
+    """The SITL and the cameras in the ``flown`` arena, with ``faults``. ``vehicle``: as a
+    vehicle on the wall clock stands on the graph (``quadmission vehicle``): no ``/clock``,
+    no modelled XRCE time-sync topics, only what PX4's agent, the cameras and a VIO
+    carry."""
+    sim = build_sitl(flown, seed=seed, executor=executor, session_topics=not vehicle)
+    sensors = SimSensorsNode(clock=not vehicle, context=executor.context)
     executor.add_node(sensors)
     if faults:
-        parsed = parse_faults(faults)
-        install_faults(sim, parsed, sensors=sensors)
-        app = [f for f in parsed if f.kind in APP_KINDS]
+        install_faults(sim, list(faults), sensors=sensors)
+        app = [f for f in faults if f.kind in APP_KINDS]
         if app:
             sim.extra_parts.append(AppFaults(executor, app, None))
     return MissionSimulation(sim, sensors, seed)

@@ -24,7 +24,7 @@ TRANSPORT_KINDS = [pytest.param("ros2", marks=needs_ros2)]
 
 
 #: the tests that start ROS 2 processes, each on a domain of its own (ros_domain)
-_DOMAIN_USERS = ("runtime", "square", "ground_station", "user_node")
+_DOMAIN_USERS = ("runtime", "square", "ground_station", "user_node", "vehicle")
 #: the domains tests claim: 100..229 (ROS 2 domain ids end at 232)
 TEST_DOMAINS = range(100, 230)
 #: one lock file per domain, machine-wide: every checkout's test runs (a developer's and

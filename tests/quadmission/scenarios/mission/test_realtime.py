@@ -1,0 +1,98 @@
+"""The companion in real time: ``config/launch/companion.yaml`` (its node list as written)
+flies ``quadmission vehicle`` on the wall clock, each in processes of its own, with the
+simulated operator beside them (:func:`quadmission.scenarios.mission.realtime.fly_realtime`),
+scored against the vehicle's ground truth.
+
+The arena is small, so that a flight through the take-off, the robot, one pad's precision
+landing and the take-off after it is about a minute and a half of flight at real time
+(the whole mission on it: 93 s simulated, in process). A companion that stops streaming
+setpoints in flight leaves the vehicle's FCU to its failsafe. No wall-clock figure is
+asserted: on a busy host the vehicle falls behind and says so, the mission may HOLD and
+RESUME, and the outcome must still hold.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from quadmission.scenarios.mission.realtime import COMPANION_YAML, RealtimeOptions, fly_realtime
+from quadmission.vehicle.run import VehicleOptions
+from sim.arena import PAD_SIZE
+from tests.runtime.processes.conftest import needs_ros2, ros_domain
+
+pytestmark = [needs_ros2, pytest.mark.slow]
+
+# 7 x 5 m, two pads; the target robot parked beside the explore's first lane, so the
+# exploration finds it within seconds
+ARENA = """\
+name: small
+lighting: light
+field:
+  size: [7.0, 5.0, 3.5]
+  wall_thickness: 0.2
+start_pad: 1
+obstacles: []
+pads:
+  - {id: 1, center: [1.5, 2.5]}
+  - {id: 2, center: [4.5, 2.5]}
+robots:
+  - marker_id: 19
+    speed: 0.05
+    loop: false
+    path: [[1.5, 1.0], [1.7, 1.0]]
+    points: {1: 10, 2: 30}
+"""
+_TIMEOUT_S = 900.0  # host seconds the companion may take at most: a generous bound
+
+
+def _fly(tmp_path: Path, until_state: str, settle_s: float = 3.0) -> dict[str, Any]:
+    arena = tmp_path / "small.yaml"
+    arena.write_text(ARENA)
+    vehicle = VehicleOptions(out=tmp_path / "unused", arena=arena,
+                             domain_id=ros_domain("vehicle"))
+    return fly_realtime(RealtimeOptions(out=tmp_path / "run", vehicle=vehicle,
+                                        until_state=until_state, timeout_s=_TIMEOUT_S,
+                                        settle_s=settle_s))
+
+
+def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landing(
+        tmp_path: Path) -> None:
+    report = _fly(tmp_path, "mission.pad.takeoff")  # entered once the first pad is landed
+    run = tmp_path / "run"
+    assert report["companion_exit_code"] == 0, (run / "companion.log").read_text()[-4000:]
+    assert report["final_state"] == "mission.pad.takeoff", report["verdict"]
+    states = [s["state"] for s in report["states"]]
+    for state in ("preflight", "mission.takeoff", "mission.explore", "mission.pad.land"):
+        assert state in states, states
+    (landed,) = report["landings"]
+    assert landed["inside_pad"] and landed["touchdown_error_m"] < PAD_SIZE / 4, landed
+    assert not report["crashed"]
+    # the vehicle's truth saw the touchdown too, at the mission's landing
+    assert any(abs(t["t_s"] - landed["t_s"]) < 5.0 for t in report["touchdowns"]), report
+    behind = report["vehicle"]["behind"]  # reported, whatever the host's load made it
+    assert {"episodes", "max_lag_s", "behind_s"} <= set(behind)
+    # the offboard stream as the FCU took it, in OFFBOARD: seconds of it at >= 2 Hz
+    assert report["vehicle"]["setpoints"]["heartbeats"] > 20
+    # companion.yaml's nodes, as written: the run only told them the arena
+    ours = yaml.safe_load((run / "companion.yaml").read_text())["nodes"]
+    theirs = yaml.safe_load(COMPANION_YAML.read_text())["nodes"]
+    assert [(n["factory"], n["process"]) for n in ours] == \
+        [(n["factory"], n["process"]) for n in theirs]
+
+
+def test_a_companion_that_stops_streaming_setpoints_leaves_the_fcu_to_its_failsafe(
+        tmp_path: Path) -> None:
+    """The companion ends as the exploration starts, the vehicle in the air: PX4's
+    COM_OF_LOSS_T later the FCU fails safe (offboard lost), and its action lands it."""
+    report = _fly(tmp_path, "mission.explore", settle_s=25.0)
+    assert report["companion_exit_code"] == 0, report["verdict"]
+    stopped_s = report["states"][-1]["t_s"]  # the companion's last word
+    late = [f for f in report["fcu_failsafes"] if f["t_s"] > stopped_s]
+    assert late and late[0]["reason"] == "OFFBOARD_LOSS", report["fcu_failsafes"]
+    landed = [t for t in report["touchdowns"] if t["t_s"] > late[0]["t_s"]]
+    assert landed, f"no touchdown after the failsafe: {report['touchdowns']}"
+    assert not report["crashed"]
