@@ -171,6 +171,9 @@ class RealtimeOptions:
     timeout_s: float = 1800.0  # [s of host time] the companion's launch at most
     settle_s: float = _SETTLE_S  # [s of host time] the vehicle runs on after the companion
     vehicle_nice: int = VEHICLE_NICE  # the vehicle's process priority (nice), if allowed
+    #: the companion's and the operator's processes' nice (0: as any program; a flight stack
+    #: that shares its computer with other work is given a higher priority, if allowed)
+    companion_nice: int = 0
     companion: Path = COMPANION_YAML
     say: Callable[[str], None] = field(default=lambda _line: None, compare=False)
 
@@ -248,8 +251,10 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
                              "parameters": {"folder": str(out)}})
         operator.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
         wall = ["--transport", "ros2", "--wall-clock", *ros]
-        procs["companion"] = _start(_cli("launch", str(companion), *wall), logs["companion"])
-        procs["operator"] = _start(_cli("launch", str(operator), *wall), logs["operator"])
+        procs["companion"] = _start(_cli("launch", str(companion), *wall), logs["companion"],
+                                    options.companion_nice)
+        procs["operator"] = _start(_cli("launch", str(operator), *wall), logs["operator"],
+                                   options.companion_nice)
         options.say(f"companion (pid {procs['companion'].pid}) and operator (pid "
                     f"{procs['operator'].pid}) started; logs in {out}")
         deadline = time.monotonic() + options.timeout_s

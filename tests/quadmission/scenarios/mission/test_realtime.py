@@ -46,6 +46,7 @@ robots:
     path: [[1.5, 1.0], [1.7, 1.0]]
     points: {1: 10, 2: 30}
 """
+COMPANION_NICE = -3  # above the other tests, below the vehicle's -5 (the hardware's)
 _TIMEOUT_S = 900.0  # host seconds the companion may take at most: a generous bound
 
 
@@ -54,11 +55,15 @@ def _fly(tmp_path: Path, until_state: str, settle_s: float = 3.0) -> dict[str, A
     arena.write_text(ARENA)
     vehicle = VehicleOptions(out=tmp_path / "unused", arena=arena,
                              domain_id=ros_domain("vehicle"))
+    # the companion before the other tests beside it (as a flight stack before other work
+    # on its computer): starved by a parallel worker, its flight loop went silent for 0.5 s
+    # after arming once in four runs on a loaded host ("takeoff: FCU not connected")
     return fly_realtime(RealtimeOptions(out=tmp_path / "run", vehicle=vehicle,
                                         until_state=until_state, timeout_s=_TIMEOUT_S,
-                                        settle_s=settle_s))
+                                        settle_s=settle_s, companion_nice=COMPANION_NICE))
 
 
+@pytest.mark.realtime  # make test-realtime: beside a parallel worker it failed 2 in 5
 def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landing(
         tmp_path: Path) -> None:
     report = _fly(tmp_path, "mission.pad.takeoff")  # entered once the first pad is landed
