@@ -215,6 +215,7 @@ class Ros2Transport:
                    signal_handler_options=SignalHandlerOptions.NO)
         self._nodes: dict[str, RclNode] = {}
         self._mirrored: weakref.WeakSet[Node] = weakref.WeakSet()  # parameters mirrored
+        self._clocks: list[tuple[Any, list[Any]]] | None = None  # (time source, clocks)
         self._process_node = _process_node_name(name)
         self._guard = _rclpy.GuardCondition(self.context.handle)
         # what the wait set holds; entity -> how to take from it
@@ -251,7 +252,7 @@ class Ros2Transport:
             for srv in node.services:  # parameter services, answered by rclpy's callbacks
                 self._services[srv] = self._native_service(srv)
             self._nodes[fqn] = node
-            self._wait_set = None
+            self._wait_set = self._clocks = None
         return node
 
     def mirror_parameters(self, node: Node) -> None:
@@ -267,10 +268,16 @@ class Ros2Transport:
         if not self.use_sim_time:
             return
         now = RclTime(nanoseconds=t_ns, clock_type=ClockType.ROS_TIME)
-        for node in self._nodes.values():
-            node._time_source._last_time_set = now
-            for clock in node._time_source._associated_clocks:
-                clock.set_ros_time_override(now)
+        if self._clocks is None:  # rclpy's ROSClock.set_ros_time_override, without its
+            # checks and lock per call (this thread is the only one to move them)
+            self._clocks = [(node._time_source, [c.handle for c in
+                                                 node._time_source._associated_clocks])
+                            for node in self._nodes.values()]
+        handle = now._time_handle
+        for time_source, clocks in self._clocks:
+            time_source._last_time_set = now  # what a clock attached later starts at
+            for clock in clocks:
+                clock.set_ros_time_override(handle)
 
     # -- endpoints -------------------------------------------------------------------------
     def _check_type(self, endpoint: Endpoint) -> None:
