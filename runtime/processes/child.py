@@ -6,7 +6,7 @@ Fast DDS; :data:`TRANSPORTS`). A node process waits
 for the first ``/clock`` (``use_sim_time``),
 creates its nodes and spins them until one of them finishes (its exit code is the
 process's) or SIGINT/SIGTERM. The simulator process builds the simulation around an
-executor on the same transport and, about every millisecond of simulated time, publishes
+executor on the same transport and, every 2 ms of simulated time (``_TICK_HZ``), publishes
 ``/clock``, takes the samples that arrived and paces to ``rtf`` times real time. It waits
 for the node processes' ``/clock`` subscriptions before it starts, so no simulated time
 passes while they boot. A last line on stderr says why the process ended.
@@ -72,7 +72,7 @@ __all__ = ["TRANSPORTS", "ProcessSpec", "main"]
 EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 EXIT_STALLED = 5  # a node process sent no report for stall_timeout_s while it was waited for
-_TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
+_TICK_HZ = 500.0  # /clock rate [Hz of simulated time]: a step of 2 ms, the report period
 _WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
 _CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
 _SIMULATOR_CLOCK = "/simulator_clock"  # the node of the simulator's /clock and its reports

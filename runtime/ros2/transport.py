@@ -26,6 +26,7 @@ from __future__ import annotations
 import itertools
 import logging
 import re
+import time
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -63,6 +64,10 @@ __all__ = ["Ros2Transport"]
 
 _log = logging.getLogger("quadmission.transport.ros2")
 _NS_PER_S = 1_000_000_000
+#: The incompatible-QoS events are in a wait at most this often [s of host time]: they
+#: stay ready until taken, and a process wakes hundreds of times a second for its data and
+#: /clock; each event in every wait was a third of a node process's wait set.
+_EVENTS_EVERY_S = 0.1
 
 
 def _noop(*_: Any) -> None:
@@ -232,6 +237,7 @@ class Ros2Transport:
         #: incompatible QoS pairs met so far, each named by topic, side and policy
         self.incompatibilities: list[Incompatibility] = []
         self._ready: tuple[_WaitPlan, list[int], list[Any]] | None = None  # the last wait's
+        self._events_due = 0.0  # host monotonic time the QoS events are next waited on
         self._closed = False
 
     # -- nodes -----------------------------------------------------------------------------
@@ -469,8 +475,11 @@ class Ros2Transport:
         ws.clear_entities()
         for add, handle in plan.adds:
             add(handle)
-        add_event = ws.add_event
-        indices = [add_event(event) for event in plan.events]
+        indices: list[int] = []
+        if plan.events and time.monotonic() >= self._events_due:
+            add_event = ws.add_event
+            indices = [add_event(event) for event in plan.events]
+            self._events_due = time.monotonic() + _EVENTS_EVERY_S
         ws.wait(max(0, round(timeout_s * _NS_PER_S)))
         ready = ws.get_ready_entities("subscription")
         ready += ws.get_ready_entities("client")
