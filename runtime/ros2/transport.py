@@ -64,10 +64,12 @@ __all__ = ["Ros2Transport"]
 
 _log = logging.getLogger("quadmission.transport.ros2")
 _NS_PER_S = 1_000_000_000
-#: The incompatible-QoS events are in a wait at most this often [s of host time]: they
-#: stay ready until taken, and a process wakes hundreds of times a second for its data and
-#: /clock; each event in every wait was a third of a node process's wait set.
-_EVENTS_EVERY_S = 0.1
+#: The incompatible-QoS events and the rcl nodes' parameter services (for foreign tools)
+#: are in a wait at most this often [s of host time]: an event stays ready, and a request
+#: waits, until taken, and a process wakes hundreds of times a second for its data and
+#: /clock anyway. In every wait they were half of a node process's wait set (six services
+#: per rcl node, an event per publisher and subscription), and rcl's wait costs by size.
+_SELDOM_EVERY_S = 0.1
 
 
 def _noop(*_: Any) -> None:
@@ -197,6 +199,7 @@ class _WaitPlan:
 
     wait_set: Any
     adds: list[tuple[Callable[[Any], Any], Any]]  # (the wait set's add_*, a handle)
+    seldom: list[tuple[Callable[[Any], Any], Any]]  # the same, every _SELDOM_EVERY_S
     takers: dict[int, Callable[[], None]]  # a ready entity's pointer -> take what it has
     events: list[Any]  # the rcl events of the handlers below
     handlers: list[Any]  # rclpy's incompatible-QoS event handlers
@@ -221,6 +224,7 @@ class Ros2Transport:
         self._nodes: dict[str, RclNode] = {}
         self._mirrored: weakref.WeakSet[Node] = weakref.WeakSet()  # parameters mirrored
         self._clocks: list[tuple[Any, list[Any]]] | None = None  # (time source, clocks)
+        self._seldom: set[Any] = set()  # rclpy's parameter services (_SELDOM_EVERY_S)
         self._process_node = _process_node_name(name)
         self._guard = _rclpy.GuardCondition(self.context.handle)
         # what the wait set holds; entity -> how to take from it
@@ -237,7 +241,7 @@ class Ros2Transport:
         #: incompatible QoS pairs met so far, each named by topic, side and policy
         self.incompatibilities: list[Incompatibility] = []
         self._ready: tuple[_WaitPlan, list[int], list[Any]] | None = None  # the last wait's
-        self._events_due = 0.0  # host monotonic time the QoS events are next waited on
+        self._seldom_due = 0.0  # host monotonic time the seldom entities are next waited on
         self._closed = False
 
     # -- nodes -----------------------------------------------------------------------------
@@ -257,6 +261,7 @@ class Ros2Transport:
                 time_source._clock_sub = None
             for srv in node.services:  # parameter services, answered by rclpy's callbacks
                 self._services[srv] = self._native_service(srv)
+                self._seldom.add(srv)
             self._nodes[fqn] = node
             self._wait_set = self._clocks = None
         return node
@@ -372,6 +377,7 @@ class Ros2Transport:
     def _forget(self, entity: Any) -> None:
         for table in (self._subs, self._services, self._clients, self._events):
             table.pop(entity, None)
+        self._seldom.discard(entity)
         for plan in (self._wait_set, self._ready and self._ready[0]):
             if plan:  # a dispatch to come or under way must not take from it
                 plan.takers.pop(entity.handle.pointer, None)
@@ -452,17 +458,18 @@ class Ros2Transport:
         ws = _rclpy.WaitSet(len(self._subs), 1, 0, len(self._clients), len(self._services),
                             len(handlers), self.context.handle)
         adds: list[tuple[Callable[[Any], Any], Any]] = []
+        seldom: list[tuple[Callable[[Any], Any], Any]] = []
         takers: dict[int, Callable[[], None]] = {}
         for add, table in ((ws.add_subscription, self._subs), (ws.add_client, self._clients),
                            (ws.add_service, self._services)):
             for entity, take in table.items():
-                adds.append((add, entity.handle))
+                (seldom if entity in self._seldom else adds).append((add, entity.handle))
                 takers[entity.handle.pointer] = take
         adds.append((ws.add_guard_condition, self._guard))
         # rclpy's EventHandler adds its rcl event and remembers the index; we do the same,
         # without its lock per call (one thread waits, takes and destroys here)
         events = [h._EventHandler__event for h in handlers]
-        return _WaitPlan(ws, adds, takers, events, handlers)
+        return _WaitPlan(ws, adds, seldom, takers, events, handlers)
 
     def wait(self, timeout_s: float) -> bool:
         """Block until an entity is ready, :meth:`wake` is called, or ``timeout_s``."""
@@ -476,10 +483,12 @@ class Ros2Transport:
         for add, handle in plan.adds:
             add(handle)
         indices: list[int] = []
-        if plan.events and time.monotonic() >= self._events_due:
+        if time.monotonic() >= self._seldom_due:
+            for add, handle in plan.seldom:
+                add(handle)
             add_event = ws.add_event
             indices = [add_event(event) for event in plan.events]
-            self._events_due = time.monotonic() + _EVENTS_EVERY_S
+            self._seldom_due = time.monotonic() + _SELDOM_EVERY_S
         ws.wait(max(0, round(timeout_s * _NS_PER_S)))
         ready = ws.get_ready_entities("subscription")
         ready += ws.get_ready_entities("client")
