@@ -24,6 +24,13 @@ half the round trip as the one-way latency (p50, p99, max [us]).
   each burn a core (``while True: pass``): its exit code and reason (0, landed) and its
   real-time factor. The lockstep keeps the flight valid however starved the processes are;
   the starvation shows as a lower real-time factor.
+- **lockstep_mission** (``--lockstep-only`` runs only this): the first ``--slice`` simulated
+  seconds of ``mission.yaml`` under ``--transport ros2`` at full speed (every process in
+  lockstep with the simulator), and the same slice in one process: CPU seconds (user +
+  system, threads included, from ``/proc``) per simulated second for each process and in
+  all, with the start-up taken out (a 2 s run's CPU subtracted). CPU per simulated second
+  holds on a loaded host, where the real-time factor does not. ``--compare-tree DIR``
+  measures another checkout the same way beside it (``lockstep_mission_before``).
 
 The message is ``std_msgs/UInt8MultiArray`` with 99 data bytes: 115 bytes of CDR. The send
 time (CLOCK_MONOTONIC, the same in every process) travels in its first 8 data bytes.
@@ -284,16 +291,16 @@ def _children(pid: int) -> list[int]:
     return found
 
 
-def _launch_cpu(argv: list[str]) -> tuple[dict[str, float], float, str, int]:
+def _launch_cpu(argv: list[str], root: Path) -> tuple[dict[str, float], float, str, int]:
     """Run a launch; the CPU seconds of each of its processes (sampled every 0.2 s, the
     last one at exit from the kernel's count of waited-for children), the total, its
     stderr and exit code."""
     import resource
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                          text=True, env=dict(os.environ, MUJOCO_GL=os.environ.get(
-                              "MUJOCO_GL", "egl"))) as proc:
+    env = dict(os.environ, PYTHONPATH=str(root), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    with subprocess.Popen(argv, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True, env=env) as proc:
         assert proc.stderr is not None
         import threading
         err: list[str] = []
@@ -324,19 +331,24 @@ def _simulated_s(stderr: str) -> float:
     return float(found[-1][0])
 
 
-def lockstep_mission(domain: int, duration_s: float, short_s: float = 2.0) -> dict[str, Any]:
+def lockstep_mission(domain: int, duration_s: float, short_s: float = 2.0,
+                     root: Path = ROOT) -> dict[str, Any]:
     """The first ``duration_s`` of ``mission.yaml`` (default arena, seed 0) under ``ros2`` in
     lockstep at full speed, and the same slice in one process: CPU seconds per simulated
     second, per process and in all. Each is also run for ``short_s``: the difference
-    between the two runs is the slice without the start-up (imports, nodes, discovery)."""
+    between the two runs is the slice without the start-up (imports, nodes, discovery).
+    ``root``: the source tree that runs (another commit's checkout, to compare)."""
     launch = [sys.executable, "-m", "quadmission.cli", "launch", "config/launch/mission.yaml"]
     ros2 = [*launch, "--transport", "ros2", "--domain-id", str(domain)]
-    result: dict[str, Any] = {"slice_s": duration_s, "short_s": short_s}
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root,
+                            capture_output=True, text=True).stdout.strip()
+    result: dict[str, Any] = {"slice_s": duration_s, "short_s": short_s,
+                              "commit": commit or None}
     for kind, argv in (("ros2", ros2), ("in_process", launch)):
         runs = {}
         for seconds in (short_s, duration_s):
             wall0 = time.monotonic()
-            per, total, err, code = _launch_cpu([*argv, "--duration", f"{seconds:g}"])
+            per, total, err, code = _launch_cpu([*argv, "--duration", f"{seconds:g}"], root)
             sim_s = _simulated_s(err) if kind == "ros2" else seconds
             runs[seconds] = (per, total, sim_s, time.monotonic() - wall0, code, err)
         (per0, total0, sim0, _, _, _), (per1, total1, sim1, wall, code, err) = (
@@ -389,6 +401,9 @@ def main() -> int:
                         help="only the lockstep mission's CPU (ros2 beside in process)")
     parser.add_argument("--slice", type=float, default=60.0,
                         help="lockstep mission: simulated seconds of the mission measured")
+    parser.add_argument("--compare-tree", type=Path, default=None,
+                        help="lockstep mission: also measure this checkout (another commit), "
+                             "as 'lockstep_mission_before'")
     parser.add_argument("--role", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     roles = {"ours-echo": lambda: ours_echo(args.domain),
@@ -401,8 +416,11 @@ def main() -> int:
         print(json.dumps(ping(args.domain, args.duration)))
         return 0
     if args.lockstep_only:
-        print(write_result(args.out, {"lockstep_mission": lockstep_mission(
-            args.domain, args.slice)}), end="")
+        found = {"lockstep_mission": lockstep_mission(args.domain, args.slice)}
+        if args.compare_tree is not None:
+            found["lockstep_mission_before"] = lockstep_mission(
+                args.domain, args.slice, root=args.compare_tree.resolve())
+        print(write_result(args.out, found), end="")
         return 0
     rounds = []
     for _ in range(args.rounds):  # alternating, so load changes hit both alike
