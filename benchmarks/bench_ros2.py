@@ -339,7 +339,7 @@ def lockstep_mission(domain: int, duration_s: float, short_s: float = 2.0,
     between the two runs is the slice without the start-up (imports, nodes, discovery).
     ``root``: the source tree that runs (another commit's checkout, to compare)."""
     launch = [sys.executable, "-m", "quadmission.cli", "launch", "config/launch/mission.yaml"]
-    ros2 = [*launch, "--transport", "ros2", "--domain-id", str(domain)]
+    ros2 = [*launch, "--transport", "ros2", "--domain-id", str(domain), "--rtf", "1000"]
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root,
                             capture_output=True, text=True).stdout.strip()
     result: dict[str, Any] = {"slice_s": duration_s, "short_s": short_s,
