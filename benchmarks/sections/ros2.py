@@ -43,12 +43,12 @@ def _lockstep(d: Json) -> list[str]:
     rows.append(["the same slice in one process",
                  *([num(before["in_process"]["cpu_per_sim_s_total"], 3)] if before else []),
                  num(alone["cpu_per_sim_s_total"], 3)])
-    rtf = (f"Real-time factors on the loaded host (not the target figure; wall time from "
-           f"the launch's start): under ros2 {num(ros2['rtf'])} at a 1-min load of "
+    rtf = (f"Real-time factors on the loaded host (not the target figure): under ros2, the "
+           f"simulator's own (from its first /clock), {num(ros2['rtf'])} at a 1-min load of "
            f"{after['load_avg_1min']:g}" + (f" (before: {num(before['ros2']['rtf'])} at "
                                           f"{before['load_avg_1min']:g})" if before else "")
-           + f", in one process {num(alone['rtf'])}. The launcher's figure (about 0) shows "
-             "the method's noise.")
+           + f"; in one process, from the command's start, {num(alone['rtf'])}. The "
+             "launcher's figure (about 0) shows the method's noise.")
     return [f"CPU seconds per simulated second, the first {after['slice_s']:g} s of the "
             "mission, start-up taken out:", "", *table(head, rows), rtf, ""]
 
