@@ -24,6 +24,13 @@ half the round trip as the one-way latency (p50, p99, max [us]).
   each burn a core (``while True: pass``): its exit code and reason (0, landed) and its
   real-time factor. The lockstep keeps the flight valid however starved the processes are;
   the starvation shows as a lower real-time factor.
+- **lockstep_mission** (``--lockstep-only`` runs only this): the first ``--slice`` simulated
+  seconds of ``mission.yaml`` under ``--transport ros2`` at full speed (every process in
+  lockstep with the simulator), and the same slice in one process: CPU seconds (user +
+  system, threads included, from ``/proc``) per simulated second for each process and in
+  all, with the start-up taken out (a 2 s run's CPU subtracted). CPU per simulated second
+  holds on a loaded host, where the real-time factor does not. ``--compare-tree DIR``
+  measures another checkout the same way beside it (``lockstep_mission_before``).
 
 The message is ``std_msgs/UInt8MultiArray`` with 99 data bytes: 115 bytes of CDR. The send
 time (CLOCK_MONOTONIC, the same in every process) travels in its first 8 data bytes.
@@ -248,6 +255,122 @@ def square_beside_busy_loops(domain: int, loops: int = 2) -> dict[str, Any]:
         "reason": json.loads(out.stdout)["reason"], **run}}
 
 
+# -- the lockstep mission: CPU per simulated second, per process, beside the in-process run --
+_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def _cpu_s(pid: int) -> float | None:
+    """User + system CPU seconds of ``pid`` (its threads included), or None once it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / _TICKS  # utime, stime
+
+
+def _process_name(pid: int) -> str | None:
+    """The launch's name of a child process (its ProcessSpec's), from its command line."""
+    try:
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    spec = next((a for a in argv if a.startswith(b'{"name"')), None)
+    return None if spec is None else str(json.loads(spec)["name"])
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rpartition(")")[2].split()[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+def _launch_cpu(argv: list[str], root: Path) -> tuple[dict[str, float], float, str, int]:
+    """Run a launch; the CPU seconds of each of its processes (sampled every 0.2 s, the
+    last one at exit from the kernel's count of waited-for children), the total, its
+    stderr and exit code."""
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    env = dict(os.environ, PYTHONPATH=str(root), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    with subprocess.Popen(argv, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True, env=env) as proc:
+        assert proc.stderr is not None
+        import threading
+        err: list[str] = []
+        reader = threading.Thread(target=lambda: err.extend(proc.stderr or ()), daemon=True)
+        reader.start()
+        seen: dict[int, tuple[str, float]] = {}
+        while proc.poll() is None:
+            for pid in [proc.pid, *_children(proc.pid)]:
+                name = "launcher" if pid == proc.pid else (
+                    seen[pid][0] if pid in seen else _process_name(pid))
+                cpu = _cpu_s(pid)
+                if name is not None and cpu is not None:
+                    seen[pid] = (name, cpu)
+            time.sleep(0.2)
+        reader.join(10)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    total = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    per: dict[str, float] = {}
+    for name, cpu in seen.values():
+        per[name] = per.get(name, 0.0) + cpu
+    return per, total, "".join(err), proc.returncode
+
+
+def _simulated_s(stderr: str) -> float:
+    found = re.findall(r"\[simulator\] ran ([\d.]+) s simulated in ([\d.]+) s", stderr)
+    if not found:
+        raise RuntimeError(f"the simulator did not say how far it ran: {stderr[-2000:]}")
+    return float(found[-1][0])
+
+
+def lockstep_mission(domain: int, duration_s: float, short_s: float = 2.0,
+                     root: Path = ROOT) -> dict[str, Any]:
+    """The first ``duration_s`` of ``mission.yaml`` (default arena, seed 0) under ``ros2`` in
+    lockstep at full speed, and the same slice in one process: CPU seconds per simulated
+    second, per process and in all. Each is also run for ``short_s``: the difference
+    between the two runs is the slice without the start-up (imports, nodes, discovery).
+    ``root``: the source tree that runs (another commit's checkout, to compare)."""
+    launch = [sys.executable, "-m", "quadmission.cli", "launch", "config/launch/mission.yaml"]
+    ros2 = [*launch, "--transport", "ros2", "--domain-id", str(domain), "--rtf", "1000"]
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root,
+                            capture_output=True, text=True).stdout.strip()
+    result: dict[str, Any] = {"slice_s": duration_s, "short_s": short_s,
+                              "commit": commit or None}
+    for kind, argv in (("ros2", ros2), ("in_process", launch)):
+        runs = {}
+        for seconds in (short_s, duration_s):
+            wall0 = time.monotonic()
+            per, total, err, code = _launch_cpu([*argv, "--duration", f"{seconds:g}"], root)
+            sim_s = _simulated_s(err) if kind == "ros2" else seconds
+            runs[seconds] = (per, total, sim_s, time.monotonic() - wall0, code, err)
+        (per0, total0, sim0, _, _, _), (per1, total1, sim1, wall, code, err) = (
+            runs[short_s], runs[duration_s])
+        span_s = sim1 - sim0
+        rtf = re.findall(r"real-time factor ([\d.]+)\)", err)
+        result[kind] = {
+            "exit_code": code, "simulated_s": round(sim1, 3), "wall_s": round(wall, 1),
+            "rtf": float(rtf[-1]) if rtf else round(sim1 / wall, 2),
+            "cpu_s": {name: round(cpu, 2) for name, cpu in sorted(per1.items())},
+            "cpu_s_total": round(total1, 2),
+            "startup_cpu_s_total": round(total0, 2),
+            "cpu_per_sim_s": {name: round((cpu - per0.get(name, 0.0)) / span_s, 3)
+                              for name, cpu in sorted(per1.items())},
+            "cpu_per_sim_s_total": round((total1 - total0) / span_s, 3),
+        }
+    result["ratio_ros2_to_in_process"] = round(
+        result["ros2"]["cpu_per_sim_s_total"] / result["in_process"]["cpu_per_sim_s_total"], 2)
+    result["load_avg_1min"] = load_1min(1)
+    return result
+
+
 # -- driver ----------------------------------------------------------------------------------
 def _run_pair(kind: str, domain: int, duration_s: float) -> dict[str, Any]:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -274,6 +397,13 @@ def main() -> int:
     # a domain outside the tests' range (100..229: tests/runtime/processes/conftest.py)
     parser.add_argument("--domain", type=int, default=60 + os.getpid() % 30)
     parser.add_argument("--no-square", action="store_true", help="latency only")
+    parser.add_argument("--lockstep-only", action="store_true",
+                        help="only the lockstep mission's CPU (ros2 beside in process)")
+    parser.add_argument("--slice", type=float, default=60.0,
+                        help="lockstep mission: simulated seconds of the mission measured")
+    parser.add_argument("--compare-tree", type=Path, default=None,
+                        help="lockstep mission: also measure this checkout (another commit), "
+                             "as 'lockstep_mission_before'")
     parser.add_argument("--role", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     roles = {"ours-echo": lambda: ours_echo(args.domain),
@@ -284,6 +414,13 @@ def main() -> int:
     if args.role in ("ours-ping", "bare-ping"):
         ping = ours_ping if args.role == "ours-ping" else bare_ping
         print(json.dumps(ping(args.domain, args.duration)))
+        return 0
+    if args.lockstep_only:
+        found = {"lockstep_mission": lockstep_mission(args.domain, args.slice)}
+        if args.compare_tree is not None:
+            found["lockstep_mission_before"] = lockstep_mission(
+                args.domain, args.slice, root=args.compare_tree.resolve())
+        print(write_result(args.out, found), end="")
         return 0
     rounds = []
     for _ in range(args.rounds):  # alternating, so load changes hit both alike
@@ -317,6 +454,7 @@ def main() -> int:
     }
     if not args.no_square:
         result |= square_rtf(args.domain) | square_beside_busy_loops(args.domain)
+        result["lockstep_mission"] = lockstep_mission(args.domain, args.slice)
     print(write_result(args.out, result), end="")
     return 0
 

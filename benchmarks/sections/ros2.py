@@ -28,10 +28,43 @@ def _headline(r: Results) -> list[Row]:
              f"bare rclpy (ratio {num(ros2['p50_ratio'])} / {num(ros2['p99_ratio'])})"]]
 
 
+def _lockstep(d: Json) -> list[str]:
+    after, before = d["lockstep_mission"], d.get("lockstep_mission_before")
+    ros2, alone = after["ros2"], after["in_process"]
+    names = [n for n in ros2["cpu_per_sim_s"] if n != "launcher"] + ["launcher"]
+    was = before["ros2"]["cpu_per_sim_s"] if before else {}
+    head = ["process", *([f"before ({before['commit']})"] if before else []),
+            f"now ({after['commit']})"]
+    rows = [[n, *([num(was[n], 3)] if before else []), num(ros2["cpu_per_sim_s"][n], 3)]
+            for n in names]
+    rows.append(["**all, under ros2**",
+                 *([f"**{num(before['ros2']['cpu_per_sim_s_total'], 3)}**"] if before else []),
+                 f"**{num(ros2['cpu_per_sim_s_total'], 3)}**"])
+    rows.append(["the same slice in one process",
+                 *([num(before["in_process"]["cpu_per_sim_s_total"], 3)] if before else []),
+                 num(alone["cpu_per_sim_s_total"], 3)])
+    rtf = (f"Real-time factors on the loaded host (not the target figure): under ros2, the "
+           f"simulator's own (from its first /clock), {num(ros2['rtf'])} at a 1-min load of "
+           f"{after['load_avg_1min']:g}" + (f" (before: {num(before['ros2']['rtf'])} at "
+                                          f"{before['load_avg_1min']:g})" if before else "")
+           + f"; in one process, from the command's start, {num(alone['rtf'])}. The "
+             "launcher's figure (about 0) shows the method's noise.")
+    return [f"CPU seconds per simulated second, the first {after['slice_s']:g} s of the "
+            "mission, start-up taken out:", "", *table(head, rows), rtf, ""]
+
+
 SECTIONS = {
     "ros2": Section(
         "ROS 2 transport: latency against bare rclpy",
         "Ping-pong between two processes on rclpy with Fast DDS (localhost), through our "
         "transport and through bare rclpy side by side, in alternating rounds.",
         body=_ros2, headline=_headline),
+    "ros2_lockstep": Section(
+        "ROS 2 transport: what the lockstep mission costs",
+        "The mission's first simulated seconds under `--transport ros2` at full speed, every "
+        "node process in lockstep with the simulator, against the same slice in one "
+        "process: each process's CPU (user + system, threads included) per simulated "
+        "second, the start-up (a 2 s run's CPU) taken out; before and after the lockstep's "
+        "cuts (docs/processes.md, \"What the lockstep costs\").",
+        body=_lockstep),
 }

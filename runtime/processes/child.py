@@ -6,7 +6,7 @@ Fast DDS; :data:`TRANSPORTS`). A node process waits
 for the first ``/clock`` (``use_sim_time``),
 creates its nodes and spins them until one of them finishes (its exit code is the
 process's) or SIGINT/SIGTERM. The simulator process builds the simulation around an
-executor on the same transport and, about every millisecond of simulated time, publishes
+executor on the same transport and, every 2 ms of simulated time (``_TICK_HZ``), publishes
 ``/clock``, takes the samples that arrived and paces to ``rtf`` times real time. It waits
 for the node processes' ``/clock`` subscriptions before it starts, so no simulated time
 passes while they boot. A last line on stderr says why the process ended.
@@ -49,14 +49,22 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-import interfaces
 from interfaces import graph
-from runtime.clock import Time
 from runtime.executor import DeterministicExecutor
-from runtime.launch import LaunchDescription, NodeSpec, SimulatorSpec, finished, launch
+from runtime.launch import (
+    LaunchDescription,
+    NodeSpec,
+    SimulatorSpec,
+    finished,
+    finishing,
+    first_finished,
+    launch,
+)
 from runtime.node import Node
 from runtime.processes.executor import ClockedExecutor, ParameterMirror, ProcessTransport
+from runtime.processes.lockstep import clock_cdr, clock_ns
 from runtime.processes.respawn import DEFAULT_RESPAWN_MAX, RespawnPolicy
+from runtime.transport import Endpoint, SampleCallback
 
 __all__ = ["TRANSPORTS", "ProcessSpec", "main"]
 
@@ -64,9 +72,10 @@ __all__ = ["TRANSPORTS", "ProcessSpec", "main"]
 EXIT_NO_CLOCK = 3  # no /clock arrived in time
 EXIT_NO_PEERS = 4  # the simulator's subscribers did not show up in time
 EXIT_STALLED = 5  # a node process sent no report for stall_timeout_s while it was waited for
-_TICK_HZ = 1000.0  # /clock rate [Hz of simulated time]
+_TICK_HZ = 500.0  # /clock rate [Hz of simulated time]: a step of 2 ms, the report period
 _WAIT_S = 0.01  # simulator: longest wait for a lagging process's report [s]
 _CLOCK_REPEAT_S = 0.1  # simulator: /clock sent again after waiting this long [s, host]
+_SIMULATOR_CLOCK = "/simulator_clock"  # the node of the simulator's /clock and its reports
 
 
 @dataclass(frozen=True)
@@ -157,18 +166,10 @@ def _start_nodes(spec: ProcessSpec, ex: ClockedExecutor,
         for node in nodes:
             transport.mirror_parameters(node)
     if spec.use_sim_time:
-        reporter = Node(f"launch_{_node_name(spec.name)}_clock", context=ex.context)
         reports = graph.LAUNCH_CLOCK_REPORT
-        ack = reporter.create_publisher(reports.type, reports.name_for(spec.name), reports.qos)
-
-        def report() -> None:
-            ack.publish(interfaces.new(reports.type, clock=reporter.now().to_msg()))
-
-        reporter.create_timer(spec.ack_period_s, report)
-        # a /clock sent again is the simulator waiting for us: report at once. The timer
-        # alone, on a simulated time that no longer moves, would never report again, and a
-        # report written before the simulator's reader matched is lost (volatile)
-        ex.on_clock_repeat = report
+        ex.report_reached(transport.create_writer(Endpoint(
+            reports.name_for(spec.name), reports.type, reports.qos,
+            node=f"/launch_{_node_name(spec.name)}_clock")), spec.ack_period_s)
     return nodes
 
 
@@ -198,7 +199,8 @@ def run_nodes(spec: ProcessSpec) -> int:
         _say(spec.name, f"restarted: nodes made at {ex.now().nanoseconds / 1e9:.3f} s "
                         "simulated")
     try:
-        ex.spin(until=lambda: finished(nodes) is not None)
+        watched = finishing(nodes)
+        ex.spin(until=lambda: first_finished(watched) is not None)
     finally:  # what a node holds outside the graph is let go: a bag's index, a server
         for node in reversed(nodes):
             node.destroy_node()
@@ -250,15 +252,15 @@ def run_simulator(spec: ProcessSpec) -> int:
     if isinstance(transport, ParameterMirror):
         for node in list(ex.context.nodes):
             transport.mirror_parameters(node)
-    clock_node = Node("simulator_clock", context=ex.context)
-    clock_pub = clock_node.create_publisher(graph.CLOCK.type, graph.CLOCK.name, graph.CLOCK.qos)
+    clock_pub = transport.create_writer(Endpoint(graph.CLOCK.name, graph.CLOCK.type,
+                                                 graph.CLOCK.qos, node=_SIMULATOR_CLOCK))
     reached = dict.fromkeys(spec.followers, 0)
     left: dict[str, int] = {}  # followers whose process died (to be restarted): last report
     control = _ControlPipe(sys.stdin.fileno()) if spec.control_stdin else None
 
-    def on_ack(who: str) -> Callable[[Any], None]:
-        def note(msg: Any) -> None:
-            t = Time.from_msg(msg.clock).nanoseconds
+    def on_ack(who: str) -> SampleCallback:
+        def note(data: bytes, _request_id: Any) -> None:  # taken by transport.dispatch
+            t = clock_ns(data)
             if who in left:  # its replacement's first report, newer than any of the dead's
                 if t <= left[who]:
                     return
@@ -280,13 +282,14 @@ def run_simulator(spec: ProcessSpec) -> int:
 
     reports = graph.LAUNCH_CLOCK_REPORT
     for follower in spec.followers:
-        clock_node.create_subscription(reports.type, reports.name_for(follower),
-                                       on_ack(follower), reports.subscriber_qos)
+        transport.create_reader(Endpoint(reports.name_for(follower), reports.type,
+                                         reports.subscriber_qos, node=_SIMULATOR_CLOCK),
+                                on_ack(follower))
     max_lead_ns = round(spec.max_lead_s * 1e9)
     deadline = time.monotonic() + spec.startup_timeout_s
-    while clock_pub.get_subscription_count() < spec.clock_subscribers and not stop["now"]:
+    while clock_pub.matched_count() < spec.clock_subscribers and not stop["now"]:
         if time.monotonic() > deadline:
-            _say(spec.name, f"only {clock_pub.get_subscription_count()} of "
+            _say(spec.name, f"only {clock_pub.matched_count()} of "
                             f"{spec.clock_subscribers} node processes subscribed to "
                             f"{graph.CLOCK.name} after {spec.startup_timeout_s:g} s")
             return EXIT_NO_PEERS
@@ -299,10 +302,8 @@ def run_simulator(spec: ProcessSpec) -> int:
     stalled: list[str] = []  # the node processes that stopped reporting, once given up on
 
     def tick(t_ns: int) -> None:
-        sec, nsec = divmod(t_ns, 1_000_000_000)
-        clock = interfaces.new(graph.CLOCK.type, clock=interfaces.new(
-            "builtin_interfaces/msg/Time", sec=sec, nanosec=nsec))
-        clock_pub.publish(clock)
+        clock = clock_cdr(t_ns)
+        clock_pub.write(clock)
         transport.dispatch()
         waiting_since = time.monotonic()
         repeat_at = waiting_since + _CLOCK_REPEAT_S
@@ -314,7 +315,7 @@ def run_simulator(spec: ProcessSpec) -> int:
                 take_control()
             now = time.monotonic()
             if now >= repeat_at:  # /clock is best effort: a process that
-                clock_pub.publish(clock)  # lost the last samples would wait forever
+                clock_pub.write(clock)  # lost the last samples would wait forever
                 repeat_at = now + _CLOCK_REPEAT_S
             if now - waiting_since > spec.stall_timeout_s:  # said, not waited on forever
                 late = ", ".join(f"{who} (at {t / 1e9:.3f} s)" for who, t in reached.items()

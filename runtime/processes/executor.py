@@ -10,6 +10,12 @@ Between two ``/clock`` samples the time is interpolated at the rate the clock ha
 running (simulated over wall time), at most one ``/clock`` interval ahead of the last
 sample, so it never passes the next one: a message is stamped when it arrives, not up
 to a whole tick earlier (the time-sync exchange needs that resolution).
+
+In a launch's lockstep the executor also reports the simulated time it has reached
+(:meth:`ClockedExecutor.report_reached`): after it has run what was due, whenever its clock
+has passed the next multiple of the report period, and at once when a ``/clock`` comes
+again (the simulator waiting for it). A report is written straight on the transport, as
+``/clock`` is read from it: no node, timer or message object in between.
 """
 
 from __future__ import annotations
@@ -19,12 +25,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
-import interfaces
 from interfaces import graph
-from runtime.clock import Time
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
 from runtime.node import Node
-from runtime.transport import Endpoint, Reader, RequestId, Transport
+from runtime.processes.lockstep import clock_cdr, clock_ns
+from runtime.transport import Endpoint, Reader, RequestId, Transport, Writer
 
 __all__ = ["ClockedExecutor", "ParameterMirror", "ProcessTransport", "TimeFollower"]
 
@@ -78,9 +83,9 @@ class ClockedExecutor(DeterministicExecutor):
         self._stopping = False
         self._clock_reader: Reader | None = None
         self._follower = transport if isinstance(transport, TimeFollower) else None
-        #: called when a ``/clock`` sample is not newer than the last: the simulator sends
-        #: it again while it waits for this process (run_nodes answers with its report)
-        self.on_clock_repeat: Callable[[], None] | None = None
+        self._reports: Writer | None = None  # the lockstep's (report_reached)
+        self._report_period_ns = 0
+        self._next_report_ns = 0  # the next report once the clock has reached this
 
     def follow_clock(self) -> None:
         """Subscribe to ``/clock`` (with ``use_sim_time``). The simulator starts its clock
@@ -91,8 +96,25 @@ class ClockedExecutor(DeterministicExecutor):
                 Endpoint(graph.CLOCK.name, graph.CLOCK.type, graph.CLOCK.subscriber_qos),
                 self._on_clock)
 
+    def report_reached(self, writer: Writer, period_s: float) -> None:
+        """Lockstep: write the simulated time this process has reached on ``writer`` (a
+        ``Clock`` message) each time its clock passes a multiple of ``period_s``, and at
+        once when a ``/clock`` is not newer than the last. The simulator sends ``/clock``
+        again while it waits; the periodic reports alone, on a simulated time that no
+        longer moves, would not come again, and one written before the simulator's reader
+        matched is lost (volatile)."""
+        self._reports = writer
+        self._report_period_ns = round(period_s * 1e9)
+        self._next_report_ns = 0
+
+    def _report(self) -> None:
+        assert self._reports is not None
+        t_ns = self.now_ns()
+        self._reports.write(clock_cdr(t_ns))
+        self._next_report_ns = (t_ns // self._report_period_ns + 1) * self._report_period_ns
+
     def _on_clock(self, data: bytes, _request_id: RequestId | None) -> None:
-        t_ns = Time.from_msg(interfaces.deserialize(data, graph.CLOCK.type).clock).nanoseconds
+        t_ns = clock_ns(data)
         wall_ns = time.monotonic_ns()
         if self._clock_ns is None:
             self._clock_ns, self._clock_wall_ns = t_ns, wall_ns
@@ -103,18 +125,19 @@ class ClockedExecutor(DeterministicExecutor):
                 self._clock_rate = rate if self._clock_rate == 0.0 else (
                     0.9 * self._clock_rate + 0.1 * rate)
             self._clock_ns, self._clock_wall_ns, self._clock_step_ns = t_ns, wall_ns, step
-        elif self.on_clock_repeat is not None:
-            self.on_clock_repeat()
+        elif self._reports is not None:
+            self._report()
         if self._follower is not None:
             self._follower.set_time(t_ns)
 
     def _target_ns(self) -> int:
+        """Where the clock should be now (never behind where it is)."""
         if not self.use_sim_time:
-            return time.time_ns()
+            return max(time.time_ns(), self.now_ns())
         if self._clock_ns is None:
-            return self.now().nanoseconds
+            return self.now_ns()
         ahead = (time.monotonic_ns() - self._clock_wall_ns) * self._clock_rate
-        return self._clock_ns + min(self._clock_step_ns, round(ahead))
+        return max(self._clock_ns + min(self._clock_step_ns, round(ahead)), self.now_ns())
 
     def wait_for_clock(self, timeout_s: float) -> bool:
         """Follow ``/clock``, wait for its first sample and move the clock there. False on
@@ -150,9 +173,11 @@ class ClockedExecutor(DeterministicExecutor):
             if t_next is not None:
                 timeout = min(timeout, max(0.0, (t_next - time.time_ns()) / 1e9))
         self.process_transport.wait(timeout)
-        self.spin_until(max(self._target_ns(), self.now().nanoseconds))  # arrival time
+        self.spin_until(self._target_ns())  # arrival time
         self.process_transport.dispatch()
-        self.spin_until(max(self._target_ns(), self.now().nanoseconds))
+        self.spin_until(self._target_ns())
+        if self._reports is not None and self.now_ns() >= self._next_report_ns:
+            self._report()
 
     def spin(self, until: Callable[[], bool] | None = None) -> None:
         """Run until ``until()`` holds or :meth:`stop` is called."""

@@ -26,6 +26,7 @@ from __future__ import annotations
 import itertools
 import logging
 import re
+import time
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -63,6 +64,12 @@ __all__ = ["Ros2Transport"]
 
 _log = logging.getLogger("quadmission.transport.ros2")
 _NS_PER_S = 1_000_000_000
+#: The incompatible-QoS events and the rcl nodes' parameter services (for foreign tools)
+#: are in a wait at most this often [s of host time]: an event stays ready, and a request
+#: waits, until taken, and a process wakes hundreds of times a second for its data and
+#: /clock anyway. In every wait they were half of a node process's wait set (six services
+#: per rcl node, an event per publisher and subscription), and rcl's wait costs by size.
+_SELDOM_EVERY_S = 0.1
 
 
 def _noop(*_: Any) -> None:
@@ -186,6 +193,22 @@ class _Reader:
                 self._transport.rcl_node(self.endpoint.node).destroy_subscription(self.entity)
 
 
+@dataclass
+class _WaitPlan:
+    """One wait set and how to fill and read it (:meth:`Ros2Transport._build_wait_set`)."""
+
+    wait_set: Any
+    adds: list[tuple[Callable[[Any], Any], Any]]  # (the wait set's add_*, a handle)
+    seldom: list[tuple[Callable[[Any], Any], Any]]  # the same, every _SELDOM_EVERY_S
+    takers: dict[int, Callable[[], None]]  # a ready entity's pointer -> take what it has
+    events: list[Any]  # the rcl events of the handlers below
+    handlers: list[Any]  # rclpy's incompatible-QoS event handlers
+    rank: dict[int, int] = field(init=False)  # pointer -> place in creation order
+
+    def __post_init__(self) -> None:
+        self.rank = {pointer: i for i, pointer in enumerate(self.takers)}
+
+
 class Ros2Transport:
     """One rclpy context per transport; an rcl node per node of ours."""
 
@@ -200,6 +223,8 @@ class Ros2Transport:
                    signal_handler_options=SignalHandlerOptions.NO)
         self._nodes: dict[str, RclNode] = {}
         self._mirrored: weakref.WeakSet[Node] = weakref.WeakSet()  # parameters mirrored
+        self._clocks: list[tuple[Any, list[Any]]] | None = None  # (time source, clocks)
+        self._seldom: set[Any] = set()  # rclpy's parameter services (_SELDOM_EVERY_S)
         self._process_node = _process_node_name(name)
         self._guard = _rclpy.GuardCondition(self.context.handle)
         # what the wait set holds; entity -> how to take from it
@@ -210,12 +235,13 @@ class Ros2Transport:
         self._unpaired_clients: dict[tuple[str, str], list[_Client]] = {}
         self._topic_types: dict[str, str] = {}
         self._request_ids = itertools.count(1)
-        self._wait_set: Any = None
+        self._wait_set: _WaitPlan | None = None  # made again when an entity comes or goes
         # a topic's incompatible-QoS event handlers (rclpy's), by the entity they watch
         self._events: dict[Any, list[Any]] = {}
         #: incompatible QoS pairs met so far, each named by topic, side and policy
         self.incompatibilities: list[Incompatibility] = []
-        self._ready: tuple[set[int], set[int], set[int], list[Any]] | None = None
+        self._ready: tuple[_WaitPlan, list[int], list[Any]] | None = None  # the last wait's
+        self._seldom_due = 0.0  # host monotonic time the seldom entities are next waited on
         self._closed = False
 
     # -- nodes -----------------------------------------------------------------------------
@@ -235,8 +261,9 @@ class Ros2Transport:
                 time_source._clock_sub = None
             for srv in node.services:  # parameter services, answered by rclpy's callbacks
                 self._services[srv] = self._native_service(srv)
+                self._seldom.add(srv)
             self._nodes[fqn] = node
-            self._wait_set = None
+            self._wait_set = self._clocks = None
         return node
 
     def mirror_parameters(self, node: Node) -> None:
@@ -252,10 +279,16 @@ class Ros2Transport:
         if not self.use_sim_time:
             return
         now = RclTime(nanoseconds=t_ns, clock_type=ClockType.ROS_TIME)
-        for node in self._nodes.values():
-            node._time_source._last_time_set = now
-            for clock in node._time_source._associated_clocks:
-                clock.set_ros_time_override(now)
+        if self._clocks is None:  # rclpy's ROSClock.set_ros_time_override, without its
+            # checks and lock per call (this thread is the only one to move them)
+            self._clocks = [(node._time_source, [c.handle for c in
+                                                 node._time_source._associated_clocks])
+                            for node in self._nodes.values()]
+        handle = now._time_handle
+        for time_source, clocks in self._clocks:
+            time_source._last_time_set = now  # what a clock attached later starts at
+            for clock in clocks:
+                clock.set_ros_time_override(handle)
 
     # -- endpoints -------------------------------------------------------------------------
     def _check_type(self, endpoint: Endpoint) -> None:
@@ -344,6 +377,10 @@ class Ros2Transport:
     def _forget(self, entity: Any) -> None:
         for table in (self._subs, self._services, self._clients, self._events):
             table.pop(entity, None)
+        self._seldom.discard(entity)
+        for plan in (self._wait_set, self._ready and self._ready[0]):
+            if plan:  # a dispatch to come or under way must not take from it
+                plan.takers.pop(entity.handle.pointer, None)
         self._wait_set = None
 
     # -- QoS events ------------------------------------------------------------------------
@@ -413,34 +450,56 @@ class Ros2Transport:
         return answer
 
     # -- delivery --------------------------------------------------------------------------
+    def _build_wait_set(self) -> _WaitPlan:
+        """The wait set and what fills it, made again only when an entity comes or goes:
+        a wait then adds the entities' handles (rcl empties the set at each wait), looks
+        up what is ready by pointer, and asks rcl about its events by index."""
+        handlers = [h for handlers in self._events.values() for h in handlers]
+        ws = _rclpy.WaitSet(len(self._subs), 1, 0, len(self._clients), len(self._services),
+                            len(handlers), self.context.handle)
+        adds: list[tuple[Callable[[Any], Any], Any]] = []
+        seldom: list[tuple[Callable[[Any], Any], Any]] = []
+        takers: dict[int, Callable[[], None]] = {}
+        for add, table in ((ws.add_subscription, self._subs), (ws.add_client, self._clients),
+                           (ws.add_service, self._services)):
+            for entity, take in table.items():
+                (seldom if entity in self._seldom else adds).append((add, entity.handle))
+                takers[entity.handle.pointer] = take
+        adds.append((ws.add_guard_condition, self._guard))
+        # rclpy's EventHandler adds its rcl event and remembers the index; we do the same,
+        # without its lock per call (one thread waits, takes and destroys here)
+        events = [h._EventHandler__event for h in handlers]
+        return _WaitPlan(ws, adds, seldom, takers, events, handlers)
+
     def wait(self, timeout_s: float) -> bool:
         """Block until an entity is ready, :meth:`wake` is called, or ``timeout_s``."""
         if self._closed:
             return False
-        ws = self._wait_set
-        if ws is None:
-            ws = self._wait_set = _rclpy.WaitSet(
-                len(self._subs), 1, 0, len(self._clients), len(self._services),
-                sum(len(h) for h in self._events.values()), self.context.handle)
+        plan = self._wait_set
+        if plan is None:
+            plan = self._wait_set = self._build_wait_set()
+        ws = plan.wait_set
         ws.clear_entities()
-        for sub in self._subs:
-            ws.add_subscription(sub.handle)
-        for client in self._clients:
-            ws.add_client(client.handle)
-        for srv in self._services:
-            ws.add_service(srv.handle)
-        for handlers in self._events.values():
-            for handler in handlers:
-                handler.add_to_wait_set(ws)
-        ws.add_guard_condition(self._guard)
+        for add, handle in plan.adds:
+            add(handle)
+        indices: list[int] = []
+        if time.monotonic() >= self._seldom_due:
+            for add, handle in plan.seldom:
+                add(handle)
+            add_event = ws.add_event
+            indices = [add_event(event) for event in plan.events]
+            self._seldom_due = time.monotonic() + _SELDOM_EVERY_S
         ws.wait(max(0, round(timeout_s * _NS_PER_S)))
-        ready = (set(ws.get_ready_entities("subscription")),
-                 set(ws.get_ready_entities("client")),
-                 set(ws.get_ready_entities("service")),
-                 [h for handlers in self._events.values() for h in handlers
-                  if h.is_ready(ws)])
-        self._ready = ready
-        return any(ready)
+        ready = ws.get_ready_entities("subscription")
+        ready += ws.get_ready_entities("client")
+        ready += ws.get_ready_entities("service")
+        fired: list[Any] = []
+        if indices:
+            is_ready = ws.is_ready
+            fired = [h for i, h in zip(indices, plan.handlers, strict=True)
+                     if is_ready("event", i)]
+        self._ready = (plan, ready, fired)
+        return bool(ready or fired)
 
     def wake(self) -> None:
         """Make a pending :meth:`wait` return (safe from a signal handler)."""
@@ -453,21 +512,24 @@ class Ros2Transport:
         if self._ready is None:
             self.wait(0.0)
         assert self._ready is not None
-        subs, clients, services, events = self._ready
+        plan, ready, events = self._ready
         self._ready = None
         n = 0
         for handler in events:
-            taken = handler.take_data()
+            with handler:  # in use while taken, as rclpy's executor takes an event
+                taken = handler._EventHandler__event.take_event()
             if taken is not None:
                 handler.callback(taken)
                 n += 1
-        for table, ready in ((self._subs, subs), (self._clients, clients),
-                             (self._services, services)):
-            if ready:
-                for entity, take in list(table.items()):
-                    if entity.handle.pointer in ready:
-                        take()
-                        n += 1
+        if ready:
+            if len(ready) > 1:  # in creation order: the tables' order
+                rank = plan.rank
+                ready.sort(key=lambda pointer: rank.get(pointer, -1))
+            for pointer in ready:
+                take = plan.takers.get(pointer)
+                if take is not None:  # None: a callback destroyed its entity
+                    take()
+                    n += 1
         return n
 
     def close(self) -> None:

@@ -49,7 +49,7 @@ from sim.fault_spec import Fault, parse_faults
 from sim.faults import install_faults
 from sim.fcu.sitl import build_sitl
 from sim.render import SceneRenderer
-from sim.sensors import SimSensorsNode, sensor_parts
+from sim.sensors import ClockPublisher, SimSensorsNode, sensor_parts
 
 __all__ = ["LaunchedMission", "MissionSimulation", "mission", "mission_sitl", "navigator",
            "operator", "path_finder", "sitl"]
@@ -69,6 +69,9 @@ class MissionSimulation(SitlSimulation):
         scene = self.sitl.scene
         with SceneRenderer(scene.model) as renderer:
             parts = sensor_parts(self.sensors, renderer, scene, seed=self.seed)
+            if tick is not None:  # a launch over processes: its lockstep publishes /clock;
+                # the sensors' own, at the same times, would wake every node process twice
+                parts = [part for part in parts if not isinstance(part, ClockPublisher)]
             self.sitl.extra_parts.extend(parts)
             try:
                 return super().run(limit_s, stop, tick, tick_hz)
