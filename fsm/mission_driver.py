@@ -520,7 +520,8 @@ class Driver:
         """Held on a transient cause: resume once clear for the settle time, else the
         permanent reaction at the deadline (see the module docstring)."""
         m, p, s, now = self.mission, self.params, self.status, self.now_ns
-        if s is not None and s.landed and m.resume_to not in TAKEOFFS:
+        if s is not None and s.landed and m.resume_to not in TAKEOFFS \
+                and not m.take_off_again("the vehicle landed while held"):
             m.held_landed("the FCU's failsafe landed the vehicle while held")
             return
         held_s = (now - self._entered_ns) / 1e9

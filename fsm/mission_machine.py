@@ -39,6 +39,7 @@ from transitions.extensions.nesting import NestedState
 from fsm.mission_table import (
     ERROR_POLICY,
     INITIAL,
+    PAD_LANDINGS,
     RECOVERABLE,
     RESUMABLE,
     SEPARATOR,
@@ -506,6 +507,20 @@ class Mission:
         self._emit_error(held.cause, f"{held.detail}; {detail}", reaction.name)
         self.stop = Stop(held.cause, reaction, f"{held.detail}; {detail}", held.state)
         return self._fire(reaction.value)
+
+    def take_off_again(self, detail: str) -> bool:
+        """Held in a pad's landing (:data:`PAD_LANDINGS`), the vehicle has set down: its
+        descent was under way when the cause came (or the FCU's failsafe set it down
+        there). The resume takes off from where it stands and flies that pad again; the
+        pad does not count as landed (the landing's end was not the precision landing's)."""
+        if self.state != "held" or self.held is None or self.resume_to not in PAD_LANDINGS:
+            return False
+        pad = self.sequence[self.pad_index]
+        self.resume_to = "mission.pad.takeoff"
+        self._emit(EventKind.ERROR, f"set down on the way onto pad {pad} while held ({detail}):"
+                   f" the resume takes off there and flies pad {pad} again", Severity.WARN,
+                   marker_id=pad)
+        return True
 
     def held_landed(self, detail: str) -> bool:
         """Held, the FCU's failsafe landed the vehicle: the mission ends there (no take-off

@@ -232,6 +232,10 @@ TAKEOFFS: tuple[str, ...] = ("mission.takeoff", "mission.pad.takeoff")
 PRECISION_LANDINGS: tuple[str, ...] = ("mission.pad.land", "mission.pad.search",
                                        "returning.land")
 
+#: The landings on a pad of the sequence: held there with the vehicle set down (its descent
+#: was under way), the mission takes off again and flies that pad again, rather than end.
+PAD_LANDINGS: tuple[str, ...] = ("mission.pad.land", "mission.pad.search")
+
 
 #: The states that read the down camera's markers: the modules' checks before the start,
 #: the robot search and its pictures, and the landings on a pad (precision landing, its
@@ -313,7 +317,7 @@ def to_transitions_states(states: tuple[StateSpec, ...] = STATES) -> list[Any]:
     return out
 
 
-__all__ = ["ERROR_POLICY", "INITIAL", "PRECISION_LANDINGS", "RECOVERABLE", "RESUMABLE",
-           "SEPARATOR", "STATES", "SUSPEND", "TAKEOFFS", "TRANSITIONS",
+__all__ = ["ERROR_POLICY", "INITIAL", "PAD_LANDINGS", "PRECISION_LANDINGS", "RECOVERABLE",
+           "RESUMABLE", "SEPARATOR", "STATES", "SUSPEND", "TAKEOFFS", "TRANSITIONS",
            "ErrorCause", "Phase", "Policy", "Reaction", "StateSpec", "TransitionSpec", "leaves",
            "phase_of", "terminal_states", "to_transitions_states", "walk"]

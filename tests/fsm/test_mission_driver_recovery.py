@@ -13,6 +13,7 @@ import pytest
 from flight_control.policy import Outcome
 from fsm.mission_driver import (
     Action,
+    CallArm,
     CancelGoal,
     ExploreGoal,
     GoalDone,
@@ -221,6 +222,30 @@ def test_held_while_the_fcus_failsafe_lands_the_vehicle_ends_in_landed() -> None
     stop = rig.driver.mission.stop
     assert rig.state == "landed" and stop is not None
     assert stop.cause is ErrorCause.LOCALISATION_LOST and "landed" in stop.detail
+
+
+def test_held_in_a_pads_landing_that_touched_down_takes_off_and_flies_that_pad_again(
+        ) -> None:
+    """The navigation process killed during pad 2's final descent (ros2, the default
+    mission): held, then the landing touched down. It used to end in ``landed``; the
+    resume takes off where the vehicle stands and flies pad 2 again, which is not scored
+    as landed (the landing's end was not the precision landing's)."""
+    rig = flying_pads(rig=Rig(config=RESUMES))
+    rig.feed(IN_OFFBOARD)
+    rig.done()  # above pad 2
+    assert rig.state == "mission.pad.land"
+    rig.feed(Health(TOPICS[0], True, False, ""))
+    rig.feed(Tick(), PARAMS.silence_timeout_s + 0.1)  # /navigator/health silent
+    assert rig.state == "held"
+    rig.feed(replace(IN_OFFBOARD, landed=True, armed=False))  # the descent touched down
+    rig.tick(0.0)
+    assert rig.state == "held" and rig.driver.mission.stop is None
+    assert any("flies pad 2 again" in e.message for e in rig.events())
+    rig.tick(3.0)  # respawned: it reports again
+    settle(rig, SETTLE_S)
+    assert rig.state == "mission.pad.takeoff"
+    assert rig.driver.mission.landed_pads == [] and rig.driver.mission.score == 0
+    assert isinstance(rig.job, CallArm)  # disarmed on the pad: arm, then climb
 
 
 def test_a_module_silent_on_a_pad_resumes_the_takeoff_when_it_reports_again() -> None:
