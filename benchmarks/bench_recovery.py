@@ -15,11 +15,13 @@ The default arena, seed 0, the whole contest mission each time:
 Writes ``{"arena", "seed", "clean", "runs": [{"name", "transport", "spec", "result",
 "held_s", "resumed_s", "sim_s", "lost_s", "slowdown", "landings", "inside", "rmse_m",
 "replay", ...}]}`` to ``--out`` (default benchmarks/results/recovery.json) after every
-run. ``--skip-ros2`` flies only the in-process ones.
+run. ``--skip-ros2`` flies only the in-process ones, ``--ros2-only`` only the ros2 one
+(keeping the in-process runs already in ``--out``).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -103,12 +105,18 @@ def main(argv: list[str] | None = None) -> int:
                    help="ros2: wall s (at --rtf 1) at which the navigation process dies")
     p.add_argument("--domain-id", type=int, default=93, help="ros2: ROS_DOMAIN_ID")
     p.add_argument("--timeout", type=float, default=3600.0, help="ros2: wall s at most")
+    p.add_argument("--ros2-only", action="store_true",
+                   help="fly only the ros2 run; keep the in-process runs already in --out")
     args = p.parse_args(argv)
     result: dict[str, Any] = {"arena": "contest (default)", "seed": 0, "runs": []}
-    clean = fly_in_process(None)
-    progress(f"clean: {clean['result']} in {clean['sim_s']:.1f} s simulated")
-    result["clean"] = clean
-    for name, spec in IN_PROCESS:
+    if args.ros2_only:
+        kept = json.loads(args.out.read_text())
+        clean = result["clean"] = kept["clean"]
+        result["runs"] = [r for r in kept["runs"] if r["transport"] == "inproc"]
+    else:
+        clean = result["clean"] = fly_in_process(None)
+        progress(f"clean: {clean['result']} in {clean['sim_s']:.1f} s simulated")
+    for name, spec in IN_PROCESS if not args.ros2_only else ():
         run = {"name": name, **fly_in_process(spec)}
         result["runs"].append(run)
         progress(f"{name}: {run['result']}, held {run['held_s']} s, resumed {run['resumed_s']} s")

@@ -78,6 +78,19 @@ def _send(ex: DeterministicExecutor, client: ActionClient, altitude: float,
     return future.result()
 
 
+def _serve_and_send(ex: DeterministicExecutor, node: Node, name: str, execute: Any) -> Any:
+    """``execute`` served by ``node`` on ``name``; a goal sent to it from another node (its
+    client-side handle)."""
+    ActionServer(node, TAKEOFF, name, execute)
+    return _send(ex, ActionClient(Node("pilot", context=ex.context), TAKEOFF, name), 1.0)
+
+
+def _result_of(ex: DeterministicExecutor, handle: Any, timeout_sec: float = 1.0) -> Any:
+    result_future = handle.get_result_async()
+    ex.spin_until_future_complete(result_future, timeout_sec=timeout_sec)
+    return result_future.result()
+
+
 def test_goal_feedback_and_result(ex: DeterministicExecutor, pair: Any) -> None:
     _, client = pair
     assert client.wait_for_server()
@@ -149,12 +162,8 @@ def test_a_failing_execute_aborts_the_goal(ex: DeterministicExecutor) -> None:
     def execute(handle: ServerGoalHandle) -> Any:
         return "not a result"
 
-    ActionServer(node, TAKEOFF, "/broken", execute)
-    client = ActionClient(Node("pilot", context=ex.context), TAKEOFF, "/broken")
-    handle = _send(ex, client, 1.0)
-    result_future = handle.get_result_async()
-    ex.spin_until_future_complete(result_future, timeout_sec=1.0)
-    assert result_future.result().status == GoalStatus.ABORTED
+    handle = _serve_and_send(ex, node, "/broken", execute)
+    assert _result_of(ex, handle).status == GoalStatus.ABORTED
 
 
 def test_cancel_of_an_unknown_goal(ex: DeterministicExecutor, pair: Any) -> None:
@@ -200,15 +209,11 @@ def test_a_goal_waiting_on_a_silent_node_still_hears_its_cancel(ex: Deterministi
             handle.canceled()
         return interfaces.new(TAKEOFF.Result, message="canceled while waiting")
 
-    ActionServer(node, TAKEOFF, "/waiter", execute)
-    client = ActionClient(Node("pilot", context=ex.context), TAKEOFF, "/waiter")
-    handle = _send(ex, client, 1.0)
+    handle = _serve_and_send(ex, node, "/waiter", execute)
     ex.spin_for(2.0)
     assert handle.status is GoalStatus.EXECUTING  # still waiting: nothing answered
     ex.spin_until_future_complete(handle.cancel_goal_async(), timeout_sec=1.0)
-    result_future = handle.get_result_async()
-    ex.spin_until_future_complete(result_future, timeout_sec=1.0)
-    assert result_future.result().status == GoalStatus.CANCELED
+    assert _result_of(ex, handle).status == GoalStatus.CANCELED
     assert len(seen) == 1 and "canceled while it waited" in seen[0]
 
 
@@ -227,10 +232,5 @@ def test_unless_canceled_returns_the_answer_that_comes_first(ex: DeterministicEx
         handle.succeed()
         return interfaces.new(TAKEOFF.Result, success=True, message=f"{altitude}")
 
-    ActionServer(node, TAKEOFF, "/answerer", execute)
-    client = ActionClient(Node("pilot", context=ex.context), TAKEOFF, "/answerer")
-    handle = _send(ex, client, 1.0)
-    result_future = handle.get_result_async()
-    ex.spin_until_future_complete(result_future, timeout_sec=2.0)
-    assert result_future.result().status == GoalStatus.SUCCEEDED
-    assert result_future.result().result.message == "2.5"
+    response = _result_of(ex, _serve_and_send(ex, node, "/answerer", execute), 2.0)
+    assert response.status == GoalStatus.SUCCEEDED and response.result.message == "2.5"
