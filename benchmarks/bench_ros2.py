@@ -54,7 +54,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from _harness import OPTIONAL, bench_parser, load_1min, write_result  # noqa: E402
+from _harness import (  # noqa: E402
+    OPTIONAL,
+    bench_parser,
+    children,
+    cpu_seconds,
+    load_1min,
+    process_name,
+    write_result,
+)
 
 import interfaces  # noqa: E402
 from interfaces.qos import QoSProfile  # noqa: E402
@@ -256,41 +264,6 @@ def square_beside_busy_loops(domain: int, loops: int = 2) -> dict[str, Any]:
 
 
 # -- the lockstep mission: CPU per simulated second, per process, beside the in-process run --
-_TICKS = os.sysconf("SC_CLK_TCK")
-
-
-def _cpu_s(pid: int) -> float | None:
-    """User + system CPU seconds of ``pid`` (its threads included), or None once it is gone."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
-    except OSError:
-        return None
-    return (int(fields[11]) + int(fields[12])) / _TICKS  # utime, stime
-
-
-def _process_name(pid: int) -> str | None:
-    """The launch's name of a child process (its ProcessSpec's), from its command line."""
-    try:
-        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-    except OSError:
-        return None
-    spec = next((a for a in argv if a.startswith(b'{"name"')), None)
-    return None if spec is None else str(json.loads(spec)["name"])
-
-
-def _children(pid: int) -> list[int]:
-    found = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:
-                continue
-            if int(stat.rpartition(")")[2].split()[1]) == pid:
-                found.append(int(entry.name))
-    return found
-
-
 def _launch_cpu(argv: list[str], root: Path) -> tuple[dict[str, float], float, str, int]:
     """Run a launch; the CPU seconds of each of its processes (sampled every 0.2 s, the
     last one at exit from the kernel's count of waited-for children), the total, its
@@ -308,10 +281,10 @@ def _launch_cpu(argv: list[str], root: Path) -> tuple[dict[str, float], float, s
         reader.start()
         seen: dict[int, tuple[str, float]] = {}
         while proc.poll() is None:
-            for pid in [proc.pid, *_children(proc.pid)]:
+            for pid in [proc.pid, *children(proc.pid)]:
                 name = "launcher" if pid == proc.pid else (
-                    seen[pid][0] if pid in seen else _process_name(pid))
-                cpu = _cpu_s(pid)
+                    seen[pid][0] if pid in seen else process_name(pid))
+                cpu = cpu_seconds(pid)
                 if name is not None and cpu is not None:
                     seen[pid] = (name, cpu)
             time.sleep(0.2)

@@ -174,6 +174,10 @@ class RealtimeOptions:
     #: the companion's and the operator's processes' nice (0: as any program; a flight stack
     #: that shares its computer with other work is given a higher priority, if allowed)
     companion_nice: int = 0
+    #: CPUs the companion's and the operator's processes may run on (as ``taskset -c``), and
+    #: the vehicle's (None: any); a budget measured on one core pins them there
+    companion_cpus: tuple[int, ...] | None = None
+    vehicle_cpus: tuple[int, ...] | None = None
     companion: Path = COMPANION_YAML
     say: Callable[[str], None] = field(default=lambda _line: None, compare=False)
 
@@ -199,17 +203,20 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "quadmission.cli", *args]
 
 
-def _start(argv: list[str], log: IO[str], nice: int = 0) -> subprocess.Popen[str]:
+def _start(argv: list[str], log: IO[str], nice: int = 0,
+           cpus: tuple[int, ...] | None = None) -> subprocess.Popen[str]:
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH", "")) if p)
 
-    def prioritise() -> None:  # in the child, before it runs: its threads inherit it
-        with contextlib.suppress(PermissionError):
+    def prioritise() -> None:  # in the child, before it runs: its threads and children
+        with contextlib.suppress(PermissionError):  # inherit both
             os.setpriority(os.PRIO_PROCESS, 0, nice)
+        if cpus is not None:
+            os.sched_setaffinity(0, cpus)  # as taskset -c
 
     return subprocess.Popen(argv, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, text=True,
                             env=env, start_new_session=True,
-                            preexec_fn=prioritise if nice else None)
+                            preexec_fn=prioritise if nice or cpus is not None else None)
 
 
 def _stop(proc: subprocess.Popen[str]) -> int:
@@ -234,7 +241,7 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
     procs: dict[str, subprocess.Popen[str]] = {}
     try:
         procs["vehicle"] = _start(_cli("vehicle", *vehicle.argv()), logs["vehicle"],
-                                  options.vehicle_nice)
+                                  options.vehicle_nice, options.vehicle_cpus)
         nice = os.getpriority(os.PRIO_PROCESS, procs["vehicle"].pid)
         options.say(f"vehicle started (pid {procs['vehicle'].pid}, nice {nice}"
                     + ("" if nice == options.vehicle_nice else
@@ -252,9 +259,9 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
         operator.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
         wall = ["--transport", "ros2", "--wall-clock", *ros]
         procs["companion"] = _start(_cli("launch", str(companion), *wall), logs["companion"],
-                                    options.companion_nice)
+                                    options.companion_nice, options.companion_cpus)
         procs["operator"] = _start(_cli("launch", str(operator), *wall), logs["operator"],
-                                   options.companion_nice)
+                                   options.companion_nice, options.companion_cpus)
         options.say(f"companion (pid {procs['companion'].pid}) and operator (pid "
                     f"{procs['operator'].pid}) started; logs in {out}")
         deadline = time.monotonic() + options.timeout_s
