@@ -24,8 +24,12 @@ def _fly(out: Path, spec: str, limit_s: float) -> dict[str, Any]:
                        limit_s=limit_s)
 
 
-def _states(report: dict[str, Any]) -> list[tuple[float, str]]:
-    return [(s["t_s"], s["state"]) for s in report["states"]]
+def _hold(report: dict[str, Any]) -> tuple[list[str], float, float]:
+    """The states from the one before the first ``held`` on, when it held and when it left
+    ``held`` [s simulated]."""
+    states = [(s["t_s"], s["state"]) for s in report["states"]]
+    held = [name for _, name in states].index("held")
+    return [name for _, name in states[held - 1:]], states[held][0], states[held + 1][0]
 
 
 @pytest.fixture(scope="module")
@@ -50,12 +54,8 @@ def navigator_restarted(tmp_path_factory: pytest.TempPathFactory) -> dict[str, A
 
 def test_a_link_loss_during_the_takeoff_holds_then_resumes_into_the_exploration(
         link_lost: dict[str, Any]) -> None:
-    states = _states(link_lost)
-    names = [s for _, s in states]
-    held = names.index("held")
-    assert names[held - 1:held + 3] == ["mission.takeoff", "held", "mission.takeoff",
-                                        "mission.explore"]
-    held_s, resumed_s = states[held][0], states[held + 1][0]
+    names, held_s, resumed_s = _hold(link_lost)
+    assert names[:4] == ["mission.takeoff", "held", "mission.takeoff", "mission.explore"]
     assert 10.0 < held_s < 12.0  # /fcu/status silent for status_timeout_s
     assert resumed_s > 12.0  # not before the link is back and has settled
     (fault,) = link_lost["faults"]
@@ -68,11 +68,8 @@ def test_a_link_loss_during_the_takeoff_holds_then_resumes_into_the_exploration(
 
 def test_a_vio_loss_while_exploring_holds_then_explores_again(
         vio_lost: dict[str, Any]) -> None:
-    states = _states(vio_lost)
-    names = [s for _, s in states]
-    held = names.index("held")
-    assert names[held - 1:] == ["mission.explore", "held", "mission.explore"]
-    held_s, resumed_s = states[held][0], states[held + 1][0]
+    names, held_s, resumed_s = _hold(vio_lost)
+    assert names == ["mission.explore", "held", "mission.explore"]
     assert 30.0 < held_s < 31.5  # the FCU's vision timeout, then the watchdog
     assert resumed_s >= 33.0 + 2.0  # back at 33 s, then clear for the settle time
     (fault,) = vio_lost["faults"]
@@ -83,11 +80,8 @@ def test_a_vio_loss_while_exploring_holds_then_explores_again(
 
 def test_a_navigator_restarted_while_exploring_holds_then_explores_with_the_new_one(
         navigator_restarted: dict[str, Any]) -> None:
-    states = _states(navigator_restarted)
-    names = [s for _, s in states]
-    held = names.index("held")
-    assert names[held - 1:] == ["mission.explore", "held", "mission.explore"]
-    held_s, resumed_s = states[held][0], states[held + 1][0]
+    names, held_s, resumed_s = _hold(navigator_restarted)
+    assert names == ["mission.explore", "held", "mission.explore"]
     assert 33.0 < held_s < 33.5  # /navigator/health silent for silence_timeout_s (3 s)
     assert resumed_s >= 34.0 + 2.0  # the new one from 34 s, then OK for the settle time
     (fault,) = navigator_restarted["faults"]
