@@ -13,9 +13,11 @@ Recorded for each way: each process's CPU (CPU-s per second of its life, sampled
 ``/proc`` every 0.5 s) and largest resident memory; the companion's total against the one
 core the budget allows; the offboard setpoint stream as the FCU took it (heartbeats, the
 largest gap, gaps over 0.5 s: PX4 needs 2 Hz and drops offboard after ``COM_OF_LOSS_T``);
-how far the vehicle fell behind real time; the mission's result (completed, landings
-inside, touchdown RMSE). Not measured yet: the age of the vision data the FCU fuses and
-the callback latency per node (both need the executor to time its callbacks).
+how far the vehicle fell behind real time; the age of the vision data the FCU fuses (its
+time at the fusion less the sample's stamp: p50, p99, largest); each companion node's
+callbacks (:mod:`runtime.processes.callback_stats`: a message's wait in DDS before its
+process took it, how late a callback started after it was due, how long it ran: p50, p99,
+largest); the mission's result (completed, landings inside, touchdown RMSE).
 
 Writes ``{"ways": {name: {...}}, "until_state", "host"}`` to ``--out`` (default
 benchmarks/results/realtime.json) after each way. Needs the host to itself.
@@ -123,7 +125,7 @@ def fly(way: str, until_state: str | None, domain_id: int) -> dict[str, Any]:
         "processes": processes, "setpoints": vehicle_figures.get("setpoints"),
         "vehicle_behind": vehicle_figures.get("behind"),
         "fcu_failsafes": report.get("fcu_failsafes"), "wall_s": round(time.perf_counter() - t0),
-        "vision_age_s": None, "callback_latency_ms": None,  # not measured yet: see __doc__
+        "vision": vehicle_figures.get("vision"), "callbacks": report.get("callbacks"),
     }
 
 

@@ -112,6 +112,9 @@ class DeterministicExecutor:
         heapq.heappush(self._heap, (self._clock.nanoseconds, next(self._order), handle))
         return handle
 
+    def lateness_ns(self) -> int:
+        return 0  # simulated time: each callback runs at its time
+
     def start_work(self, work: Callable[[], T]) -> concurrent.futures.Future[T]:
         """Start ``work`` for :meth:`runtime.node.Node.offload`: on the worker thread (one,
         so work runs in the order it was started), or at once in line when the executor

@@ -33,3 +33,9 @@ class EventLoop(Protocol):
     def call_at(self, t_ns: int, callback: Callable[[], None], label: Label) -> Handle: ...
 
     def call_soon(self, callback: Callable[[], None], label: Label) -> Handle: ...
+
+    def lateness_ns(self) -> int:
+        """How far the host's clock is past the callback running now (its due time, the
+        clock's): 0 in simulated time, where every callback runs at its time; on the wall
+        clock, how late it started plus how long it has run."""
+        ...

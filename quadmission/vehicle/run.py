@@ -43,6 +43,7 @@ from quadmission.vehicle.truth import (
     VEHICLE_JSON,
     FcuWatch,
     setpoint_figures,
+    vision_figures,
     write_trajectory,
 )
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor
@@ -260,6 +261,7 @@ def _summary(options: VehicleOptions, arena: str, host_zero_ns: int, result: Wor
         "samples_taken": taken,
         "behind": monitor.summary(host_s),
         "setpoints": setpoint_figures(watch.setpoint_gaps_s),
+        "vision": vision_figures(watch.vision_ages_s),
         "touchdowns": watch.touchdowns, "failsafes": watch.failsafes,
         "nav_states": watch.nav_states,
         "crash": None if crash is None else {

@@ -9,7 +9,8 @@
   time ``T - host_ns_at_sim_zero``), ``touchdowns`` (the FCU's land detector going to
   landed, with the true position), ``nav_states`` and ``failsafes`` (the FCU's, with
   their simulated time), ``setpoints`` (the offboard stream as the FCU took it: count,
-  largest gap, gaps over 0.5 s), ``crash``, how far it fell behind real time (``behind``), the
+  largest gap, gaps over 0.5 s), ``vision`` (the age of the external vision the FCU fused:
+  count, p50, p99, largest), ``crash``, how far it fell behind real time (``behind``), the
   arena, seed, rtf and the run's figures.
 - ``DIR/arena.yaml``: the arena flown.
 
@@ -27,11 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from sim.fcu.firmware import Firmware
+from sim.fcu.firmware import ConsumedVision, Firmware
 from sim.world import Scene, Trajectory
 
 __all__ = ["TRUTH_NPZ", "VEHICLE_JSON", "FcuWatch", "VehicleTruth", "load_truth",
-           "setpoint_figures", "write_trajectory"]
+           "setpoint_figures", "vision_figures", "write_trajectory"]
 
 #: a gap in the offboard stream worth counting [s]: the issue's bound (PX4 needs 2 Hz)
 SETPOINT_GAP_S = 0.5
@@ -56,11 +57,21 @@ class FcuWatch:
     """Gaps between the offboard heartbeats (``/fmu/in/offboard_control_mode``) the FCU
     took while in OFFBOARD [s, at this part's rate]: PX4 drops offboard after
     ``COM_OF_LOSS_T`` of silence."""
+    vision_ages_s: list[float] = field(default_factory=list)
+    """The age of each external-vision sample as the FCU's estimator fused it [s]: its
+    FCU time at the fusion less the sample's ``timestamp_sample`` (the companion's stamp,
+    put on the FCU's clock by its time sync)."""
     _nav: str | None = None
     _heartbeat_us: int | None = None
     _heartbeat_s: float | None = None
     _failsafe: bool = False
     _landed: bool | None = None  # None until the land detector has said (at boot)
+
+    def __post_init__(self) -> None:
+        self.firmware.vision_observers.append(self._on_vision)
+
+    def _on_vision(self, sample: ConsumedVision) -> None:
+        self.vision_ages_s.append((sample.consumed_us - sample.timestamp_sample_us) / 1e6)
 
     def update(self, t_ns: int, scene: Scene) -> None:
         t_s = round(t_ns / 1e9, 3)
@@ -100,6 +111,14 @@ def setpoint_figures(gaps_s: list[float]) -> dict[str, Any]:
     return {"heartbeats": len(gaps_s), "max_gap_s": max(gaps_s, default=None),
             f"gaps_over_{SETPOINT_GAP_S:g}_s": sum(g > SETPOINT_GAP_S for g in gaps_s),
             "p99_gap_s": float(np.percentile(gaps_s, 99)) if gaps_s else None}
+
+
+def vision_figures(ages_s: list[float]) -> dict[str, Any]:
+    """The fused vision's figures from its ages [s]: count, p50, p99 and largest [ms]."""
+    def ms(q: float) -> float | None:
+        return round(float(np.percentile(ages_s, q)) * 1e3, 2) if ages_s else None
+    return {"fused": len(ages_s), "age_p50_ms": ms(50), "age_p99_ms": ms(99),
+            "age_max_ms": ms(100)}
 
 
 def write_trajectory(out: Path, trajectory: Trajectory) -> Path:

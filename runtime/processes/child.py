@@ -61,6 +61,7 @@ from runtime.launch import (
     launch,
 )
 from runtime.node import Node
+from runtime.processes.callback_stats import stats_folder
 from runtime.processes.executor import ClockedExecutor, ParameterMirror, ProcessTransport
 from runtime.processes.lockstep import clock_cdr, clock_ns
 from runtime.processes.respawn import DEFAULT_RESPAWN_MAX, RespawnPolicy
@@ -161,6 +162,9 @@ def _start_nodes(spec: ProcessSpec, ex: ClockedExecutor,
                  transport: ProcessTransport) -> list[Node]:
     """Create the group's nodes, and its lockstep reporter under ``use_sim_time``."""
     description = LaunchDescription(tuple(NodeSpec(**dict(n)) for n in spec.nodes))
+    for node_spec in description.nodes:  # imports first: seconds, before any clock counts
+        node_spec.resolve_factory()
+    ex.catch_up()
     nodes = launch(description, ex)
     if isinstance(transport, ParameterMirror):  # declared on the transport's nodes too
         for node in nodes:
@@ -186,6 +190,8 @@ def run_nodes(spec: ProcessSpec) -> int:
                          config_dir=_config_dir(spec))
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: ex.stop())
+    stats_to = None if spec.use_sim_time else stats_folder()
+    stats = None if stats_to is None else ex.keep_callback_stats()
     rejoin = spec.rejoin and spec.use_sim_time
     nodes = [] if rejoin else _start_nodes(spec, ex, transport)  # at 0: the simulator waits
     if not ex.wait_for_clock(spec.startup_timeout_s):
@@ -204,6 +210,8 @@ def run_nodes(spec: ProcessSpec) -> int:
     finally:  # what a node holds outside the graph is let go: a bag's index, a server
         for node in reversed(nodes):
             node.destroy_node()
+        if stats is not None and stats_to is not None:
+            stats.write(stats_to, spec.name)
     done = finished(nodes)
     if done is None:
         return 0

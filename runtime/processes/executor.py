@@ -27,11 +27,13 @@ from typing import Protocol, runtime_checkable
 
 from interfaces import graph
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
+from runtime.loop import Handle
 from runtime.node import Node
+from runtime.processes.callback_stats import CallbackStats
 from runtime.processes.lockstep import clock_cdr, clock_ns
 from runtime.transport import Endpoint, Reader, RequestId, Transport, Writer
 
-__all__ = ["ClockedExecutor", "ParameterMirror", "ProcessTransport", "TimeFollower"]
+__all__ = ["ClockedExecutor", "ParameterMirror", "ProcessTransport", "TakeTimer", "TimeFollower"]
 
 _POLL_S = 0.05  # longest wait before looking at the stop condition again [s]
 
@@ -55,6 +57,13 @@ class TimeFollower(Protocol):
     """A transport with clocks of its own (rcl nodes'), moved to each ``/clock`` sample."""
 
     def set_time(self, t_ns: int) -> None: ...
+
+
+@runtime_checkable
+class TakeTimer(Protocol):
+    """A transport that tells how long each message waited to be taken (per node, ns)."""
+
+    take_observer: Callable[[str, int], None] | None
 
 
 @runtime_checkable
@@ -86,6 +95,39 @@ class ClockedExecutor(DeterministicExecutor):
         self._reports: Writer | None = None  # the lockstep's (report_reached)
         self._report_period_ns = 0
         self._next_report_ns = 0  # the next report once the clock has reached this
+        self.callback_stats: CallbackStats | None = None  # keep_callback_stats
+
+    def keep_callback_stats(self) -> CallbackStats:
+        """From now on, time each callback against the host's clock (on the wall clock
+        only: under ``use_sim_time`` a callback's due time is simulated) and each
+        message's take, per node: :mod:`runtime.processes.callback_stats`. Call it before
+        the nodes are made (their readers then time their takes)."""
+        if self.use_sim_time:
+            raise ValueError("callback statistics need the wall clock (not use_sim_time)")
+        self.callback_stats = stats = CallbackStats()
+        if isinstance(self.process_transport, TakeTimer):
+            self.process_transport.take_observer = stats.take
+        return stats
+
+    def lateness_ns(self) -> int:
+        if self.use_sim_time:
+            return 0  # the lockstep runs each callback at its simulated time
+        return max(0, time.time_ns() - self.now_ns())
+
+    def catch_up(self) -> None:
+        """Move the clock to where it should be now, running what is due: on the wall
+        clock, after a long start-up (imports), so that the nodes made next count their
+        timers from the host's time, not from when this executor was made."""
+        self.spin_until(self._target_ns())
+
+    def _run(self, t_ns: int, handle: Handle) -> None:
+        stats = self.callback_stats
+        if stats is None:
+            super()._run(t_ns, handle)
+            return
+        start = time.time_ns()  # the clock's basis on the wall clock: t_ns is due then
+        super()._run(t_ns, handle)
+        stats.callback(handle.label[0], start - t_ns, time.time_ns() - start)
 
     def follow_clock(self) -> None:
         """Subscribe to ``/clock`` (with ``use_sim_time``). The simulator starts its clock

@@ -243,6 +243,9 @@ class Ros2Transport:
         self._ready: tuple[_WaitPlan, list[int], list[Any]] | None = None  # the last wait's
         self._seldom_due = 0.0  # host monotonic time the seldom entities are next waited on
         self._closed = False
+        #: told ``(node name, ns from a message's reception to its take)`` for each message
+        #: a reader made from now on takes (:mod:`runtime.processes.callback_stats`)
+        self.take_observer: Callable[[str, int], None] | None = None
 
     # -- nodes -----------------------------------------------------------------------------
     def rcl_node(self, fqn: str = "") -> RclNode:
@@ -347,7 +350,8 @@ class Ros2Transport:
                 rclpy_type(endpoint.type_name), endpoint.name, _noop, qos, raw=True,
                 event_callbacks=SubscriptionEventCallbacks(incompatible_qos=noted))
             self._watch_events(sub, noted)
-            self._subs[sub] = self._taker(sub, on_sample)
+            self._subs[sub] = self._taker(sub, on_sample, self.take_observer,
+                                          endpoint.node.rsplit("/", 1)[-1])
             self._wait_set = None
             return _Reader(self, endpoint, sub, sub.get_publisher_count)
         if endpoint.kind is EndpointKind.REQUEST:
@@ -403,7 +407,9 @@ class Ros2Transport:
 
     # -- taking ----------------------------------------------------------------------------
     @staticmethod
-    def _taker(sub: Any, on_sample: SampleCallback) -> Callable[[], None]:
+    def _taker(sub: Any, on_sample: SampleCallback,
+               observe: Callable[[str, int], None] | None = None,
+               node: str = "") -> Callable[[], None]:
         take, msg_type = sub.handle.take_message, sub.msg_type
 
         def take_all() -> None:
@@ -413,7 +419,19 @@ class Ros2Transport:
                     return
                 on_sample(taken[0], None)
 
-        return take_all
+        if observe is None:
+            return take_all
+        note: Callable[[str, int], None] = observe
+
+        def take_all_observed() -> None:  # rmw's reception stamp is on the system clock
+            while True:
+                taken = take(msg_type, True)
+                if taken is None:
+                    return
+                note(node, time.time_ns() - taken[1]["received_timestamp"])
+                on_sample(taken[0], None)
+
+        return take_all_observed
 
     def _take_requests(self, service: _Service) -> None:
         handle, request_type = service.service.handle, service.srv_type.Request

@@ -17,7 +17,9 @@ ground truth as ``quadmission sim`` scores an embedded run.
 4. waits for the companion's launch to end (the mission completed, stopped, or its
    ``until_state`` reached) or ``timeout_s``, lets the vehicle settle, stops the operator
    and the vehicle with SIGINT (the vehicle writes its truth), and writes
-   ``OUT/report.json`` (:func:`realtime_report`).
+   ``OUT/report.json`` (:func:`realtime_report`), with each companion and operator node's
+   callback timing (``callbacks``: take delay, latency and run time, p50/p99/max, from
+   ``OUT/callbacks/``; :mod:`runtime.processes.callback_stats`).
 
 The companion's stamps are on the host's clock; the vehicle's ``host_ns_at_sim_zero``
 turns them into its simulated time, where its true trajectory is. Logs: ``OUT/*.log``.
@@ -49,6 +51,7 @@ from quadmission.scenarios.mission.scenario import target_robot
 from quadmission.vehicle.run import VehicleOptions
 from quadmission.vehicle.truth import VehicleTruth, load_truth
 from runtime import Node, Time
+from runtime.processes.callback_stats import STATS_VARIABLE, merge
 from sim.arena import ArenaSpec, load_arena
 
 __all__ = ["MISSION_JSON", "MissionRecorder", "RealtimeOptions", "fly_realtime",
@@ -58,6 +61,7 @@ ROOT = Path(__file__).resolve().parents[3]
 COMPANION_YAML = ROOT / "config" / "launch" / "companion.yaml"
 OPERATOR_YAML = ROOT / "config" / "launch" / "operator.yaml"
 MISSION_JSON = "mission.json"
+CALLBACKS = "callbacks"  # OUT/callbacks/: each process's callback statistics
 _ARENA_FACTORIES = "quadmission.scenarios."  # factories that take the `arena` parameter
 _MISSION_FACTORY = "quadmission.scenarios.mission.launch:mission"
 _VEHICLE_UP_S = 300.0  # the vehicle's start, imports and scene included [s, host]
@@ -156,7 +160,7 @@ def realtime_report(arena: ArenaSpec, truth: VehicleTruth,
                    for s in record.get("states", [])],
         "vehicle": {k: summary[k] for k in ("rtf", "rtf_achieved", "sim_time_s",
                                             "wall_time_s", "cpu_time_s", "behind",
-                                            "setpoints")},
+                                            "setpoints", "vision")},
     }
 
 
@@ -203,9 +207,9 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "quadmission.cli", *args]
 
 
-def _start(argv: list[str], log: IO[str], nice: int = 0,
-           cpus: tuple[int, ...] | None = None) -> subprocess.Popen[str]:
-    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+def _start(argv: list[str], log: IO[str], nice: int = 0, cpus: tuple[int, ...] | None = None,
+           env_extra: dict[str, str] | None = None) -> subprocess.Popen[str]:
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"), **(env_extra or {}))
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH", "")) if p)
 
     def prioritise() -> None:  # in the child, before it runs: its threads and children
@@ -258,10 +262,11 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
                              "parameters": {"folder": str(out)}})
         operator.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
         wall = ["--transport", "ros2", "--wall-clock", *ros]
+        timed = {STATS_VARIABLE: str(out / CALLBACKS)}  # every callback, per node
         procs["companion"] = _start(_cli("launch", str(companion), *wall), logs["companion"],
-                                    options.companion_nice, options.companion_cpus)
+                                    options.companion_nice, options.companion_cpus, timed)
         procs["operator"] = _start(_cli("launch", str(operator), *wall), logs["operator"],
-                                   options.companion_nice, options.companion_cpus)
+                                   options.companion_nice, options.companion_cpus, timed)
         options.say(f"companion (pid {procs['companion'].pid}) and operator (pid "
                     f"{procs['operator'].pid}) started; logs in {out}")
         deadline = time.monotonic() + options.timeout_s
@@ -281,6 +286,7 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
     report = realtime_report(load_arena(vehicle.out / "arena.yaml"), load_truth(vehicle.out),
                              record)
     report["companion_exit_code"] = companion_code
+    report["callbacks"] = merge(out / CALLBACKS) if (out / CALLBACKS).is_dir() else {}
     report["until_state"] = options.until_state
     write_report(out, report)
     return report
