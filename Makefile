@@ -90,10 +90,10 @@ test: $(ROS_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	MUJOCO_GL=$${MUJOCO_GL:-egl} QUADMISSION_REQUIRE_ROS2=1 $(BIN)/python -m pytest -q \
-	  -n $${PYTEST_WORKERS:-auto} --dist loadscope --no-loadscope-reorder -m "not realtime"
+	  -n $${PYTEST_WORKERS:-auto} --dist loadscope --no-loadscope-reorder
 
-## make test-realtime: the wall-clock flights alone, one at a time (they need the cores:
-## beside a parallel worker or a busy process the vehicle fell seconds behind real time)
+## make test-realtime: the wall-clock flights alone, one at a time (make test runs them too,
+## beside the other tests: this is the quick check after a change to the real-time path)
 test-realtime: $(ROS_STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} QUADMISSION_REQUIRE_ROS2=1 $(BIN)/python -m pytest -q \
 	  -n 0 -m realtime

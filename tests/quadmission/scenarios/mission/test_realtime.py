@@ -63,7 +63,7 @@ def _fly(tmp_path: Path, until_state: str, settle_s: float = 3.0) -> dict[str, A
                                         settle_s=settle_s, companion_nice=COMPANION_NICE))
 
 
-@pytest.mark.realtime  # make test-realtime: beside a parallel worker it failed 2 in 5
+@pytest.mark.realtime  # a wall-clock flight: make test runs it, make test-realtime alone
 def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landing(
         tmp_path: Path) -> None:
     report = _fly(tmp_path, "mission.pad.takeoff")  # entered once the first pad is landed
@@ -82,6 +82,18 @@ def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landin
     assert {"episodes", "max_lag_s", "behind_s"} <= set(behind)
     # the offboard stream as the FCU took it, in OFFBOARD: seconds of it at >= 2 Hz
     assert report["vehicle"]["setpoints"]["heartbeats"] > 20
+    # the visual odometry the FCU fused (30 Hz over the flight), each sample's age on its
+    # clock: positive, whatever the load
+    vision = report["vehicle"]["vision"]
+    assert vision["fused"] > 300 and 0.0 < vision["age_p50_ms"] <= vision["age_max_ms"]
+    # every companion node timed its callbacks, in the process companion.yaml puts it in
+    timed = report["callbacks"]
+    assert {node: c["process"] for node, c in timed.items() if c["process"] != "operator"} == {
+        "fcu_bridge": "companion", "vio": "companion", "flight_control": "companion",
+        "aruco_scanner": "perception", "precision_land": "perception",
+        "mapping": "navigation", "path_finder": "navigation", "navigator": "navigation",
+        "mission": "mission"}
+    assert all(timed[node]["run"]["n"] > 0 for node in timed)
     # companion.yaml's nodes, as written: the run only told them the arena
     ours = yaml.safe_load((run / "companion.yaml").read_text())["nodes"]
     theirs = yaml.safe_load(COMPANION_YAML.read_text())["nodes"]
