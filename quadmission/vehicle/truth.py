@@ -71,7 +71,8 @@ class FcuWatch:
         self.firmware.vision_observers.append(self._on_vision)
 
     def _on_vision(self, sample: ConsumedVision) -> None:
-        self.vision_ages_s.append((sample.consumed_us - sample.timestamp_sample_us) / 1e6)
+        if sample.timestamp_sample_us:  # 0: unstamped, taken as "now" by the FCU: no age
+            self.vision_ages_s.append((sample.consumed_us - sample.timestamp_sample_us) / 1e6)
 
     def update(self, t_ns: int, scene: Scene) -> None:
         t_s = round(t_ns / 1e9, 3)

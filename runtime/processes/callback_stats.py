@@ -6,9 +6,9 @@ without ``use_sim_time``) keeps, for each node, three distributions in nanosecon
 - ``take_delay``: a message's wait in DDS, from its reception (rmw's
   ``received_timestamp``) to the process taking it off the transport. A process busy in a
   long callback does not take what arrives meanwhile: this is where that shows.
-- ``latency``: from when a callback was due to when it started: a timer's time, a
-  message's or a request's take, a future's completion. The callbacks before it in the
-  same process are what makes it late.
+- ``latency``: from when a callback was due to when it started: a timer's time; for a
+  message or a request, its take; for a future's or a task's step, the host's time when
+  it was made due. The callbacks before it in the same process are what makes it late.
 - ``run``: how long the callback ran.
 
 A message's whole wait is its take delay plus its latency. Each distribution is a
@@ -16,7 +16,8 @@ histogram on a log scale (:data:`BINS_PER_OCTAVE` bins a factor of 2, 9 % wide),
 exact count and largest value, so a long flight costs a few hundred integers a node.
 
 Set :data:`STATS_VARIABLE` to a folder and every node process on the wall clock writes
-``<folder>/<process>.<pid>.json`` when it ends (:meth:`CallbackStats.write`);
+``<folder>/<process>.<pid>.json`` when it ends, on SIGINT or SIGTERM too (not when
+killed; :meth:`CallbackStats.write`);
 :func:`merge` reads a folder's files back, per node. ``benchmarks/bench_realtime.py``
 uses it; nothing is kept otherwise.
 """
@@ -24,6 +25,7 @@ uses it; nothing is kept otherwise.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from collections import defaultdict
@@ -38,6 +40,7 @@ STATS_VARIABLE = "QUADMISSION_CALLBACK_STATS"
 """A folder: node processes on the wall clock write their callback statistics there."""
 
 BINS_PER_OCTAVE = 8
+_log = logging.getLogger(__name__)
 KINDS = ("take_delay", "latency", "run")
 
 
@@ -125,10 +128,12 @@ class CallbackStats:
         """``folder/<process>.<pid>.json`` (a respawned process writes a file of its own)."""
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / f"{process}.{os.getpid()}.json"
-        path.write_text(json.dumps({
+        partial = path.with_suffix(".part")  # renamed whole: a process killed while it
+        partial.write_text(json.dumps({  # writes leaves no half file to merge
             "process": process,
             "nodes": {node: {kind: h.to_json() for kind, h in kinds.items()}
                       for node, kinds in sorted(self.nodes.items())}}), encoding="utf-8")
+        partial.replace(path)
         return path
 
 
@@ -139,7 +144,11 @@ def merge(folder: Path) -> dict[str, dict[str, Any]]:
     stats = CallbackStats()
     process: dict[str, str] = {}
     for path in sorted(folder.glob("*.json")):
-        raw = json.loads(path.read_text(encoding="utf-8"))
+        try:
+            raw = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:  # one bad file does not lose the others
+            _log.warning("callback statistics %s left out: %s", path, exc)
+            continue
         for node, kinds in raw["nodes"].items():
             process[node] = raw["process"]
             for kind, h in kinds.items():

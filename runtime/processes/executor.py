@@ -27,7 +27,7 @@ from typing import Protocol, runtime_checkable
 
 from interfaces import graph
 from runtime.executor import DEFAULT_CONFIG_DIR, DeterministicExecutor, _Default
-from runtime.loop import Handle
+from runtime.loop import Handle, Label
 from runtime.node import Node
 from runtime.processes.callback_stats import CallbackStats
 from runtime.processes.lockstep import clock_cdr, clock_ns
@@ -96,6 +96,9 @@ class ClockedExecutor(DeterministicExecutor):
         self._report_period_ns = 0
         self._next_report_ns = 0  # the next report once the clock has reached this
         self.callback_stats: CallbackStats | None = None  # keep_callback_stats
+        # a call_soon handle -> the host's ns when it was made due (a cancelled one stays:
+        # seldom, and a few bytes)
+        self._soon_ns: dict[Handle, int] = {}
 
     def keep_callback_stats(self) -> CallbackStats:
         """From now on, time each callback against the host's clock (on the wall clock
@@ -115,19 +118,28 @@ class ClockedExecutor(DeterministicExecutor):
         return max(0, time.time_ns() - self.now_ns())
 
     def catch_up(self) -> None:
-        """Move the clock to where it should be now, running what is due: on the wall
-        clock, after a long start-up (imports), so that the nodes made next count their
-        timers from the host's time, not from when this executor was made."""
-        self.spin_until(self._target_ns())
+        """On the wall clock, move the clock to the host's time, running what is due: after
+        a long start-up (imports), so that the nodes made next count their timers from the
+        host's time, not from when this executor was made. Under ``use_sim_time`` it does
+        nothing: ``/clock`` moves the clock."""
+        if not self.use_sim_time:
+            self.spin_until(self._target_ns())
+
+    def call_soon(self, callback: Callable[[], None], label: Label) -> Handle:
+        handle = super().call_soon(callback, label)
+        if self.callback_stats is not None:  # due now on the host's clock: the clock may
+            self._soon_ns[handle] = time.time_ns()  # still be at an earlier callback's
+        return handle
 
     def _run(self, t_ns: int, handle: Handle) -> None:
         stats = self.callback_stats
         if stats is None:
             super()._run(t_ns, handle)
             return
-        start = time.time_ns()  # the clock's basis on the wall clock: t_ns is due then
+        due = self._soon_ns.pop(handle, t_ns)  # a timer's time, or when it was made due
+        start = time.time_ns()
         super()._run(t_ns, handle)
-        stats.callback(handle.label[0], start - t_ns, time.time_ns() - start)
+        stats.callback(handle.label[0], start - due, time.time_ns() - start)
 
     def follow_clock(self) -> None:
         """Subscribe to ``/clock`` (with ``use_sim_time``). The simulator starts its clock

@@ -428,7 +428,9 @@ class Ros2Transport:
                 taken = take(msg_type, True)
                 if taken is None:
                     return
-                note(node, time.time_ns() - taken[1]["received_timestamp"])
+                received = taken[1]["received_timestamp"]
+                if received:  # 0: an rmw that does not stamp
+                    note(node, time.time_ns() - received)
                 on_sample(taken[0], None)
 
         return take_all_observed

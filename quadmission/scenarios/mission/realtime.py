@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -262,6 +263,7 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
                              "parameters": {"folder": str(out)}})
         operator.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
         wall = ["--transport", "ros2", "--wall-clock", *ros]
+        shutil.rmtree(out / CALLBACKS, ignore_errors=True)  # an earlier run's, not merged
         timed = {STATS_VARIABLE: str(out / CALLBACKS)}  # every callback, per node
         procs["companion"] = _start(_cli("launch", str(companion), *wall), logs["companion"],
                                     options.companion_nice, options.companion_cpus, timed)
