@@ -12,6 +12,7 @@ import json
 import logging
 import math
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -567,6 +568,10 @@ def _campaign_run(args: argparse.Namespace) -> int:
     from quadmission.campaigns.runner import SUMMARY_NAME, run_campaign
 
     campaign = load_campaign(args.file).limited(args.limit)
+    # SIGTERM, and SIGINT even where a shell started the campaign in the background with it
+    # ignored (`... &`), stop it as Ctrl-C does: the finished runs' results are written
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.default_int_handler)
     result = run_campaign(campaign, args.out, source=str(args.file), workers=args.workers,
                           scheduler=args.scheduler, progress=not args.no_progress,
                           say=_stderr)
