@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from . import Json, Section
+from . import Json, Results, Row, Section
 from ._markdown import cm, dash, table, yes
 
 
@@ -70,11 +70,26 @@ def _realtime(d: Json) -> list[str]:
             + _callbacks(d))
 
 
+def _headline(r: Results) -> list[Row]:
+    d = r.get("realtime")
+    if not d or "both_cores" not in d["ways"]:
+        return []
+    w = d["ways"]["both_cores"]
+    worst_gap = max((x["setpoints"] or {}).get("max_gap_s") or 0.0 for x in d["ways"].values())
+    done = sum(x["result"] == "completed" and bool(x["all_inside"]) for x in d["ways"].values())
+    return [["the mission in real time, companion.yaml against `quadmission vehicle`: "
+             "completed with every landing inside; the companion's CPU; the largest "
+             "setpoint gap",
+             f"{done} of {len(d['ways'])} ways; {w['companion_cpu_s_per_s']:.2f} CPU-s per s "
+             f"on both cores; {worst_gap:.2f} s",
+             f"budget {d['budget_cpu_s_per_s']:g} CPU-s per s, gap under 0.5 s"]]
+
+
 SECTIONS = {
     "realtime": Section(
         "The companion in real time",
         "companion.yaml against `quadmission vehicle` on the wall clock (no lockstep, no "
         "/clock), the whole mission, three ways: both cores, the companion pinned to one "
         "core, a busy process beside it.",
-        body=_realtime),
+        body=_realtime, headline=_headline),
 }
