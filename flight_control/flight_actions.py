@@ -65,10 +65,21 @@ def _codes(ok: str, canceled: str, timeout: str, lost: str,
 
 def takeoff_home(fc: Flight) -> FloatArray | None:
     """The take-off point for a new takeoff: where the vehicle is when it stands on the
-    ground (or before any), else the last take-off point."""
+    ground (or before any), else the last take-off point. A node that never saw the
+    take-off (restarted with the vehicle in the air) takes the floor under the vehicle: a
+    take-off from where it hovers would climb a take-off altitude above it (a flight
+    control restarted at 1.6 m climbed to 3.1 m, near the ceiling, and no path could start
+    there)."""
+    if fc.position is None:
+        return fc.home
     state = fc.vehicle_state()
-    if (fc.home is None or (state is not None and state.landed)) and fc.position is not None:
+    if state is not None and state.landed:
         return fc.position.copy()
+    if fc.home is None:
+        home = fc.position.copy()
+        if state is not None and state.armed:  # in the air, its take-off unseen
+            home[2] = fc.bounds.lower[2]
+        return home
     return fc.home
 
 

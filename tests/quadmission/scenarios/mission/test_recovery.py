@@ -7,6 +7,8 @@ process respawned): the navigator's, while exploring."""
 
 from __future__ import annotations
 
+import logging
+import re
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +52,54 @@ def navigator_restarted(tmp_path_factory: pytest.TempPathFactory) -> dict[str, A
     started 4 s later (its process respawned)."""
     return _fly(tmp_path_factory.mktemp("navigator_restarted"),
                 "node_stop@30:4,name=navigator", 48.0)
+
+
+@pytest.fixture(scope="module")
+def flight_control_restarted(tmp_path_factory: pytest.TempPathFactory
+                             ) -> tuple[dict[str, Any], list[str]]:
+    """Flight control stopped at 14 s, in the air after its take-off (seed 0: take-off
+    from 6 s, the turns before the exploration), a fresh one started 4 s later; and what
+    flight control said."""
+    handler = _Lines()
+    logger = logging.getLogger("quadmission.flight_control")
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    try:
+        report = _fly(tmp_path_factory.mktemp("flight_control_restarted"),
+                      "node_stop@14:4,name=flight_control", 40.0)
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+    return report, handler.lines
+
+
+class _Lines(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(logging.INFO)
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(record.getMessage())
+
+
+def test_a_flight_control_restarted_in_the_air_climbs_from_the_floor_not_from_its_hover(
+        flight_control_restarted: tuple[dict[str, Any], list[str]]) -> None:
+    # A fresh flight control never saw the take-off: the resumed take-off counts its
+    # altitude from the floor under the vehicle. Counted from where it hovered (1.6 m) it
+    # climbed to 3.1 m, near the ceiling, where no path could start (random arena 206).
+    report, lines = flight_control_restarted
+    names, _, _ = _hold(report)
+    assert names[:4] == ["mission.takeoff", "held", "mission.takeoff", "mission.explore"], names
+    takeoffs = [line for line in lines if "takeoff succeeded" in line]
+    assert len(takeoffs) == 2, lines
+    found = re.search(r"at ([\d.]+) m above the take-off point \(([-\d.]+), ([-\d.]+), "
+                      r"([-\d.]+)\) m", takeoffs[1])
+    assert found is not None, takeoffs[1]
+    above, home_z = float(found.group(1)), float(found.group(4))
+    assert home_z == 0.0  # the field's floor
+    assert above == pytest.approx(1.5, abs=0.2)  # takeoff_altitude, not 1.5 m over 1.6 m
+    assert report["final_state"] == "mission.explore" and not report["crashed"]
 
 
 def test_a_link_loss_during_the_takeoff_holds_then_resumes_into_the_exploration(
