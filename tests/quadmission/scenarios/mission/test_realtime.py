@@ -63,7 +63,7 @@ def _fly(tmp_path: Path, until_state: str, settle_s: float = 3.0) -> dict[str, A
                                         settle_s=settle_s, companion_nice=COMPANION_NICE))
 
 
-@pytest.mark.realtime  # a wall-clock flight: make test runs it, make test-realtime alone
+@pytest.mark.realtime  # make test-realtime, alone: beside a parallel worker it can fail
 def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landing(
         tmp_path: Path) -> None:
     report = _fly(tmp_path, "mission.pad.takeoff")  # entered once the first pad is landed
