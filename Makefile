@@ -85,15 +85,17 @@ ros-interfaces: $(ROS_STAMP)
 ## the whole test suite, a pytest-xdist worker per core (each module on one worker, the
 ## modules of slow tests first: tests/conftest.py;
 ## PYTEST_WORKERS=1 for one); the ROS 2 tests run, and fail rather than skip if the build is
-## missing
+## missing. Then the wall-clock flights (marker realtime), alone: they keep up with the
+## host's clock and need its cores (beside a parallel test worker a flight once lost its
+## FCU link mid-exploration)
 test: $(ROS_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	MUJOCO_GL=$${MUJOCO_GL:-egl} QUADMISSION_REQUIRE_ROS2=1 $(BIN)/python -m pytest -q \
 	  -n $${PYTEST_WORKERS:-auto} --dist loadscope --no-loadscope-reorder -m "not realtime"
+	$(MAKE) --no-print-directory test-realtime
 
-## make test-realtime: the wall-clock flights alone, one at a time (they need the cores:
-## beside a parallel test worker the flight failed again in a clean-clone CI run)
+## make test-realtime: the wall-clock flights alone, one at a time
 test-realtime: $(ROS_STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} QUADMISSION_REQUIRE_ROS2=1 $(BIN)/python -m pytest -q \
 	  -n 0 -m realtime

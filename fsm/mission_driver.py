@@ -98,7 +98,7 @@ class DriverParams:
     battery_critical_warning: int
     land_speed: float
     arm_attempts: int
-    failsafe_cause_wait_s: float
+    failure_cause_wait_s: float
     status_timeout_s: float
     recovery_settle_s: float
     recovery_deadline_s: float
@@ -374,9 +374,9 @@ class Driver:
         self._entered_ns = 0
         self._phase = self._previous_phase = phase_of(self.mission.state)
         self._out: list[Command]  # the commands of the step under way (set by step)
-        #: an action that failed while the FCU's failsafe was flying, until when its cause
-        #: may still come, and the mission's stop reason then (:meth:`_action_failed`)
-        self._failure: tuple[str, int] | None = None
+        #: an action that failed: the mission's stop reason if no cause comes, whether the
+        #: FCU's failsafe was flying, and until when a cause may come (:meth:`_action_failed`)
+        self._failure: tuple[str, bool, int] | None = None
         #: recovery: the time the interrupted state had run before its holds [s] (its
         #: budget counts only that), the time held in all [s], since when the held cause
         #: has been clear, and whether offboard is being asked for again
@@ -503,12 +503,15 @@ class Driver:
         m = self.mission
         self._apply_alerts()
         if self._failure is not None:  # (a cause that came meanwhile changed the state)
-            detail, deadline_ns = self._failure
+            detail, failsafe, deadline_ns = self._failure
             if self.now_ns >= deadline_ns:
                 self._failure = None
-                m.error(ErrorCause.OFFBOARD_LOST,
-                        f"{detail} (the FCU's failsafe active, no other cause reported in "
-                        f"{self.params.failsafe_cause_wait_s:g} s)")
+                if failsafe:
+                    m.error(ErrorCause.OFFBOARD_LOST,
+                            f"{detail} (the FCU's failsafe active, no other cause reported "
+                            f"in {self.params.failure_cause_wait_s:g} s)")
+                else:
+                    m.action_failed(detail)
         if m.state == "mission.await_sequence":
             waited = self._used_s + (self.now_ns - self._entered_ns) / 1e9
             if waited > self.params.sequence_timeout_s:
@@ -765,20 +768,27 @@ class Driver:
             self._action_failed(f"land: {reply.message}")
 
     def _action_failed(self, detail: str) -> None:
-        """An action failed. While the FCU's own failsafe flies the vehicle (it switched out
-        of offboard on a low battery, a lost link...) the failure is its consequence, not
-        its cause: the cause (the battery's warning comes at 1 Hz, after the mode change)
-        decides by the error policy when it comes within ``failsafe_cause_wait_s``; without
-        one the FCU took the vehicle for a reason of its own (its offboard-loss failsafe:
-        the link or the setpoint stream lost), ``offboard_lost``, a transient cause."""
+        """An action failed. It may be the consequence of a cause the mission has not seen
+        yet: the FCU's own failsafe flies the vehicle (it left offboard on a low battery, a
+        lost link...), or flight control refused a goal for a fault that holds the mission
+        (the position estimate invalid, the FCU link silent: flight control sees the FCU
+        before the mission's /fcu/status does). A cause present now decides by the error
+        policy at once; else the first to come within ``failure_cause_wait_s`` does (the
+        battery's warning comes at 1 Hz, after the mode change). With none: under the
+        FCU's failsafe it took the vehicle for a reason of its own (its offboard-loss
+        failsafe: the link or the setpoint stream lost), ``offboard_lost``, a transient
+        cause; otherwise the action itself failed, ``flight_error``. On the ground with
+        no failsafe (an arm refused), the failure is its own cause at once."""
         s = self.status
-        if s is None or not s.failsafe:
+        failsafe = s is not None and s.failsafe
+        if not failsafe and (s is None or not s.armed or s.landed):
             self.mission.action_failed(detail)
             return
         state_then = self.mission.state
         self._apply_alerts()  # a cause already known decides at once
         if self.mission.state == state_then:
-            self._failure = (detail, self.now_ns + round(self.params.failsafe_cause_wait_s * 1e9))
+            self._failure = (detail, failsafe,
+                             self.now_ns + round(self.params.failure_cause_wait_s * 1e9))
 
 
 def _ignore(_: GoalDone) -> None:

@@ -81,10 +81,11 @@ class MissionParams:
     land_speed: float = param(unit="m/s", range=(0.0, 3.0),
                               description="land-now descent (0: the layer's default)")
     arm_attempts: int = param(range=(1, 20), description="arm calls before giving up")
-    failsafe_cause_wait_s: float = param(
+    failure_cause_wait_s: float = param(
         unit="s", range=(0.0, 10.0),
-        description="an action that fails while the FCU's failsafe flies waits this long "
-                    "for the failsafe's cause before it counts as a flight error")
+        description="an action that fails waits this long for a cause it may be the "
+                    "consequence of (the FCU's failsafe flying, the position estimate or "
+                    "the FCU link lost) before it counts as a flight error")
     status_timeout_s: float = param(unit="s", range=(0.2, 60.0),
                                     description="in the air, no /fcu/status this long = the "
                                                 "FCU link lost (offboard_lost)")

@@ -31,7 +31,7 @@ import numpy as np
 from sim.fcu.firmware import ConsumedVision, Firmware
 from sim.world import Scene, Trajectory
 
-__all__ = ["TRUTH_NPZ", "VEHICLE_JSON", "FcuWatch", "VehicleTruth", "load_truth",
+__all__ = ["TOUCHDOWN_SAID", "TRUTH_NPZ", "VEHICLE_JSON", "FcuWatch", "VehicleTruth", "load_truth",
            "setpoint_figures", "vision_figures", "write_trajectory"]
 
 #: a gap in the offboard stream worth counting [s]: the issue's bound (PX4 needs 2 Hz)
@@ -39,6 +39,7 @@ SETPOINT_GAP_S = 0.5
 
 TRUTH_NPZ = "truth.npz"
 VEHICLE_JSON = "vehicle.json"
+TOUCHDOWN_SAID = "touchdown at"  # what the vehicle says (its log) as its FCU detects landed
 
 
 @dataclass
@@ -103,7 +104,7 @@ class FcuWatch:
             x, y, z = (float(v) for v in scene.views.quad_qpos[:3])
             self.touchdowns.append({"t_s": t_s, "position_m": [round(x, 4), round(y, 4),
                                                                round(z, 4)]})
-            self.say(f"touchdown at {t_s:.2f} s at ({x:.3f}, {y:.3f}) m")
+            self.say(f"{TOUCHDOWN_SAID} {t_s:.2f} s at ({x:.3f}, {y:.3f}) m")
         self._landed = landed
 
 

@@ -528,9 +528,13 @@ class PositionController:
         return self.update_floats((n, e, d), (vn, ve, vd), (w, x, y, z), setpoint, dt_us)
 
     def update_floats(self, position_ned: Vec3, velocity_ned: Vec3, q: Quat,
-                      setpoint: TrajectorySetpointData, dt_us: int) -> PositionControlOutput:
+                      setpoint: TrajectorySetpointData, dt_us: int,
+                      min_down_acceleration: float = -math.inf) -> PositionControlOutput:
         """:meth:`update` from the state's position, velocity and ``q`` as floats (the
-        firmware's path: it does not build a :class:`VehicleState` for it)."""
+        firmware's path: it does not build a :class:`VehicleState` for it).
+        ``min_down_acceleration`` [m/s^2, NED] is the least downward acceleration the
+        velocity loop may ask for: a thrust ceiling (the FCU's DESCEND, which must never
+        climb on an estimate it cannot check); the vertical integrator stops against it."""
         if setpoint is not self._checked_setpoint:
             _check_setpoint(setpoint)
             self._checked_setpoint = setpoint
@@ -576,6 +580,9 @@ class PositionController:
             if isfinite(vel_sp[i]) else sp_acc[i]
             for i in range(3)
         ]
+        ceiling = acc_sp[2] < min_down_acceleration
+        if ceiling:
+            acc_sp[2] = min_down_acceleration
 
         # acceleration -> thrust vector (PositionControl::_accelerationControl)
         bx, by, bz = -acc_sp[0], -acc_sp[1], GRAVITY
@@ -592,7 +599,7 @@ class PositionController:
         # vertical anti-windup, vertical priority with a horizontal margin
         at_min = -tz <= self._thrust_min + _EPS
         at_max = -tz >= self._thrust_max - _EPS
-        if (at_min and vel_error[2] >= 0.0) or (at_max and vel_error[2] <= 0.0):
+        if (at_min and vel_error[2] >= 0.0) or ((at_max or ceiling) and vel_error[2] <= 0.0):
             vel_error[2] = 0.0
         xy_norm = math.hypot(tx, ty)
         margin = min(xy_norm, self._thrust_xy_margin)

@@ -111,6 +111,10 @@ class FirmwareParams:
     """Descent speed below ``land_crawl_height``."""
     land_crawl_height: float = param(unit="m", range=(0.0, 20.0))
     """Height above home below which the landing descent slows to ``land_crawl_speed``."""
+    descend_acceleration: float = param(unit="m/s^2", range=(0.0, 5.0))
+    """DESCEND without a vertical velocity: PX4's FlightTaskDescend commands this downward
+    acceleration (thrust below hover, a crash landing). Here the least the descent asks
+    for: it follows ``land_speed`` on the dead-reckoned velocity, never above this thrust."""
     idle_thrust_fraction: float = param(unit="of max thrust per motor", range=(0.0, 0.3))
     """Motor thrust while armed on the ground (PX4 spins the motors at idle)."""
     gyro_calibration_s: float = param(unit="s", range=(0.0, 60.0))
@@ -560,8 +564,12 @@ class Firmware:
         elif mode is NavigationState.DESCEND:
             # PX4's FlightTaskDescend: level (no horizontal acceleration, so no position
             # needed) and down at MPC_LAND_SPEED on the vertical velocity. PX4 has it from
-            # the barometer-aided estimate; this FCU has no barometer, and descends on
-            # the IMU-propagated vertical velocity its filter keeps without vision.
+            # the barometer-aided estimate, and without one descends at a fixed 0.3 m/s^2
+            # (thrust below hover). This FCU has no barometer: it descends on the IMU-
+            # propagated vertical velocity its filter keeps without vision, its thrust never
+            # above PX4's fixed descent's (position_control): the dead-reckoned velocity
+            # drifts, and once, on the floor, the velocity loop wound up on it and lifted
+            # the vehicle off into a wall.
             self._hold_here(mode)  # the heading to keep
             self.setpoint = TrajectorySetpointData(
                 velocity=np.array([math.nan, math.nan, self.params.land_speed]),
@@ -576,9 +584,11 @@ class Firmware:
             return
         dt_us = self._position_period_us
         position, velocity, q, _ = self._kinematics()
+        ceiling = self.params.descend_acceleration \
+            if self.nav_state is NavigationState.DESCEND else -math.inf
         try:
             self.position_out = self.position_controller.update_floats(
-                position, velocity, q, self.setpoint, dt_us)
+                position, velocity, q, self.setpoint, dt_us, ceiling)
         except ValueError:  # an invalid offboard setpoint: hold instead, as PX4 does
             here = self._hold_here(NavigationState.AUTO_LOITER)
             self.position_out = self.position_controller.update_floats(

@@ -61,7 +61,7 @@ PARAMS = DriverParams(
     cruise_altitude=1.5, explore_altitude=1.9, explore_budget_s=600.0, health_topics=TOPICS,
     preflight_timeout_s=0.5, silence_timeout_s=3.0, sequence_timeout_s=120.0,
     report_hover_s=1.0, picture_timeout_s=0.5, max_pictures=3, battery_low_warning=1,
-    battery_critical_warning=2, land_speed=0.4, arm_attempts=5, failsafe_cause_wait_s=1.5,
+    battery_critical_warning=2, land_speed=0.4, arm_attempts=5, failure_cause_wait_s=1.5,
     status_timeout_s=1.0, recovery_settle_s=2.0, recovery_deadline_s=30.0)
 PADS = {1: (1.5, 1.5), 2: (3.0, 7.5), 3: (7.0, 10.5)}
 CONFIG = MissionConfig(target_robot=19, start_pad=1, pads=PADS, search_radius_near=0.5,
@@ -96,8 +96,20 @@ class Rig:
 
     def done(self, outcome: Outcome = Outcome.SUCCEEDED, message: str = "",
              lateral_error: float = math.nan, after_s: float = 1.0) -> list[Command]:
+        """The goal in hand ends ``after_s`` later, the modules and the FCU having kept
+        reporting meanwhile (the link up)."""
         assert isinstance(self.job, SendGoal)
-        return self.feed(GoalDone(self.job.job, outcome, message, lateral_error), after_s)
+        self.t_ns += round(after_s * 1e9)
+        self.report_health()
+        if self.driver.status is not None:
+            self.feed(self.driver.status)
+        return self.feed(GoalDone(self.job.job, outcome, message, lateral_error))
+
+    def failed(self, message: str) -> list[Command]:
+        """The goal in hand fails in the air, and no cause comes while the driver waits
+        for one (``failure_cause_wait_s``): the commands at the end of the wait."""
+        self.done(Outcome.FAILED, message)
+        return self.tick(self.driver.params.failure_cause_wait_s)
 
     def woke(self) -> list[Command]:
         assert isinstance(self.job, Sleep)
@@ -255,7 +267,7 @@ def test_the_timeline_and_events_carry_the_time_of_the_input() -> None:
 
 def test_each_event_is_published_with_the_state_it_happened_in() -> None:
     rig = flying_pads()
-    out = rig.done(Outcome.FAILED, "blocked")
+    out = rig.failed("blocked")
     published = of(out, PublishEvent)
     error = next(p for p in published if p.event.kind is EventKind.ERROR)
     assert error.state == "mission.pad.navigate"
@@ -419,7 +431,7 @@ def test_the_explore_budget_running_out_returns_home_and_lands(ended: Outcome) -
 
 def test_an_explore_failure_holds() -> None:
     rig = exploring()
-    rig.done(Outcome.FAILED, "no way on")
+    rig.failed("no way on")
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None and stop.detail == "explore: no way on"
 
@@ -461,7 +473,7 @@ def test_a_failure_under_the_failsafe_without_a_cause_is_offboard_lost_after_the
     rig = exploring()
     rig.feed(FAILSAFE)
     rig.done(Outcome.FAILED, "no way on")
-    rig.tick(PARAMS.failsafe_cause_wait_s - 0.1)
+    rig.tick(PARAMS.failure_cause_wait_s - 0.1)
     assert rig.state == "mission.explore"
     rig.tick(0.2)
     stop = rig.driver.mission.stop
@@ -589,7 +601,7 @@ def test_a_failed_landing_where_the_vehicle_is_holds() -> None:
     rig.feed(replace(FLYING, battery_warning=2, battery_remaining=0.05))
     rig.tick()
     assert rig.state == "landing_now"
-    rig.done(Outcome.FAILED, "no touchdown detected")
+    rig.failed("no touchdown detected")
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None
     assert (stop.cause, stop.detail) == (ErrorCause.FLIGHT_ERROR, "land: no touchdown detected")
@@ -598,7 +610,7 @@ def test_a_failed_landing_where_the_vehicle_is_holds() -> None:
 def test_a_precision_landing_failure_names_the_pad() -> None:
     rig = flying_pads()
     rig.done()
-    rig.done(Outcome.FAILED, "descent timeout")
+    rig.failed("descent timeout")
     stop = rig.driver.mission.stop
     assert stop is not None and stop.detail == "precision land on pad 2: descent timeout"
 
@@ -606,7 +618,7 @@ def test_a_precision_landing_failure_names_the_pad() -> None:
 # -- errors: the policy's reactions --------------------------------------------------------
 def test_a_failed_navigation_holds_and_cancels_what_runs() -> None:
     rig = flying_pads()
-    out = rig.done(Outcome.FAILED, "blocked")
+    out = rig.failed("blocked")
     assert rig.state == "stopped"
     assert of(out, CancelGoal) == [CancelGoal()]
     stop = rig.driver.mission.stop

@@ -201,17 +201,48 @@ def test_offboard_refused_waits_another_settle_time_then_the_deadline() -> None:
 
 def test_a_failure_under_the_fcus_failsafe_with_no_cause_holds_and_resumes() -> None:
     """The FCU switched out of offboard and its failsafe flies (a short link loss): the
-    explore fails, no cause comes in ``failsafe_cause_wait_s``: offboard_lost, held; the
+    explore fails, no cause comes in ``failure_cause_wait_s``: offboard_lost, held; the
     FCU back in offboard on its own, the exploration resumes."""
     rig = rig_exploring()
     rig.feed(FCU_HOLDS)
     rig.feed(GoalDone(rig.job.job, Outcome.FAILED, "explore: lost offboard control"), 0.5)
-    settle(rig, PARAMS.failsafe_cause_wait_s + 0.1)
+    settle(rig, PARAMS.failure_cause_wait_s + 0.1)
     assert rig.state == "held" and hold_events(rig)[-1]["cause"] == "offboard_lost"
     rig.feed(IN_OFFBOARD)  # the FCU's hold ended: back in offboard on its own
     settle(rig, SETTLE_S)
     assert rig.states()[-2:] == ["held", "mission.explore"]
     assert rig.job.action is Action.EXPLORE  # no take-off first: in offboard already
+
+
+def test_a_reach_refused_for_a_lost_estimate_before_the_status_says_so_holds_and_resumes(
+        ) -> None:
+    """Flight control sees the FCU's position estimate go invalid before the mission's
+    /fcu/status does, and refuses the explore's next reach (a wall-clock flight on a busy
+    host: it used to stop the mission as a flight error). The failure waits for its cause:
+    the status says the estimate is lost, a transient hold; back, the explore resumes."""
+    rig = rig_exploring()
+    rig.feed(GoalDone(rig.job.job, Outcome.FLIGHT_ERROR,
+                      "reach rejected: no valid position estimate"), 0.5)
+    assert rig.state == "mission.explore" and rig.driver.mission.stop is None
+    lose_position(rig, PARAMS.failure_cause_wait_s / 2)  # the status, late
+    assert rig.state == "held" and hold_events(rig)[-1]["cause"] == "localisation_lost"
+    rig.feed(IN_OFFBOARD)
+    settle(rig, SETTLE_S + 0.1)
+    assert rig.states()[-2:] == ["held", "mission.explore"]
+    assert rig.job.action is Action.EXPLORE and rig.driver.mission.stop is None
+
+
+def test_an_action_failure_with_no_cause_is_a_flight_error_after_the_wait() -> None:
+    """No cause comes and the FCU's failsafe does not fly: the action itself failed,
+    ``flight_error``, a permanent hold (the pilot decides), once the wait is over."""
+    rig = rig_exploring()
+    rig.feed(GoalDone(rig.job.job, Outcome.FLIGHT_ERROR, "no way on"), 0.5)
+    rig.tick(PARAMS.failure_cause_wait_s - 0.1)
+    assert rig.state == "mission.explore"
+    rig.tick(0.2)
+    stop = rig.driver.mission.stop
+    assert rig.state == "stopped" and stop is not None
+    assert stop.cause is ErrorCause.FLIGHT_ERROR and stop.detail == "explore: no way on"
 
 
 def test_held_while_the_fcus_failsafe_lands_the_vehicle_ends_in_landed() -> None:

@@ -164,6 +164,8 @@ def _decision(action: Action, outcome: Outcome) -> str:
         setattr(rig.driver.mission, name,
                 lambda *_args, _name=name: called.append(_name) or True)
     rig.done(outcome, "why", lateral_error=0.02)
+    if not called:  # a failure in the air waits for a cause it may be the consequence of
+        rig.tick(PARAMS.failure_cause_wait_s)
     assert len(called) == 1, called
     return called[0]
 

@@ -175,6 +175,11 @@ class RealtimeOptions:
     until_state: str | None = None  # end once the mission enters it (a short check)
     timeout_s: float = 1800.0  # [s of host time] the companion's launch at most
     settle_s: float = _SETTLE_S  # [s of host time] the vehicle runs on after the companion
+    #: a phrase of the vehicle's log ("touchdown at") that ends the settle as soon as the
+    #: vehicle says it after the companion stopped; ``settle_s`` is then the bound. On a
+    #: busy host the vehicle falls behind the host's clock: a fixed host time may be too
+    #: few simulated seconds for what the vehicle has still to do
+    settle_until: str | None = None
     vehicle_nice: int = VEHICLE_NICE  # the vehicle's process priority (nice), if allowed
     #: the companion's and the operator's processes' nice (0: as any program; a flight stack
     #: that shares its computer with other work is given a higher priority, if allowed)
@@ -276,8 +281,9 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
             if procs["vehicle"].poll() is not None:
                 break  # crashed, or stopped from outside
             time.sleep(0.5)
+        said = (out / "vehicle.log").stat().st_size
         companion_code = _stop(procs["companion"])
-        time.sleep(options.settle_s)
+        _settle(procs["vehicle"], out / "vehicle.log", said, options)
     finally:
         for proc in reversed(list(procs.values())):
             _stop(proc)
@@ -292,6 +298,21 @@ def fly_realtime(options: RealtimeOptions) -> dict[str, Any]:
     report["until_state"] = options.until_state
     write_report(out, report)
     return report
+
+
+def _settle(vehicle: subprocess.Popen[str], log: Path, said: int,
+            options: RealtimeOptions) -> None:
+    """``options.settle_s`` of host time, or until the vehicle's log says
+    ``options.settle_until`` after its first ``said`` bytes (or the vehicle ends)."""
+    deadline = time.monotonic() + options.settle_s
+    while time.monotonic() < deadline and vehicle.poll() is None:
+        if options.settle_until is not None:
+            with log.open("rb") as lines:
+                lines.seek(said)
+                if options.settle_until.encode() in lines.read():
+                    time.sleep(_SETTLE_S)  # at rest on its pad before the truth is written
+                    return
+        time.sleep(min(0.5, max(0.0, deadline - time.monotonic())))
 
 
 def _wait_up(proc: subprocess.Popen[str], log: Path) -> None:

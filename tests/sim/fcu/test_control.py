@@ -23,6 +23,7 @@ from sim.fcu.control import (
     Cascade,
     ControlGains,
     InvalidSetpointError,
+    PositionController,
     TrajectorySetpointData,
     VehicleState,
     attitude_from_thrust_vector,
@@ -42,7 +43,7 @@ from sim.fcu.rigid_body import (
     imu_frd,
     q_enu_flu_to_ned_frd,
 )
-from sim.quadrotor import QuadrotorParams, allocation_matrix
+from sim.quadrotor import GRAVITY, QuadrotorParams, allocation_matrix
 
 ALTITUDE = 1.5  # m
 HOVER_NED = np.array([0.0, 0.0, -ALTITUDE])
@@ -194,6 +195,31 @@ def test_hover_command_at_rest_is_hover_thrust_on_every_motor(gains: ControlGain
     )
     np.testing.assert_allclose(out.motor_thrusts, PARAMS.hover_thrust, rtol=1e-9)
     assert not out.saturated
+
+
+def test_a_thrust_ceiling_holds_whatever_the_velocity_error_and_stops_the_integrator(
+        gains: ControlGains) -> None:
+    """DESCEND's ceiling (the firmware's ``descend_acceleration``): on the floor, its
+    dead-reckoned velocity saying it falls faster than the land speed, the loop asks to
+    brake for 20 s. Without the ceiling its integrator winds up past hover thrust (what
+    once lifted a vehicle off the floor into a wall); with it, the thrust never passes
+    m (g - a) and the vertical integrator does not grow."""
+    descend = TrajectorySetpointData(velocity=np.array([math.nan, math.nan, 0.7]),
+                                     acceleration=np.array([0.0, 0.0, math.nan]))
+    floor, drifting = (0.0, 0.0, -0.15), (0.0, 0.0, 1.0)  # NED: "falling" at 1 m/s
+    level = (1.0, 0.0, 0.0, 0.0)
+    ceiling = PARAMS.mass * (GRAVITY - 0.3)
+
+    def thrusts(min_down_acceleration: float) -> tuple[list[float], PositionController]:
+        loop = PositionController(gains, PARAMS)
+        return [loop.update_floats(floor, drifting, level, descend, 10_000,
+                                   min_down_acceleration).collective_thrust
+                for _ in range(2000)], loop
+    free, _ = thrusts(-math.inf)
+    assert max(free) > PARAMS.mass * GRAVITY * 1.1  # it would climb
+    capped, loop = thrusts(0.3)
+    assert max(capped) <= ceiling * (1 + 1e-9)
+    assert loop.velocity_integral[2] == pytest.approx(0.0, abs=1e-9)
 
 
 @settings(max_examples=200, deadline=None)
