@@ -506,7 +506,9 @@ class Driver:
             detail, failsafe, deadline_ns = self._failure
             if self.now_ns >= deadline_ns:
                 self._failure = None
-                if failsafe:
+                # the FCU's failsafe may have been reported during the wait (flight control
+                # sees the FCU first) with no cause of its own: still its offboard loss
+                if failsafe or (self.status is not None and self.status.failsafe):
                     m.error(ErrorCause.OFFBOARD_LOST,
                             f"{detail} (the FCU's failsafe active, no other cause reported "
                             f"in {self.params.failure_cause_wait_s:g} s)")
@@ -778,7 +780,10 @@ class Driver:
         FCU's failsafe it took the vehicle for a reason of its own (its offboard-loss
         failsafe: the link or the setpoint stream lost), ``offboard_lost``, a transient
         cause; otherwise the action itself failed, ``flight_error``. On the ground with
-        no failsafe (an arm refused), the failure is its own cause at once."""
+        no failsafe (an arm refused), the failure is its own cause at once. The wait is
+        said as a warning event. It catches a lost estimate or the FCU's failsafe, which
+        /fcu/status reports at 5 Hz, and the link lost if ``status_timeout_s`` ends within
+        it; a silent module (``silence_timeout_s``, 3 s) comes too late for it."""
         s = self.status
         failsafe = s is not None and s.failsafe
         if not failsafe and (s is None or not s.armed or s.landed):
@@ -787,8 +792,10 @@ class Driver:
         state_then = self.mission.state
         self._apply_alerts()  # a cause already known decides at once
         if self.mission.state == state_then:
-            self._failure = (detail, failsafe,
-                             self.now_ns + round(self.params.failure_cause_wait_s * 1e9))
+            wait_s = self.params.failure_cause_wait_s
+            self.emit(MissionEvent(EventKind.ERROR, f"{detail}: waiting up to {wait_s:g} s "
+                                   "for its cause", Severity.WARN))
+            self._failure = (detail, failsafe, self.now_ns + round(wait_s * 1e9))
 
 
 def _ignore(_: GoalDone) -> None:

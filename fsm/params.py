@@ -83,9 +83,10 @@ class MissionParams:
     arm_attempts: int = param(range=(1, 20), description="arm calls before giving up")
     failure_cause_wait_s: float = param(
         unit="s", range=(0.0, 10.0),
-        description="an action that fails waits this long for a cause it may be the "
-                    "consequence of (the FCU's failsafe flying, the position estimate or "
-                    "the FCU link lost) before it counts as a flight error")
+        description="an action that fails in the air waits this long for a cause it may "
+                    "be the consequence of (the position estimate or the FCU link lost); "
+                    "none: offboard_lost under the FCU's failsafe, else a flight error (on "
+                    "the ground: at once)")
     status_timeout_s: float = param(unit="s", range=(0.2, 60.0),
                                     description="in the air, no /fcu/status this long = the "
                                                 "FCU link lost (offboard_lost)")

@@ -114,7 +114,9 @@ class FirmwareParams:
     descend_acceleration: float = param(unit="m/s^2", range=(0.0, 5.0))
     """DESCEND without a vertical velocity: PX4's FlightTaskDescend commands this downward
     acceleration (thrust below hover, a crash landing). Here the least the descent asks
-    for: it follows ``land_speed`` on the dead-reckoned velocity, never above this thrust."""
+    for: it speeds up to ``land_speed`` on the dead-reckoned velocity, then on at this
+    acceleration (it can neither brake nor climb), landing a little harder than PX4's
+    barometer-aided descent at ``land_speed``."""
     idle_thrust_fraction: float = param(unit="of max thrust per motor", range=(0.0, 0.3))
     """Motor thrust while armed on the ground (PX4 spins the motors at idle)."""
     gyro_calibration_s: float = param(unit="s", range=(0.0, 60.0))
@@ -567,9 +569,10 @@ class Firmware:
             # the barometer-aided estimate, and without one descends at a fixed 0.3 m/s^2
             # (thrust below hover). This FCU has no barometer: it descends on the IMU-
             # propagated vertical velocity its filter keeps without vision, its thrust never
-            # above PX4's fixed descent's (position_control): the dead-reckoned velocity
-            # drifts, and once, on the floor, the velocity loop wound up on it and lifted
-            # the vehicle off into a wall.
+            # above PX4's fixed descent's (position_control), so past the land speed it
+            # speeds up at that 0.3 m/s^2: the dead-reckoned velocity drifts, and once, on
+            # the floor, the velocity loop wound up on it and lifted the vehicle off into a
+            # wall.
             self._hold_here(mode)  # the heading to keep
             self.setpoint = TrajectorySetpointData(
                 velocity=np.array([math.nan, math.nan, self.params.land_speed]),

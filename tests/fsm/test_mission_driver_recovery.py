@@ -13,6 +13,7 @@ import pytest
 from flight_control.policy import Outcome
 from fsm.mission_driver import (
     Action,
+    ArmDone,
     CallArm,
     CancelGoal,
     ExploreGoal,
@@ -22,12 +23,15 @@ from fsm.mission_driver import (
     OperatorCommand,
     Order,
     Position,
+    Probed,
+    PublishEvent,
     ReachGoal,
     SendGoal,
     TakeoffGoal,
     Tick,
+    VehicleStatus,
 )
-from fsm.mission_machine import EventKind, MissionConfig
+from fsm.mission_machine import EventKind, MissionConfig, Severity
 from fsm.mission_table import ERROR_POLICY, ErrorCause, Reaction
 from tests.fsm.test_mission_driver import (
     CONFIG,
@@ -39,6 +43,7 @@ from tests.fsm.test_mission_driver import (
     exploring,
     flying_pads,
     of,
+    started,
 )
 
 RESUMES = replace(CONFIG, max_resumes=2)
@@ -243,6 +248,38 @@ def test_an_action_failure_with_no_cause_is_a_flight_error_after_the_wait() -> N
     stop = rig.driver.mission.stop
     assert rig.state == "stopped" and stop is not None
     assert stop.cause is ErrorCause.FLIGHT_ERROR and stop.detail == "explore: no way on"
+
+
+def test_the_fcus_failsafe_reported_during_the_wait_is_its_offboard_loss_not_a_flight_error(
+        ) -> None:
+    """Flight control saw the FCU leave offboard before /fcu/status said so: the failure
+    came with no failsafe known; the failsafe reported during the wait, and no other
+    cause, it is the FCU's offboard loss (held), not a flight error (a permanent stop)."""
+    rig = rig_exploring()
+    out = rig.feed(GoalDone(rig.job.job, Outcome.FLIGHT_ERROR,
+                            "reach rejected: not in offboard control"), 0.5)
+    (waiting,) = [e.event for e in of(out, PublishEvent)]
+    assert waiting.severity is Severity.WARN and "waiting up to" in waiting.message
+    rig.feed(FCU_HOLDS, PARAMS.failure_cause_wait_s / 2)
+    settle(rig, PARAMS.failure_cause_wait_s)
+    assert rig.state == "held" and hold_events(rig)[-1]["cause"] == "offboard_lost"
+    assert rig.driver.mission.stop is None
+
+
+@pytest.mark.parametrize("status", [replace(FLYING, landed=True),  # armed on the pad
+                                    replace(FLYING, armed=False)],  # disarmed (its word)
+                         ids=["armed_on_the_pad", "disarmed"])
+def test_a_failure_on_the_ground_counts_at_once(status: VehicleStatus) -> None:
+    """Not in the air and no failsafe: nothing the failure could be the consequence of
+    can still come; the take-off's failure stops the mission at once, as before."""
+    rig = started()
+    rig.feed(Probed(rig.job.job, ()))
+    rig.feed(ArmDone(rig.job.job, None))
+    rig.feed(status)
+    rig.feed(GoalDone(rig.job.job, Outcome.FLIGHT_ERROR, "no climb"))
+    stop = rig.driver.mission.stop
+    assert rig.state == "stopped" and stop is not None
+    assert stop.cause is ErrorCause.FLIGHT_ERROR and stop.detail == "takeoff: no climb"
 
 
 def test_held_while_the_fcus_failsafe_lands_the_vehicle_ends_in_landed() -> None:

@@ -11,6 +11,8 @@ from interfaces.px4 import NavigationState
 from runtime import GoalStatus
 from sim.fault_spec import parse_fault
 from sim.fcu.commander import FailsafeReason
+from sim.quadrotor import GRAVITY
+from sim.world import Scene
 
 from .hover import HOVER_Z_M, Hover, hover
 
@@ -21,6 +23,27 @@ pytestmark = pytest.mark.slow
 # vehicle descends there: at (3.0, 4.5), 0.5 m beside that corridor, a 0.36 m drift put it
 # on robot 14 as it drove by)
 OPEN_FLOOR_XY = (2.0, 5.0)
+
+
+class DescendThrust:
+    """A world part: the largest collective thrust the FCU's position loop asked for in
+    DESCEND [N] (from its second sample there: the first may still be the loop's output
+    of the mode before)."""
+
+    name = "descend_thrust"
+    rate_hz = 100.0
+
+    def __init__(self, h: Hover) -> None:
+        self.firmware = h.sitl.firmware
+        self.largest = 0.0
+        self._descending = False
+
+    def update(self, t_ns: int, scene: Scene) -> None:
+        out = self.firmware.position_out
+        descending = self.firmware.nav_state is NavigationState.DESCEND
+        if descending and self._descending and out is not None:
+            self.largest = max(self.largest, out.collective_thrust)
+        self._descending = descending
 
 
 def _failover_s(h: Hover) -> float:
@@ -40,11 +63,16 @@ def test_vio_lost_for_good_descends_to_the_floor_and_disarms() -> None:
     at = h.t() + 0.5
     start = h.position()
     h.inject(parse_fault(f"vio_stop@{at}"))
-    result = h.fly(25.0)
+    thrust = DescendThrust(h)
+    result = h.fly(25.0, thrust)
     assert result.crash is None, result.crash
     fw = h.sitl.firmware
     descend = h.modes.first(NavigationState.DESCEND, at)
     assert descend is not None, h.modes.changes
+    # it cannot climb: never above PX4's fixed descent's thrust (the dead-reckoned
+    # velocity once wound the loop up on the floor and lifted the vehicle off)
+    ceiling = fw.quad.mass * (GRAVITY - fw.params.descend_acceleration)
+    assert 0.0 < thrust.largest <= ceiling * (1 + 1e-9), (thrust.largest, ceiling)
     # the eph's growth in dead reckoning is the filter's variance alone: 1 m about 2.9 s
     # after the last sample (measured 2.96 s after the fault), before the 5 s failover
     limit = fw.commander.params.position_loss_eph_m

@@ -13,6 +13,8 @@ RESUME, and the outcome must still hold.
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +22,12 @@ import numpy as np
 import pytest
 import yaml
 
-from quadmission.scenarios.mission.realtime import COMPANION_YAML, RealtimeOptions, fly_realtime
+from quadmission.scenarios.mission.realtime import (
+    COMPANION_YAML,
+    RealtimeOptions,
+    _settle,
+    fly_realtime,
+)
 from quadmission.vehicle.run import VehicleOptions
 from quadmission.vehicle.truth import TOUCHDOWN_SAID, load_truth
 from sim.arena import PAD_SIZE
@@ -69,7 +76,7 @@ def _fly(tmp_path: Path, until_state: str, settle_s: float = 3.0,
                                         companion_nice=COMPANION_NICE))
 
 
-@pytest.mark.realtime  # make test-realtime, alone: beside a parallel worker it can fail
+@pytest.mark.realtime  # alone, after the parallel suite: beside a parallel worker it failed
 def test_companion_yaml_flies_the_vehicle_through_a_takeoff_a_pad_and_its_landing(
         tmp_path: Path) -> None:
     report = _fly(tmp_path, "mission.pad.takeoff")  # entered once the first pad is landed
@@ -127,3 +134,31 @@ def test_a_companion_that_stops_streaming_setpoints_leaves_the_fcu_to_its_failsa
     z, speed = truth.position[after, 2], np.linalg.norm(truth.velocity[after], axis=1)
     assert z[0] > 1.0, f"in the air at the failsafe: z = {z[0]:.2f} m"
     assert z[-1] < _ON_FLOOR_Z_M and speed[-1] < 0.05, (z[-1], speed[-1])
+
+
+def test_the_settle_ends_on_the_vehicles_word_said_after_the_companion_stopped(
+        tmp_path: Path) -> None:
+    """``settle_until``: the vehicle's log says the phrase after the byte it had reached
+    when the companion stopped; a phrase said before does not count, and without it the
+    settle lasts until the vehicle ends (or ``settle_s``)."""
+    log = tmp_path / "vehicle.log"
+    log.write_text(f"[vehicle] {TOUCHDOWN_SAID} 3.00 s at (1.0, 1.0) m\n")  # before the stop
+    said = log.stat().st_size
+    options = RealtimeOptions(out=tmp_path, vehicle=VehicleOptions(out=tmp_path),
+                              settle_s=_TIMEOUT_S, settle_until=TOUCHDOWN_SAID)
+    script = ("import sys, time; time.sleep(float(sys.argv[1])); "
+              "print(sys.argv[2], flush=True); time.sleep(float(sys.argv[3]))")
+    with log.open("a") as out:  # says something else, then ends: the settle ends with it
+        other = subprocess.Popen([sys.executable, "-c", script, "0.5", "nav_state", "1"],
+                                 stdout=out)
+        _settle(other, log, said, options)
+        assert other.poll() is not None  # it waited for the end, not for the old word
+        # says the phrase, then lives on: the settle ends on the phrase
+        speaker = subprocess.Popen([sys.executable, "-c", script, "0.5",
+                                    f"[vehicle] {TOUCHDOWN_SAID} 9.00 s", "600"], stdout=out)
+        try:
+            _settle(speaker, log, log.stat().st_size, options)
+            assert speaker.poll() is None  # ended by its word, the vehicle still running
+        finally:
+            speaker.kill()
+            speaker.wait()
