@@ -306,19 +306,23 @@ def _settle(vehicle: subprocess.Popen[str], log: Path, said: int,
     ``options.settle_until`` after its first ``said`` bytes (or the vehicle ends)."""
     deadline = time.monotonic() + options.settle_s
     while time.monotonic() < deadline and vehicle.poll() is None:
-        if options.settle_until is not None:
-            with log.open("rb") as lines:
-                lines.seek(said)
-                if options.settle_until.encode() in lines.read():
-                    time.sleep(_SETTLE_S)  # at rest on its pad before the truth is written
-                    return
+        if options.settle_until is not None and _says(log, options.settle_until, said):
+            time.sleep(_SETTLE_S)  # at rest on its pad before the truth is written
+            return
         time.sleep(min(0.5, max(0.0, deadline - time.monotonic())))
+
+
+def _says(log: Path, phrase: str, since: int = 0) -> bool:
+    """Whether the vehicle's ``log`` says ``phrase`` after its first ``since`` bytes."""
+    with log.open("rb") as lines:
+        lines.seek(since)
+        return phrase.encode() in lines.read()
 
 
 def _wait_up(proc: subprocess.Popen[str], log: Path) -> None:
     """Until the vehicle says it is up (its scene built, on the graph)."""
     deadline = time.monotonic() + _VEHICLE_UP_S
-    while "vehicle up on ROS domain" not in log.read_text(encoding="utf-8", errors="replace"):
+    while not _says(log, "vehicle up on ROS domain"):
         if proc.poll() is not None:
             raise OptionsError(f"the vehicle ended before it was up (exit code "
                                f"{proc.returncode}): {log.read_text()[-2000:]}")
